@@ -1,0 +1,97 @@
+//! Driver systems and the `App` extension that registers a simulation domain.
+
+use bevy::app::{App, FixedUpdate};
+use bevy::ecs::schedule::{IntoScheduleConfigs, LogLevel, ScheduleBuildSettings, ScheduleLabel};
+use bevy::ecs::world::World;
+use bevy::prelude::{Res, ResMut};
+use bevy::time::{Fixed, Time};
+
+use super::{Cadence, DomainClock, SimControl, SimSystems, SimTick};
+
+/// Registers simulation domains on an [`App`].
+pub trait SimDomainAppExt {
+    /// Adds domain `D` (its schedule label) stepping with `cadence`, driven inside `set`.
+    /// Creates the schedule (with ambiguity detection as an error, so systems added to a
+    /// domain must be ordered and the domain stays deterministic), the clock
+    /// `Time<DomainClock<D>>`, and the driver system. Panics only on a zero cadence, which is
+    /// a programming error in plugin code, not user input.
+    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(&mut self, set: SimSystems, cadence: Cadence) -> &mut Self;
+}
+
+impl SimDomainAppExt for App {
+    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(&mut self, set: SimSystems, cadence: Cadence) -> &mut Self {
+        let clock = DomainClock::<D>::new(cadence).expect("plugin registered a domain with a zero cadence");
+        self.insert_resource(Time::new_with(clock));
+        self.init_schedule(D::default());
+        self.edit_schedule(D::default(), |s| {
+            s.set_build_settings(ScheduleBuildSettings {
+                ambiguity_detection: LogLevel::Error,
+                ..Default::default()
+            });
+        });
+        self.add_systems(FixedUpdate, drive_domain::<D>.in_set(set));
+        self
+    }
+}
+
+/// `SimSystems::Begin`: decides whether this base tick is simulated and counts it.
+pub(crate) fn begin_tick(mut control: ResMut<SimControl>, mut tick: ResMut<SimTick>) {
+    let run = if !control.paused {
+        true
+    } else if control.pending_ticks > 0 {
+        control.pending_ticks -= 1;
+        true
+    } else {
+        false
+    };
+    control.running_this_tick = run;
+    if run {
+        tick.0 += 1;
+    }
+}
+
+/// Run condition for drivers.
+pub(crate) fn tick_is_running(control: Res<SimControl>) -> bool {
+    control.running_this_tick
+}
+
+/// Runs domain `D`'s schedule according to its cadence, with the generic `Time` replaced by the
+/// domain clock while it runs.
+pub(crate) fn drive_domain<D: ScheduleLabel + Default + Clone>(world: &mut World) {
+    if !world.resource::<SimControl>().running_this_tick() {
+        return;
+    }
+    let base = world.resource::<Time<Fixed>>().timestep();
+    let (runs, step) = {
+        let mut clock = world.resource_mut::<Time<DomainClock<D>>>();
+        let ctx = clock.context_mut();
+        ctx.ticks_seen += 1;
+        let runs = if ctx.paused {
+            if ctx.pending_steps > 0 {
+                ctx.pending_steps -= 1;
+                1
+            } else {
+                0
+            }
+        } else {
+            ctx.cadence.steps_at_tick(ctx.ticks_seen)
+        };
+        (runs, ctx.step_duration(base))
+    };
+    if runs == 0 {
+        return;
+    }
+    let saved = *world.resource::<Time>();
+    for _ in 0..runs {
+        {
+            let mut clock = world.resource_mut::<Time<DomainClock<D>>>();
+            clock.advance_by(step);
+            clock.context_mut().steps_run += 1;
+            let generic = clock.as_generic();
+            *world.resource_mut::<Time>() = generic;
+        }
+        // A domain without systems has no schedule run to do; that is not an error.
+        let _ = world.try_run_schedule(D::default());
+    }
+    *world.resource_mut::<Time>() = saved;
+}

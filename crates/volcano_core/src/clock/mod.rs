@@ -1,0 +1,205 @@
+//! The multi-rate simulation clock (DESIGN.md §2).
+//!
+//! Bevy's `Time<Fixed>` at 50 Hz is the *base tick*. Each simulation domain (plume, weather,
+//! lava, …) has its own [`ScheduleLabel`](bevy::ecs::schedule::ScheduleLabel), its own clock
+//! `Time<DomainClock<D>>` and a [`Cadence`]: `Substeps(n)` runs the domain schedule `n` times
+//! per base tick with `Δt = base/n`; `EveryNthTick(k)` runs it once every `k` ticks with
+//! `Δt = k·base`. A driver system per domain, placed in a chained [`SimSystems`] set in
+//! `FixedUpdate`, swaps the generic `Time` for the domain clock while the domain runs and
+//! restores it afterwards, so systems inside a domain read their own `Res<Time>`. Because
+//! everything happens per base tick, results do not depend on the frame rate.
+//!
+//! Control: [`SimControl`] pauses all domains and single-steps base ticks; each
+//! [`DomainClock`] can be paused, single-stepped, and given a time scale (each step advances
+//! `scale × Δt` of domain time, e.g. 30 s of weather per step for a standalone skyscape).
+
+pub(crate) mod driver;
+
+use std::marker::PhantomData;
+use std::time::Duration;
+
+use bevy::ecs::resource::Resource;
+use bevy::ecs::schedule::SystemSet;
+use bevy::reflect::Reflect;
+use serde::{Deserialize, Serialize};
+
+use crate::error::ConfigError;
+
+pub use driver::SimDomainAppExt;
+
+/// How often a domain steps relative to the base tick.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect, Serialize, Deserialize)]
+pub enum Cadence {
+    /// `n ≥ 1` steps per base tick, each `base/n` long.
+    Substeps(u32),
+    /// One step every `k ≥ 1` base ticks, `k·base` long.
+    EveryNthTick(u32),
+}
+
+impl Cadence {
+    /// Errors on a zero count.
+    pub fn validate(self) -> Result<Self, ConfigError> {
+        let (name, v) = match self {
+            Cadence::Substeps(n) => ("Substeps", n),
+            Cadence::EveryNthTick(k) => ("EveryNthTick", k),
+        };
+        if v == 0 {
+            return Err(ConfigError::InvalidParameter {
+                name,
+                value: 0.0,
+                reason: "cadence counts must be at least 1".into(),
+            });
+        }
+        Ok(self)
+    }
+
+    /// Length of one domain step (before time scale) for a base tick of `base`.
+    /// Exact whenever the base tick in nanoseconds is divisible by `n`.
+    pub fn step_duration(self, base: Duration) -> Duration {
+        let nanos = base.as_nanos();
+        let step = match self {
+            Cadence::Substeps(n) => nanos / n.max(1) as u128,
+            Cadence::EveryNthTick(k) => nanos * k.max(1) as u128,
+        };
+        Duration::from_nanos(step.min(u64::MAX as u128) as u64)
+    }
+
+    /// How many domain steps run at base tick number `tick` (1-based count of ticks run).
+    pub fn steps_at_tick(self, tick: u64) -> u32 {
+        match self {
+            Cadence::Substeps(n) => n,
+            Cadence::EveryNthTick(k) => u32::from(tick % k.max(1) as u64 == 0),
+        }
+    }
+}
+
+/// Context of `Time<DomainClock<D>>`: the clock of simulation domain `D` (its schedule label).
+#[derive(Debug)]
+pub struct DomainClock<D> {
+    cadence: Cadence,
+    time_scale: f64,
+    paused: bool,
+    pending_steps: u32,
+    ticks_seen: u64,
+    steps_run: u64,
+    _domain: PhantomData<fn() -> D>,
+}
+
+impl<D> Default for DomainClock<D> {
+    fn default() -> Self {
+        Self {
+            cadence: Cadence::Substeps(1),
+            time_scale: 1.0,
+            paused: false,
+            pending_steps: 0,
+            ticks_seen: 0,
+            steps_run: 0,
+            _domain: PhantomData,
+        }
+    }
+}
+
+impl<D> Clone for DomainClock<D> {
+    fn clone(&self) -> Self {
+        Self { _domain: PhantomData, ..*self }
+    }
+}
+
+impl<D> DomainClock<D> {
+    /// A clock with the given cadence (validated).
+    pub fn new(cadence: Cadence) -> Result<Self, ConfigError> {
+        Ok(Self { cadence: cadence.validate()?, ..Default::default() })
+    }
+    /// Current cadence.
+    pub fn cadence(&self) -> Cadence {
+        self.cadence
+    }
+    /// Changes the cadence (takes effect at the next base tick).
+    pub fn set_cadence(&mut self, cadence: Cadence) -> Result<(), ConfigError> {
+        self.cadence = cadence.validate()?;
+        Ok(())
+    }
+    /// Domain seconds per simulated second.
+    pub fn time_scale(&self) -> f64 {
+        self.time_scale
+    }
+    /// Sets the time scale; must be finite and > 0 (pause instead of using 0).
+    pub fn set_time_scale(&mut self, scale: f64) -> Result<(), ConfigError> {
+        self.time_scale = crate::error::positive("time_scale", scale)?;
+        Ok(())
+    }
+    /// Whether this domain is paused.
+    pub fn is_paused(&self) -> bool {
+        self.paused
+    }
+    /// Pauses or resumes this domain alone.
+    pub fn set_paused(&mut self, paused: bool) {
+        self.paused = paused;
+    }
+    /// While paused, runs `n` more single domain steps at the next base ticks (one per tick).
+    pub fn request_steps(&mut self, n: u32) {
+        self.pending_steps = self.pending_steps.saturating_add(n);
+    }
+    /// Base ticks this domain has seen (paused or not).
+    pub fn ticks_seen(&self) -> u64 {
+        self.ticks_seen
+    }
+    /// Domain steps run so far.
+    pub fn steps_run(&self) -> u64 {
+        self.steps_run
+    }
+    /// Length of one step of this domain, time scale included.
+    pub fn step_duration(&self, base: Duration) -> Duration {
+        let d = self.cadence.step_duration(base);
+        if self.time_scale == 1.0 { d } else { d.mul_f64(self.time_scale) }
+    }
+}
+
+/// Chained system sets in `FixedUpdate`: every base tick runs them in this order, so coupling
+/// is causal (plume, then transfers into the weather, the weather step, transfers back, lava).
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum SimSystems {
+    /// Decides whether this base tick runs (pause / single step) and counts it.
+    Begin,
+    /// Plume and pyroclastic domain.
+    Plume,
+    /// Coupling transfers just before the weather step (thesis §4.3.3).
+    BeforeWeather,
+    /// Layered atmosphere domain.
+    Weather,
+    /// Coupling transfers just after the weather step.
+    AfterWeather,
+    /// Lava domain.
+    Lava,
+    /// End of the base tick.
+    End,
+}
+
+/// Global simulation control: pause all domains, single-step base ticks.
+#[derive(Resource, Debug, Clone, Default, Reflect)]
+pub struct SimControl {
+    /// While true no base tick runs (except requested single steps).
+    pub paused: bool,
+    pending_ticks: u32,
+    running_this_tick: bool,
+}
+
+impl SimControl {
+    /// While paused, run `n` more base ticks (one per fixed update).
+    pub fn step_ticks(&mut self, n: u32) {
+        self.pending_ticks = self.pending_ticks.saturating_add(n);
+    }
+    /// Whether the current base tick is being simulated.
+    pub fn running_this_tick(&self) -> bool {
+        self.running_this_tick
+    }
+    /// Single steps still queued.
+    pub fn pending_ticks(&self) -> u32 {
+        self.pending_ticks
+    }
+}
+
+/// Number of base ticks simulated so far (not counting paused ticks): the simulation's
+/// deterministic time. Same seed + same `SimTick` = same state.
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
+pub struct SimTick(pub u64);

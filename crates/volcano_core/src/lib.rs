@@ -1,0 +1,38 @@
+//! Core of the volcano plugin set (Lastic 2023, "Efficient visual simulation of volcanic
+//! phenomena"): units and constants, atmosphere profiles, the [`Grid2`] field type, terrain
+//! heightfields and generators, seeded random streams, the multi-rate simulation clock and the
+//! [`Volcano`] entity.
+//!
+//! The crate depends on Bevy without its render stack, so its tests build in about a minute.
+//! Modules follow the two-layer rule of the project's design notes: *model* modules are plain
+//! data and functions ([`atmosphere`], [`grid`], [`terrain`], [`rng`]); *plugin* modules hold
+//! the ECS glue ([`clock`], [`volcano`], [`plugin`]).
+
+pub mod atmosphere;
+pub mod clock;
+pub mod error;
+pub mod grid;
+pub mod plugin;
+pub mod rng;
+pub mod terrain;
+pub mod units;
+pub mod volcano;
+
+pub use atmosphere::{AirState, AtmosphereProfile, ThesisIsa, UsStandard1976};
+pub use clock::{Cadence, DomainClock, SimControl, SimDomainAppExt, SimSystems, SimTick};
+pub use error::ConfigError;
+pub use grid::{Boundary, Grid2};
+pub use plugin::VolcanoCorePlugin;
+pub use rng::{VolcanoRng, derive_stream};
+pub use terrain::{LandCover, StratovolcanoParams, Terrain};
+pub use volcano::{Volcano, VolcanoSpec, VentPosition};
+
+/// Everything a game usually needs from this crate.
+pub mod prelude {
+    pub use crate::{
+        AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2,
+        LandCover, SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams,
+        Terrain, ThesisIsa, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin,
+        VolcanoRng, VolcanoSpec,
+    };
+}

@@ -1,0 +1,63 @@
+//! [`VolcanoCorePlugin`]: the base tick, the chained [`SimSystems`] sets, simulation control
+//! and the volcano bookkeeping systems.
+
+use bevy::app::{App, FixedUpdate, Plugin, PostUpdate, Update};
+use bevy::ecs::schedule::IntoScheduleConfigs;
+use bevy::time::{Fixed, Time};
+
+use crate::clock::driver::{begin_tick, tick_is_running};
+use crate::clock::{SimControl, SimSystems, SimTick};
+use crate::units::BASE_TICK_HZ;
+use crate::volcano;
+
+/// Core plugin: sets `Time<Fixed>` to the 50 Hz base tick, orders [`SimSystems`] in
+/// `FixedUpdate`, and snaps [`crate::Volcano`] vents to the terrain. Requires `TimePlugin`
+/// (in `MinimalPlugins` and `DefaultPlugins`).
+#[derive(Debug, Default, Clone)]
+pub struct VolcanoCorePlugin;
+
+impl Plugin for VolcanoCorePlugin {
+    fn build(&self, app: &mut App) {
+        app.insert_resource(Time::<Fixed>::from_hz(BASE_TICK_HZ))
+            .init_resource::<SimControl>()
+            .init_resource::<SimTick>()
+            .register_type::<SimControl>()
+            .register_type::<SimTick>()
+            .register_type::<crate::Volcano>()
+            .register_type::<crate::VentPosition>()
+            .register_type::<crate::VolcanoSpec>()
+            .register_type::<crate::Cadence>()
+            .register_type::<crate::LandCover>()
+            .configure_sets(
+                FixedUpdate,
+                (
+                    SimSystems::Begin,
+                    SimSystems::Plume,
+                    SimSystems::BeforeWeather,
+                    SimSystems::Weather,
+                    SimSystems::AfterWeather,
+                    SimSystems::Lava,
+                    SimSystems::End,
+                )
+                    .chain(),
+            )
+            .configure_sets(
+                FixedUpdate,
+                (
+                    SimSystems::Plume,
+                    SimSystems::BeforeWeather,
+                    SimSystems::Weather,
+                    SimSystems::AfterWeather,
+                    SimSystems::Lava,
+                )
+                    .run_if(tick_is_running),
+            )
+            .add_systems(FixedUpdate, begin_tick.in_set(SimSystems::Begin))
+            // Vents snap in Update (visible at once) and again before each tick, so a volcano
+            // spawned or moved between ticks is on the ground when its domains step.
+            .add_systems(Update, volcano::snap_vents)
+            .add_systems(FixedUpdate, volcano::snap_vents.in_set(SimSystems::Begin).after(begin_tick));
+        #[cfg(debug_assertions)]
+        app.add_systems(PostUpdate, volcano::assert_finite_volcanoes);
+    }
+}

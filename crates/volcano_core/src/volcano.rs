@@ -1,0 +1,188 @@
+//! The [`Volcano`] entity: a vent on the terrain with a radius and a seed. Its world position is
+//! the entity's `Transform` (x, z); the y coordinate is snapped to the terrain under it and the
+//! resulting vent point is published as [`VentPosition`].
+
+use bevy::ecs::component::Component;
+use bevy::ecs::entity::Entity;
+use bevy::math::Vec3;
+use bevy::prelude::{Commands, DetectChanges, Query, Ref};
+use bevy::reflect::Reflect;
+use bevy::transform::components::Transform;
+use serde::{Deserialize, Serialize};
+
+use crate::error::{ConfigError, in_range};
+use crate::rng::VolcanoRng;
+use crate::terrain::Terrain;
+
+/// A volcano. Spawn it with a `Transform` whose x/z place the vent; the vent snaps to the
+/// terrain. Build it with [`Volcano::new`] or from a RON [`VolcanoSpec`], which validate.
+#[derive(Component, Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[require(Transform)]
+pub struct Volcano {
+    vent_radius: f32,
+    seed: u64,
+}
+
+impl Default for Volcano {
+    /// Vent radius 100 m (thesis Table 3.1, r₀), seed 0.
+    fn default() -> Self {
+        Self { vent_radius: 100.0, seed: 0 }
+    }
+}
+
+impl Volcano {
+    /// Largest vent radius accepted (m).
+    pub const MAX_VENT_RADIUS: f32 = 2_000.0;
+
+    /// A volcano with vent radius `vent_radius` (m, in (0, 2000]) and RNG seed `seed`.
+    pub fn new(vent_radius: f32, seed: u64) -> Result<Self, ConfigError> {
+        let mut v = Self { vent_radius: 1.0, seed };
+        v.set_vent_radius(vent_radius)?;
+        Ok(v)
+    }
+    /// Vent radius (m).
+    pub fn vent_radius(&self) -> f32 {
+        self.vent_radius
+    }
+    /// Changes the vent radius; rejects NaN, ≤ 0 or above [`Volcano::MAX_VENT_RADIUS`].
+    pub fn set_vent_radius(&mut self, r: f32) -> Result<(), ConfigError> {
+        if !(r.is_finite() && r > 0.0 && r <= Self::MAX_VENT_RADIUS) {
+            return Err(ConfigError::InvalidParameter {
+                name: "vent_radius",
+                value: r as f64,
+                reason: format!("must be a finite number in (0, {}] metres", Self::MAX_VENT_RADIUS),
+            });
+        }
+        self.vent_radius = r;
+        Ok(())
+    }
+    /// Seed of the volcano's random streams.
+    pub fn seed(&self) -> u64 {
+        self.seed
+    }
+    /// Checks a value that may have been edited through reflection.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.clone().set_vent_radius(self.vent_radius)
+    }
+}
+
+/// A volcano as written in RON presets and scene files.
+///
+/// ```ron
+/// (vent: (0.0, 0.0), vent_radius: 100.0, seed: 7)
+/// ```
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VolcanoSpec {
+    /// Vent position in the horizontal plane, world (x, z) in metres.
+    pub vent: (f32, f32),
+    /// Vent radius (m).
+    pub vent_radius: f32,
+    /// RNG seed.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+impl Default for VolcanoSpec {
+    fn default() -> Self {
+        Self { vent: (0.0, 0.0), vent_radius: 100.0, seed: 0 }
+    }
+}
+
+impl VolcanoSpec {
+    /// Parses and validates a RON text.
+    pub fn from_ron(text: &str) -> Result<Self, ConfigError> {
+        let spec: Self = ron::from_str(text)?;
+        spec.validate()?;
+        Ok(spec)
+    }
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        in_range("vent.x", self.vent.0 as f64, -1e7, 1e7)?;
+        in_range("vent.z", self.vent.1 as f64, -1e7, 1e7)?;
+        Volcano::new(self.vent_radius, self.seed)?;
+        Ok(())
+    }
+    /// The component and the transform placing its vent (y is snapped later).
+    pub fn build(&self) -> Result<(Volcano, Transform), ConfigError> {
+        self.validate()?;
+        Ok((
+            Volcano::new(self.vent_radius, self.seed)?,
+            Transform::from_xyz(self.vent.0, 0.0, self.vent.1),
+        ))
+    }
+}
+
+/// World position of a volcano's vent on the terrain (written by the core plugin).
+#[derive(Component, Debug, Clone, Copy, PartialEq, Default, Reflect)]
+pub struct VentPosition(pub Vec3);
+
+/// Snaps vents to the terrain under them, creates the volcano's RNG and keeps it in step with
+/// the seed.
+pub(crate) fn snap_vents(
+    mut commands: Commands,
+    terrains: Query<Ref<Terrain>>,
+    mut volcanoes: Query<(Entity, Ref<Volcano>, &mut Transform, Option<&VentPosition>, Option<&VolcanoRng>)>,
+) {
+    let terrain_changed = terrains.iter().any(|t| t.is_changed());
+    for (entity, volcano, mut transform, vent, rng) in &mut volcanoes {
+        if rng.is_none_or(|r| r.seed() != volcano.seed()) {
+            commands.entity(entity).insert(VolcanoRng::new(volcano.seed()));
+        }
+        if !(terrain_changed || volcano.is_changed() || transform.is_changed() || vent.is_none()) {
+            continue;
+        }
+        let p = transform.translation;
+        let ground = terrains.iter().find(|t| t.contains(p.x, p.z)).map(|t| t.height_at(p.x, p.z));
+        let y = ground.unwrap_or(p.y);
+        if transform.translation.y != y {
+            transform.translation.y = y;
+        }
+        let vent_pos = Vec3::new(p.x, y, p.z);
+        if vent.is_none_or(|v| v.0 != vent_pos) {
+            commands.entity(entity).insert(VentPosition(vent_pos));
+        }
+    }
+}
+
+/// Debug builds: every volcano's parameters and vent are finite and valid.
+#[cfg(debug_assertions)]
+pub(crate) fn assert_finite_volcanoes(q: Query<(&Volcano, Option<&VentPosition>)>) {
+    for (v, vent) in &q {
+        debug_assert!(v.validate().is_ok(), "invalid volcano state: {:?}", v.validate());
+        debug_assert!(vent.is_none_or(|p| p.0.is_finite()), "non-finite vent position");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn invalid_radius_is_a_clear_error() {
+        for r in [f32::NAN, -3.0, 0.0, f32::INFINITY, 5_000.0] {
+            let e = Volcano::new(r, 1).unwrap_err();
+            assert!(e.to_string().contains("vent_radius"), "{e}");
+        }
+        assert_eq!(Volcano::new(42.0, 3).unwrap().vent_radius(), 42.0);
+    }
+
+    #[test]
+    fn ron_spec_round_trip_and_errors() {
+        let s = VolcanoSpec::from_ron("(vent: (10.0, -5.0), vent_radius: 80.0, seed: 9)").unwrap();
+        assert_eq!(s.vent, (10.0, -5.0));
+        let (v, t) = s.build().unwrap();
+        assert_eq!((v.vent_radius(), v.seed(), t.translation.x, t.translation.z), (80.0, 9, 10.0, -5.0));
+        // Malformed RON: syntax error with a position.
+        let e = VolcanoSpec::from_ron("(vent: (1.0, 2.0), vent_radius: )").unwrap_err();
+        assert!(matches!(e, ConfigError::Ron(_)) && e.to_string().contains("malformed RON"), "{e}");
+        // Unknown field.
+        let e = VolcanoSpec::from_ron("(vent: (0.0, 0.0), vent_radius: 5.0, radius: 3.0)").unwrap_err();
+        assert!(e.to_string().contains("radius"), "{e}");
+        // Well-formed but invalid value.
+        let e = VolcanoSpec::from_ron("(vent: (0.0, 0.0), vent_radius: -5.0)").unwrap_err();
+        assert!(e.to_string().contains("vent_radius"), "{e}");
+        let e = VolcanoSpec::from_ron("(vent: (0.0, 0.0), vent_radius: NaN)").unwrap_err();
+        assert!(e.to_string().contains("vent_radius"), "{e}");
+    }
+}

@@ -1,0 +1,200 @@
+//! Multi-rate clock: cadence exactness, ordering, pause/step, time scale, and frame-rate
+//! independence of a seeded simulation.
+
+use std::time::Duration;
+
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use rand::RngExt;
+use volcano_core::prelude::*;
+
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+struct FastStep;
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+struct SlowStep;
+
+/// (domain, tick, delta, elapsed) for every domain step, in execution order.
+#[derive(Resource, Default)]
+struct Log(Vec<(&'static str, u64, Duration, Duration)>);
+
+fn log_fast(mut log: ResMut<Log>, time: Res<Time>, tick: Res<SimTick>) {
+    log.0.push(("fast", tick.0, time.delta(), time.elapsed()));
+}
+fn log_slow(mut log: ResMut<Log>, time: Res<Time>, tick: Res<SimTick>) {
+    log.0.push(("slow", tick.0, time.delta(), time.elapsed()));
+}
+
+/// An app whose every update advances virtual time by `ticks_per_update` base ticks.
+fn app(ticks_per_update: u32) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update));
+    app
+}
+
+fn run_until_tick(app: &mut App, tick: u64) {
+    for _ in 0..100_000 {
+        if app.world().resource::<SimTick>().0 >= tick {
+            break;
+        }
+        app.update();
+    }
+    assert_eq!(app.world().resource::<SimTick>().0, tick, "overshot the target tick");
+}
+
+fn logging_app(ticks_per_update: u32) -> App {
+    let mut app = app(ticks_per_update);
+    app.init_resource::<Log>()
+        // Registered in reverse order on purpose: the set order must win.
+        .add_sim_domain::<SlowStep>(SimSystems::Weather, Cadence::EveryNthTick(5))
+        .add_sim_domain::<FastStep>(SimSystems::Plume, Cadence::Substeps(10))
+        .add_systems(SlowStep, log_slow)
+        .add_systems(FastStep, log_fast);
+    app
+}
+
+#[test]
+fn cadences_are_exact_and_ordered() {
+    const K: u64 = 200;
+    let mut app = logging_app(1);
+    run_until_tick(&mut app, K);
+    let log = &app.world().resource::<Log>().0;
+    let fast: Vec<_> = log.iter().filter(|e| e.0 == "fast").collect();
+    let slow: Vec<_> = log.iter().filter(|e| e.0 == "slow").collect();
+    assert_eq!(fast.len() as u64, 10 * K, "Substeps(10) must run 10 steps per base tick");
+    assert_eq!(slow.len() as u64, K / 5, "EveryNthTick(5) must run once per 5 ticks");
+    assert!(fast.iter().all(|e| e.2 == Duration::from_millis(2)), "fast Δt must be exactly 2 ms");
+    assert!(slow.iter().all(|e| e.2 == Duration::from_millis(100)), "slow Δt must be exactly 100 ms");
+    assert_eq!(fast.last().unwrap().3, Duration::from_millis(20) * K as u32);
+    assert_eq!(slow.last().unwrap().3, Duration::from_millis(20) * K as u32);
+    // Slow steps happen at ticks 5, 10, …, and within a tick after all fast steps.
+    assert!(slow.iter().all(|e| e.1 % 5 == 0));
+    for (i, e) in log.iter().enumerate() {
+        if e.0 == "slow" {
+            let same_tick_fast_after = log[i..].iter().any(|f| f.0 == "fast" && f.1 == e.1);
+            assert!(!same_tick_fast_after, "weather ran before the plume in tick {}", e.1);
+            assert_eq!(log[..i].iter().filter(|f| f.0 == "fast" && f.1 == e.1).count(), 10);
+        }
+    }
+    // The generic clock is restored after the domains ran.
+    assert_eq!(app.world().resource::<Time>().delta(), Duration::from_millis(20));
+}
+
+#[test]
+fn pause_single_step_and_time_scale() {
+    let mut app = logging_app(1);
+    run_until_tick(&mut app, 10);
+    app.world_mut().resource_mut::<SimControl>().paused = true;
+    for _ in 0..20 {
+        app.update();
+    }
+    assert_eq!(app.world().resource::<SimTick>().0, 10, "paused simulation must not tick");
+    app.world_mut().resource_mut::<SimControl>().step_ticks(3);
+    for _ in 0..20 {
+        app.update();
+    }
+    assert_eq!(app.world().resource::<SimTick>().0, 13, "three single steps");
+    app.world_mut().resource_mut::<SimControl>().paused = false;
+
+    // Pause the fast domain alone: ticks go on, its steps do not.
+    let before = app.world().resource::<Time<DomainClock<FastStep>>>().context().steps_run();
+    app.world_mut().resource_mut::<Time<DomainClock<FastStep>>>().context_mut().set_paused(true);
+    run_until_tick(&mut app, 20);
+    let c = app.world().resource::<Time<DomainClock<FastStep>>>().context().clone();
+    assert_eq!(c.steps_run(), before);
+    app.world_mut().resource_mut::<Time<DomainClock<FastStep>>>().context_mut().request_steps(2);
+    run_until_tick(&mut app, 25);
+    let c = app.world().resource::<Time<DomainClock<FastStep>>>().context().clone();
+    assert_eq!(c.steps_run(), before + 2, "two single domain steps");
+
+    // Time scale: the weather advancing 30 s per step (standalone skyscape, thesis §4.2.7.2).
+    {
+        let mut clock = app.world_mut().resource_mut::<Time<DomainClock<SlowStep>>>();
+        clock.context_mut().set_cadence(Cadence::EveryNthTick(50)).unwrap();
+        clock.context_mut().set_time_scale(300.0).unwrap();
+        assert!(clock.context_mut().set_time_scale(f64::NAN).is_err());
+        assert!(clock.context_mut().set_time_scale(0.0).is_err());
+        assert!(clock.context_mut().set_cadence(Cadence::Substeps(0)).is_err());
+    }
+    app.world_mut().resource_mut::<Log>().0.clear();
+    run_until_tick(&mut app, 125);
+    let slow: Vec<_> =
+        app.world().resource::<Log>().0.iter().filter(|e| e.0 == "slow").map(|e| e.2).collect();
+    assert_eq!(slow, vec![Duration::from_secs(300); 2], "ticks 50 and 100 of the domain → 2 steps");
+}
+
+/// A toy seeded process standing in for a domain model: damped velocity with random kicks.
+#[derive(Component, Default, Debug, Clone, Copy, PartialEq)]
+struct Toy {
+    x: f64,
+    v: f64,
+}
+
+fn toy_step(time: Res<Time>, mut q: Query<(&mut Toy, &mut VolcanoRng)>) {
+    let dt = time.delta_secs_f64();
+    for (mut toy, mut rng) in &mut q {
+        let kick: f64 = rng.rng().random_range(-1.0..1.0);
+        toy.v += (-0.5 * toy.v + 3.0 * kick) * dt;
+        toy.x += toy.v * dt;
+    }
+}
+
+fn toy_app(ticks_per_update: u32) -> App {
+    let mut app = app(ticks_per_update);
+    app.add_sim_domain::<FastStep>(SimSystems::Plume, Cadence::Substeps(3))
+        .add_sim_domain::<SlowStep>(SimSystems::Lava, Cadence::EveryNthTick(7))
+        .add_systems(FastStep, toy_step)
+        .add_systems(SlowStep, toy_step);
+    for seed in [1, 2] {
+        app.world_mut().spawn((Volcano::new(50.0, seed).unwrap(), Toy::default()));
+    }
+    app
+}
+
+fn toy_state(app: &mut App) -> Vec<(u64, Toy)> {
+    let mut q = app.world_mut().query::<(&Volcano, &Toy)>();
+    let mut v: Vec<_> = q.iter(app.world()).map(|(vol, t)| (vol.seed(), *t)).collect();
+    v.sort_by_key(|e| e.0);
+    v
+}
+
+#[test]
+fn frame_rate_independence_is_bit_exact() {
+    let mut one = toy_app(1);
+    let mut five = toy_app(5);
+    run_until_tick(&mut one, 1_000);
+    run_until_tick(&mut five, 1_000);
+    let a = toy_state(&mut one);
+    let b = toy_state(&mut five);
+    assert_eq!(a.len(), 2);
+    // Bit-identical, not approximately equal.
+    for ((sa, ta), (sb, tb)) in a.iter().zip(&b) {
+        assert_eq!(sa, sb);
+        assert_eq!(ta.x.to_bits(), tb.x.to_bits(), "x differs for seed {sa}: {} vs {}", ta.x, tb.x);
+        assert_eq!(ta.v.to_bits(), tb.v.to_bits());
+    }
+    // The process actually moved, and the two seeds differ.
+    assert!(a[0].1.x != 0.0 && a[0].1.x != a[1].1.x);
+}
+
+#[test]
+fn vent_snaps_to_terrain() {
+    let mut app = app(1);
+    let mut terrain = Terrain::flat(65, 2.0, 0.0).unwrap();
+    let g = terrain.heights_mut();
+    for j in 0..65 {
+        for i in 0..65 {
+            let p = g.position(i, j);
+            g.set(i, j, 100.0 + 0.5 * p.x);
+        }
+    }
+    app.world_mut().spawn(terrain);
+    let v = app.world_mut().spawn((Volcano::new(10.0, 4).unwrap(), Transform::from_xyz(20.0, -999.0, 3.0))).id();
+    app.update();
+    app.update();
+    let e = app.world().entity(v);
+    assert!((e.get::<Transform>().unwrap().translation.y - 110.0).abs() < 1e-3);
+    assert!((e.get::<VentPosition>().unwrap().0 - Vec3::new(20.0, 110.0, 3.0)).length() < 1e-3);
+    assert_eq!(e.get::<VolcanoRng>().unwrap().seed(), 4);
+}
