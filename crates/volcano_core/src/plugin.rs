@@ -1,7 +1,7 @@
 //! [`VolcanoCorePlugin`]: the base tick, the chained [`SimSystems`] sets, simulation control
 //! and the volcano bookkeeping systems.
 
-use bevy::app::{App, FixedUpdate, Plugin, PostUpdate, Update};
+use bevy::app::{App, FixedUpdate, Plugin, Update};
 use bevy::ecs::schedule::IntoScheduleConfigs;
 use bevy::time::{Fixed, Time};
 
@@ -58,6 +58,6 @@ impl Plugin for VolcanoCorePlugin {
             .add_systems(Update, volcano::snap_vents)
             .add_systems(FixedUpdate, volcano::snap_vents.in_set(SimSystems::Begin).after(begin_tick));
         #[cfg(debug_assertions)]
-        app.add_systems(PostUpdate, volcano::assert_finite_volcanoes);
+        app.add_systems(bevy::app::PostUpdate, volcano::assert_finite_volcanoes);
     }
 }

@@ -1,0 +1,321 @@
+//! Terrain rendering: one vertex-coloured mesh per [`Terrain`] entity (a child of it, rebuilt
+//! whenever the terrain changes) and a glowing marker over each volcano's vent.
+//!
+//! The heightfield is downsampled with an integer stride so a mesh has at most
+//! [`MAX_VERTICES_PER_SIDE`]² vertices. Colours come from the land cover and darken on steep
+//! slopes, so the flanks read under flat lighting too.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::color::{Color, ColorToComponents, LinearRgba, Srgba};
+use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
+use bevy::pbr::{MeshMaterial3d, StandardMaterial};
+use bevy::prelude::*;
+use volcano_core::{LandCover, Terrain, VentPosition, Volcano};
+
+/// Upper bound on the vertices per side of a terrain mesh (the stride is chosen to respect it).
+pub const MAX_VERTICES_PER_SIDE: usize = 512;
+
+/// Marks the mesh child that renders a [`Terrain`] entity.
+#[derive(Component, Debug, Clone, Copy, Default, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct TerrainMesh {
+    /// Sample stride used when the mesh was last built (1 = full resolution).
+    pub stride: usize,
+}
+
+/// Marks the child that shows a [`Volcano`]'s vent (an emissive short cylinder of the vent
+/// radius, centred on [`VentPosition`]).
+#[derive(Component, Debug, Clone, Copy, Default, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct VentMarker;
+
+/// Builds terrain meshes and vent markers in `Update`.
+#[derive(Debug, Default, Clone)]
+pub struct TerrainRenderPlugin;
+
+impl Plugin for TerrainRenderPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<TerrainMesh>()
+            .register_type::<VentMarker>()
+            .add_systems(Update, (build_terrain_meshes, update_vent_markers));
+    }
+}
+
+/// Shared handles, created on first use.
+#[derive(Resource)]
+struct TerrainAssets {
+    terrain_material: Handle<StandardMaterial>,
+    vent_material: Handle<StandardMaterial>,
+    vent_mesh: Handle<Mesh>,
+}
+
+impl FromWorld for TerrainAssets {
+    fn from_world(world: &mut World) -> Self {
+        let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
+        let terrain_material = materials.add(StandardMaterial {
+            base_color: Color::WHITE,
+            perceptual_roughness: 0.95,
+            metallic: 0.0,
+            reflectance: 0.25,
+            ..default()
+        });
+        // Emissive in nits: bright enough to glow at the sunlight exposure the sky uses.
+        let vent_material = materials.add(StandardMaterial {
+            base_color: Color::srgb(0.35, 0.03, 0.01),
+            emissive: LinearRgba::rgb(1.0, 0.12, 0.02) * 60_000.0,
+            perceptual_roughness: 0.8,
+            ..default()
+        });
+        let vent_mesh = world.resource_mut::<Assets<Mesh>>().add(Cylinder::new(1.0, 1.0));
+        Self { terrain_material, vent_material, vent_mesh }
+    }
+}
+
+/// Colour of a land-cover class on a surface with unit normal `normal` (y-up), in linear RGB.
+/// Vegetation and snow give way to rock on steep slopes, and everything darkens with slope.
+pub fn cover_color(cover: LandCover, normal: Vec3) -> LinearRgba {
+    let rock = LinearRgba::from(Srgba::rgb(0.26, 0.22, 0.20));
+    let base = match cover {
+        LandCover::Ground => rock,
+        LandCover::Vegetation => LinearRgba::from(Srgba::rgb(0.27, 0.34, 0.17)),
+        LandCover::Water => LinearRgba::from(Srgba::rgb(0.08, 0.20, 0.36)),
+        LandCover::Snow => LinearRgba::from(Srgba::rgb(0.92, 0.93, 0.96)),
+    };
+    if cover == LandCover::Water {
+        return base;
+    }
+    // 0 on flat ground, ~0.3 at 45°.
+    let slope = (1.0 - normal.y.clamp(0.0, 1.0)).clamp(0.0, 1.0);
+    let to_rock = smoothstep(0.06, 0.25, slope);
+    let mixed = match cover {
+        LandCover::Vegetation | LandCover::Snow => mix(base, rock, to_rock),
+        _ => base,
+    };
+    let shade = 1.0 - 0.45 * smoothstep(0.0, 0.35, slope);
+    LinearRgba::rgb(mixed.red * shade, mixed.green * shade, mixed.blue * shade)
+}
+
+fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
+    LinearRgba::rgb(
+        a.red + (b.red - a.red) * t,
+        a.green + (b.green - a.green) * t,
+        a.blue + (b.blue - a.blue) * t,
+    )
+}
+
+/// Sample indices `0, s, 2s, …` along an axis of `n` samples, always ending at `n − 1`.
+fn sample_axis(n: usize, stride: usize) -> Vec<usize> {
+    let mut v: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
+    if v.last() != Some(&(n - 1)) {
+        v.push(n - 1);
+    }
+    v
+}
+
+/// Stride that keeps at most `max_per_side` samples per side of an `n`-sample axis.
+fn stride_for(n: usize, max_per_side: usize) -> usize {
+    let max = max_per_side.max(2);
+    if n <= max { 1 } else { (n - 1).div_ceil(max - 1).max(1) }
+}
+
+/// Builds the render mesh of `terrain`: positions in world metres (grid `(x, y)` → world
+/// `(x, z)`, height → `y`; water is lifted to sea level), smooth normals from central
+/// differences, vertex colours from [`cover_color`]. At most `max_per_side`² vertices. Returns
+/// the mesh and the stride used.
+pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
+    let heights = terrain.heights();
+    let cover = terrain.cover();
+    let (nx, ny) = (heights.nx(), heights.ny());
+    let stride = stride_for(nx.max(ny), max_per_side);
+    let xs = sample_axis(nx, stride);
+    let ys = sample_axis(ny, stride);
+    let sea = terrain.sea_level();
+    let surface = |i: usize, j: usize| {
+        let h = heights.get(i, j);
+        if cover.get(i, j) == LandCover::Water { h.max(sea) } else { h }
+    };
+
+    let count = xs.len() * ys.len();
+    let mut positions = Vec::with_capacity(count);
+    let mut normals = Vec::with_capacity(count);
+    let mut colors = Vec::with_capacity(count);
+    let mut uvs = Vec::with_capacity(count);
+    for (b, &j) in ys.iter().enumerate() {
+        for (a, &i) in xs.iter().enumerate() {
+            let p = heights.position(i, j);
+            positions.push([p.x, surface(i, j), p.y]);
+            // Central differences over the neighbouring mesh samples (one-sided at the edges).
+            let (i0, i1) = (xs[a.saturating_sub(1)], xs[(a + 1).min(xs.len() - 1)]);
+            let (j0, j1) = (ys[b.saturating_sub(1)], ys[(b + 1).min(ys.len() - 1)]);
+            let dx = heights.position(i1, j).x - heights.position(i0, j).x;
+            let dz = heights.position(i, j1).y - heights.position(i, j0).y;
+            let dhdx = if dx > 0.0 { (surface(i1, j) - surface(i0, j)) / dx } else { 0.0 };
+            let dhdz = if dz > 0.0 { (surface(i, j1) - surface(i, j0)) / dz } else { 0.0 };
+            let n = Vec3::new(-dhdx, 1.0, -dhdz).normalize_or(Vec3::Y);
+            normals.push(n.to_array());
+            colors.push(cover_color(cover.get(i, j), n).to_f32_array());
+            uvs.push([a as f32 / (xs.len() - 1).max(1) as f32, b as f32 / (ys.len() - 1).max(1) as f32]);
+        }
+    }
+
+    let w = xs.len() as u32;
+    let mut indices = Vec::with_capacity((xs.len() - 1) * (ys.len() - 1) * 6);
+    for b in 0..ys.len() as u32 - 1 {
+        for a in 0..w - 1 {
+            let v00 = b * w + a;
+            let v10 = v00 + 1;
+            let v01 = v00 + w;
+            let v11 = v01 + 1;
+            // Counter-clockwise seen from above (+y).
+            indices.extend_from_slice(&[v00, v01, v10, v10, v01, v11]);
+        }
+    }
+
+    let mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::RENDER_WORLD)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
+        .with_inserted_indices(Indices::U32(indices));
+    (mesh, stride)
+}
+
+/// Builds or replaces the mesh child of every added or changed [`Terrain`].
+fn build_terrain_meshes(
+    mut commands: Commands,
+    terrains: Query<(Entity, &Terrain, Option<&Children>), Changed<Terrain>>,
+    mut mesh_children: Query<(&Mesh3d, &mut TerrainMesh)>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    assets: Option<Res<TerrainAssets>>,
+) {
+    if terrains.is_empty() {
+        return;
+    }
+    let Some(assets) = assets else {
+        // Create the shared handles now; the meshes are built next frame.
+        commands.init_resource::<TerrainAssets>();
+        return;
+    };
+    for (entity, terrain, children) in &terrains {
+        let (mesh, stride) = terrain_mesh(terrain, MAX_VERTICES_PER_SIDE);
+        let existing = children.and_then(|c| c.iter().find(|c| mesh_children.contains(*c)));
+        if let Some(child) = existing
+            && let Ok((handle, mut marker)) = mesh_children.get_mut(child)
+            && meshes.insert(handle.id(), mesh.clone()).is_ok()
+        {
+            marker.stride = stride;
+            continue;
+        }
+        if let Some(child) = existing {
+            commands.entity(child).despawn();
+        }
+        // The mesh is in world coordinates: the terrain entity needs a transform (identity
+        // unless the user placed it) and visibility for the child to render.
+        commands.entity(entity).insert_if_new((Transform::IDENTITY, Visibility::default()));
+        commands.spawn((
+            Name::new("Terrain mesh"),
+            TerrainMesh { stride },
+            Mesh3d(meshes.add(mesh)),
+            MeshMaterial3d(assets.terrain_material.clone()),
+            Transform::IDENTITY,
+            ChildOf(entity),
+        ));
+    }
+}
+
+/// Spawns or resizes the vent marker of every volcano whose vent or radius changed.
+fn update_vent_markers(
+    mut commands: Commands,
+    volcanoes: Query<
+        (Entity, &Volcano, &VentPosition, &Transform, Option<&Children>),
+        Or<(Changed<Volcano>, Changed<VentPosition>)>,
+    >,
+    mut markers: Query<&mut Transform, (With<VentMarker>, Without<Volcano>)>,
+    assets: Option<Res<TerrainAssets>>,
+) {
+    if volcanoes.is_empty() {
+        return;
+    }
+    let Some(assets) = assets else {
+        commands.init_resource::<TerrainAssets>();
+        return;
+    };
+    for (entity, volcano, vent, frame, children) in &volcanoes {
+        let r = volcano.vent_radius();
+        let h = (0.6 * r).max(10.0);
+        // Local offset of the vent in the volcano's frame (normally zero: the core plugin snaps
+        // the volcano's transform onto the vent). Sunk by a quarter so it sits in the ground.
+        let local = frame.compute_affine().inverse().transform_point3(vent.0) + Vec3::Y * (0.25 * h);
+        let transform = Transform::from_translation(local).with_scale(Vec3::new(r, h, r));
+        let existing = children.and_then(|c| c.iter().find(|c| markers.contains(*c)));
+        if let Some(child) = existing
+            && let Ok(mut t) = markers.get_mut(child)
+        {
+            *t = transform;
+            continue;
+        }
+        commands.entity(entity).insert_if_new(Visibility::default());
+        commands.spawn((
+            Name::new("Vent marker"),
+            VentMarker,
+            Mesh3d(assets.vent_mesh.clone()),
+            MeshMaterial3d(assets.vent_material.clone()),
+            transform,
+            ChildOf(entity),
+        ));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcano_core::StratovolcanoParams;
+
+    #[test]
+    fn stride_caps_vertices_and_keeps_edges() {
+        assert_eq!(stride_for(96, 512), 1);
+        assert_eq!(stride_for(512, 512), 1);
+        let s = stride_for(4097, 512);
+        let axis = sample_axis(4097, s);
+        assert!(axis.len() <= 512, "{} samples", axis.len());
+        assert_eq!((axis[0], *axis.last().unwrap()), (0, 4096));
+    }
+
+    #[test]
+    fn mesh_follows_the_heightfield() {
+        let terrain = StratovolcanoParams { resolution: 65, cell: 300.0, ..Default::default() }
+            .generate()
+            .unwrap();
+        let (mesh, stride) = terrain_mesh(&terrain, 33);
+        assert_eq!(stride, 2);
+        assert_eq!(mesh.count_vertices(), 33 * 33);
+        let Some(Indices::U32(idx)) = mesh.indices() else { panic!("u32 indices") };
+        assert_eq!(idx.len(), 32 * 32 * 6);
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        // Vertex (a, b) = grid sample (2a, 2b), lifted to sea level if water.
+        let p = pos[5 * 33 + 7];
+        let g = terrain.heights().position(14, 10);
+        assert_eq!((p[0], p[2]), (g.x, g.y));
+        assert!((p[1] - terrain.heights().get(14, 10).max(terrain.sea_level())).abs() < 1e-3);
+        // Every triangle faces up.
+        for t in idx.chunks(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(pos[i as usize]));
+            assert!((b - a).cross(c - a).y > 0.0);
+        }
+    }
+
+    #[test]
+    fn steep_slopes_are_darker_and_rockier() {
+        let flat = cover_color(LandCover::Vegetation, Vec3::Y);
+        let steep = cover_color(LandCover::Vegetation, Vec3::new(0.7, 0.7, 0.0).normalize());
+        assert!(steep.green < flat.green);
+        assert!(flat.green > flat.red, "vegetation reads green");
+        let snow = cover_color(LandCover::Snow, Vec3::Y);
+        assert!(snow.red > 0.7 && snow.blue > 0.7);
+    }
+}

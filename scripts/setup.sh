@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# One-time machine set-up shared by ./dev and .ci/run: Debian packages and the shared cargo
+# target directory. Idempotent and quick when everything is present.
+set -euo pipefail
+
+# Runtime: Vulkan loader + Mesa (llvmpipe software rendering when there is no GPU).
+# Windowed runs load X11/xkbcommon at run time. Building needs nothing beyond the toolchain:
+# the trimmed Bevy features use no audio, gamepad or udev crates.
+PKGS=(libvulkan1 mesa-vulkan-drivers libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0 pkg-config)
+missing=()
+for p in "${PKGS[@]}"; do
+    dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")
+done
+if ((${#missing[@]})); then
+    echo "setup: installing Debian packages: ${missing[*]}"
+    SUDO=""
+    if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+    $SUDO apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+fi
+for c in clippy rustfmt; do
+    if ! cargo "${c/rustfmt/fmt}" --version >/dev/null 2>&1 && command -v rustup >/dev/null; then
+        rustup component add "$c"
+    fi
+done

@@ -1,0 +1,256 @@
+//! The scene registry shared by the examples and `volcano render --scene NAME`, so what CI
+//! renders is what a user runs. Scenes are RON files in `assets/scenes/`, embedded in the
+//! binary so they work from any working directory; [`SceneSpec::from_ron`] loads a user's own.
+
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+use volcano_core::error::{ConfigError, finite, in_range, positive};
+use volcano_core::terrain::png_io::HeightmapScale;
+use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
+
+/// Built-in scenes: (name, RON text).
+const BUILTIN: &[(&str, &str)] = &[("eruption", include_str!("../assets/scenes/eruption.ron"))];
+
+/// Names of the built-in scenes.
+pub fn names() -> Vec<&'static str> {
+    BUILTIN.iter().map(|(n, _)| *n).collect()
+}
+
+/// A built-in scene by name, parsed and validated.
+pub fn by_name(name: &str) -> Result<SceneSpec, ConfigError> {
+    let (_, text) = BUILTIN.iter().find(|(n, _)| *n == name).ok_or_else(|| ConfigError::UnknownName {
+        kind: "scene",
+        name: name.to_string(),
+        known: names().join(", "),
+    })?;
+    SceneSpec::from_ron(text)
+}
+
+/// Where the terrain comes from.
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+pub enum TerrainSpec {
+    /// The procedural stratovolcano generator.
+    Stratovolcano(StratovolcanoParams),
+    /// A greyscale PNG heightmap (16-bit preferred): `h = base_altitude + value · metres_per_unit`.
+    Heightmap {
+        /// Path of the PNG file.
+        path: String,
+        /// Metres per PNG unit.
+        metres_per_unit: f64,
+        /// Altitude of value 0 (m).
+        base_altitude: f64,
+        /// Distance between samples (m).
+        cell: f64,
+        /// Sea level (m).
+        sea_level: f32,
+    },
+    /// A flat square (tests, lava tables).
+    Flat {
+        /// Samples per side.
+        resolution: u32,
+        /// Distance between samples (m).
+        cell: f64,
+        /// Altitude (m).
+        altitude: f32,
+    },
+}
+
+impl TerrainSpec {
+    /// Builds (generates or loads) the terrain.
+    pub fn build(&self) -> Result<Terrain, ConfigError> {
+        match self {
+            TerrainSpec::Stratovolcano(p) => p.generate(),
+            TerrainSpec::Heightmap { path, metres_per_unit, base_altitude, cell, sea_level } => {
+                let scale = HeightmapScale {
+                    metres_per_unit: *metres_per_unit,
+                    base_altitude: *base_altitude,
+                    cell: *cell,
+                    sea_level: *sea_level,
+                };
+                Terrain::from_png_file(path, scale)
+            }
+            TerrainSpec::Flat { resolution, cell, altitude } => {
+                in_range("resolution", *resolution as f64, 2.0, 4097.0)?;
+                finite("altitude", *altitude as f64)?;
+                Terrain::flat(*resolution as usize, *cell, *altitude)
+            }
+        }
+    }
+}
+
+/// The initial orbit camera of a scene.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
+pub struct CameraSpec {
+    /// Point the camera looks at (world, m).
+    pub focus: (f32, f32, f32),
+    /// Horizontal angle around the focus (degrees).
+    pub yaw_deg: f32,
+    /// Angle above the horizon (degrees, −89..89).
+    pub pitch_deg: f32,
+    /// Distance from the focus (m).
+    pub distance: f32,
+}
+
+/// The sun of a scene.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
+pub struct SunSpec {
+    /// Compass direction the sunlight comes from (degrees).
+    pub azimuth_deg: f32,
+    /// Height of the sun above the horizon (degrees).
+    pub elevation_deg: f32,
+    /// Illuminance on a surface facing the sun (lux).
+    pub illuminance_lux: f32,
+}
+
+/// A scene: terrain, volcano, camera and sun.
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    /// Registry name.
+    pub name: String,
+    /// One-line description for `volcano scenes`.
+    pub description: String,
+    /// Terrain source.
+    pub terrain: TerrainSpec,
+    /// The volcano.
+    pub volcano: VolcanoSpec,
+    /// Initial camera.
+    pub camera: CameraSpec,
+    /// Sun.
+    pub sun: SunSpec,
+}
+
+impl SceneSpec {
+    /// Parses and validates a RON scene.
+    pub fn from_ron(text: &str) -> Result<Self, ConfigError> {
+        let spec: Self = ron::from_str(text)?;
+        spec.validate()?;
+        Ok(spec)
+    }
+
+    /// Checks every field that can be checked without building the terrain.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.volcano.validate()?;
+        if let TerrainSpec::Stratovolcano(p) = &self.terrain {
+            p.validate()?;
+        }
+        let c = &self.camera;
+        for (n, v) in [("camera.focus.x", c.focus.0), ("camera.focus.y", c.focus.1), ("camera.focus.z", c.focus.2)] {
+            finite(n, v as f64)?;
+        }
+        finite("camera.yaw_deg", c.yaw_deg as f64)?;
+        in_range("camera.pitch_deg", c.pitch_deg as f64, -89.0, 89.0)?;
+        positive("camera.distance", c.distance as f64)?;
+        finite("sun.azimuth_deg", self.sun.azimuth_deg as f64)?;
+        in_range("sun.elevation_deg", self.sun.elevation_deg as f64, -90.0, 90.0)?;
+        in_range("sun.illuminance_lux", self.sun.illuminance_lux as f64, 0.0, 1.0e6)?;
+        Ok(())
+    }
+}
+
+/// Spawns a scene at startup: the terrain and the volcano, plus the camera and sun when the
+/// `render` feature is on. The terrain is built when the plugin is created, so a bad file or
+/// parameter is an error there, not a panic later.
+#[derive(Debug, Clone)]
+pub struct VolcanoScenePlugin {
+    spec: SceneSpec,
+    terrain: Terrain,
+}
+
+impl VolcanoScenePlugin {
+    /// Validates the scene and builds its terrain.
+    pub fn new(spec: SceneSpec) -> Result<Self, ConfigError> {
+        spec.validate()?;
+        let terrain = spec.terrain.build()?;
+        Ok(Self { spec, terrain })
+    }
+    /// A built-in scene by name.
+    pub fn builtin(name: &str) -> Result<Self, ConfigError> {
+        Self::new(by_name(name)?)
+    }
+    /// The scene description.
+    pub fn spec(&self) -> &SceneSpec {
+        &self.spec
+    }
+}
+
+/// The scene being shown (for panels and tools).
+#[derive(Resource, Debug, Clone, Reflect)]
+pub struct ActiveScene(pub SceneSpec);
+
+impl Plugin for VolcanoScenePlugin {
+    fn build(&self, app: &mut App) {
+        let spec = self.spec.clone();
+        let terrain = self.terrain.clone();
+        app.insert_resource(ActiveScene(spec.clone()));
+        app.add_systems(Startup, move |mut commands: Commands| {
+            commands.spawn((Name::new("Terrain"), terrain.clone()));
+            // `build` cannot fail here: the spec was validated in `new`.
+            if let Ok((volcano, transform)) = spec.volcano.build() {
+                commands.spawn((Name::new("Volcano"), volcano, transform));
+            }
+            #[cfg(feature = "render")]
+            spawn_view(&mut commands, &spec);
+        });
+    }
+}
+
+#[cfg(feature = "render")]
+fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
+    use volcano_render::{OrbitCamera, Sun, camera_bundle};
+    let c = spec.camera;
+    let orbit = OrbitCamera {
+        focus: Vec3::new(c.focus.0, c.focus.1, c.focus.2),
+        yaw: c.yaw_deg.to_radians(),
+        pitch: c.pitch_deg.to_radians(),
+        distance: c.distance,
+        ..Default::default()
+    };
+    commands.spawn((Name::new("Camera"), camera_bundle(orbit)));
+    let s = spec.sun;
+    commands.spawn((
+        Name::new("Sun"),
+        Sun {
+            azimuth: s.azimuth_deg.to_radians(),
+            elevation: s.elevation_deg.to_radians(),
+            illuminance: s.illuminance_lux,
+            ..Default::default()
+        },
+    ));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtin_scenes_parse_and_validate() {
+        for name in names() {
+            let s = by_name(name).unwrap();
+            assert_eq!(s.name, name);
+        }
+        let e = by_name("nope").unwrap_err();
+        assert!(e.to_string().contains("eruption"), "{e}");
+    }
+
+    #[test]
+    fn malformed_and_invalid_scenes_are_errors() {
+        let good = include_str!("../assets/scenes/eruption.ron");
+        let e = SceneSpec::from_ron(&good.replace("vent_radius: 100.0", "vent_radius: -1.0")).unwrap_err();
+        assert!(e.to_string().contains("vent_radius"), "{e}");
+        let e = SceneSpec::from_ron(&good.replace("pitch_deg: 14.0", "pitch_deg: 95.0")).unwrap_err();
+        assert!(e.to_string().contains("pitch_deg"), "{e}");
+        let e = SceneSpec::from_ron(&good.replace("cell: 40.0", "cell: 0.0")).unwrap_err();
+        assert!(e.to_string().contains("cell"), "{e}");
+        let e = SceneSpec::from_ron(&good[..good.len() / 2]).unwrap_err();
+        assert!(matches!(e, ConfigError::Ron(_)), "{e}");
+        let bad_map = TerrainSpec::Heightmap {
+            path: "/nonexistent.png".into(),
+            metres_per_unit: 1.0,
+            base_altitude: 0.0,
+            cell: 30.0,
+            sea_level: 0.0,
+        };
+        assert!(matches!(bad_map.build(), Err(ConfigError::Io { .. })));
+    }
+}
