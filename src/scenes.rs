@@ -94,7 +94,7 @@ pub struct CameraSpec {
 /// The sun of a scene.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
 pub struct SunSpec {
-    /// Compass direction the sunlight comes from (degrees).
+    /// Compass direction of the sun, degrees clockwise from north (north = −z, east = +x).
     pub azimuth_deg: f32,
     /// Height of the sun above the horizon (degrees).
     pub elevation_deg: f32,
@@ -135,7 +135,9 @@ impl SceneSpec {
             p.validate()?;
         }
         let c = &self.camera;
-        for (n, v) in [("camera.focus.x", c.focus.0), ("camera.focus.y", c.focus.1), ("camera.focus.z", c.focus.2)] {
+        for (n, v) in
+            [("camera.focus.x", c.focus.0), ("camera.focus.y", c.focus.1), ("camera.focus.z", c.focus.2)]
+        {
             finite(n, v as f64)?;
         }
         finite("camera.yaw_deg", c.yaw_deg as f64)?;
@@ -197,7 +199,7 @@ impl Plugin for VolcanoScenePlugin {
 
 #[cfg(feature = "render")]
 fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
-    use volcano_render::{OrbitCamera, Sun, camera_bundle};
+    use volcano_render::{OrbitCamera, Sun, camera_bundle, sun_bundle};
     let c = spec.camera;
     let orbit = OrbitCamera {
         focus: Vec3::new(c.focus.0, c.focus.1, c.focus.2),
@@ -206,17 +208,13 @@ fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
         distance: c.distance,
         ..Default::default()
     };
-    commands.spawn((Name::new("Camera"), camera_bundle(orbit)));
+    commands.spawn(camera_bundle(orbit));
     let s = spec.sun;
-    commands.spawn((
-        Name::new("Sun"),
-        Sun {
-            azimuth: s.azimuth_deg.to_radians(),
-            elevation: s.elevation_deg.to_radians(),
-            illuminance: s.illuminance_lux,
-            ..Default::default()
-        },
-    ));
+    commands.spawn(sun_bundle(Sun {
+        azimuth_deg: s.azimuth_deg,
+        elevation_deg: s.elevation_deg,
+        illuminance: s.illuminance_lux,
+    }));
 }
 
 #[cfg(test)]

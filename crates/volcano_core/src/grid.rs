@@ -68,7 +68,13 @@ impl<T: Copy> Grid2<T> {
     }
 
     /// A grid from existing row-major data; errors if the length does not match.
-    pub fn from_vec(nx: usize, ny: usize, cell: f64, origin: Vec2, data: Vec<T>) -> Result<Self, ConfigError> {
+    pub fn from_vec(
+        nx: usize,
+        ny: usize,
+        cell: f64,
+        origin: Vec2,
+        data: Vec<T>,
+    ) -> Result<Self, ConfigError> {
         Self::check_dims(nx, ny, cell, origin)?;
         if data.len() != nx * ny {
             return Err(ConfigError::InvalidParameter {
@@ -155,10 +161,7 @@ impl<T: Copy> Grid2<T> {
     }
     /// Continuous grid coordinates of a world point (sample units).
     pub fn to_grid(&self, p: Vec2) -> (f64, f64) {
-        (
-            (p.x as f64 - self.origin.x as f64) / self.cell,
-            (p.y as f64 - self.origin.y as f64) / self.cell,
-        )
+        ((p.x as f64 - self.origin.x as f64) / self.cell, (p.y as f64 - self.origin.y as f64) / self.cell)
     }
     /// Whether a world point lies within the sampled rectangle.
     pub fn contains(&self, p: Vec2) -> bool {
@@ -227,7 +230,12 @@ impl Grid2<f32> {
 
     /// Divergence `∂u/∂x + ∂v/∂y` of the vector field `(u, v)` by central differences, written
     /// into `out` (same shape). Errors if the shapes differ.
-    pub fn divergence_into(u: &Grid2<f32>, v: &Grid2<f32>, b: Boundary, out: &mut Grid2<f32>) -> Result<(), ConfigError> {
+    pub fn divergence_into(
+        u: &Grid2<f32>,
+        v: &Grid2<f32>,
+        b: Boundary,
+        out: &mut Grid2<f32>,
+    ) -> Result<(), ConfigError> {
         if u.nx != v.nx || u.ny != v.ny || out.nx != u.nx || out.ny != u.ny {
             return Err(ConfigError::InvalidParameter {
                 name: "divergence grid shapes",

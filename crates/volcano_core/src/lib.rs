@@ -25,14 +25,13 @@ pub use grid::{Boundary, Grid2};
 pub use plugin::VolcanoCorePlugin;
 pub use rng::{VolcanoRng, derive_stream};
 pub use terrain::{LandCover, StratovolcanoParams, Terrain};
-pub use volcano::{Volcano, VolcanoSpec, VentPosition};
+pub use volcano::{VentPosition, Volcano, VolcanoSpec};
 
 /// Everything a game usually needs from this crate.
 pub mod prelude {
     pub use crate::{
-        AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2,
-        LandCover, SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams,
-        Terrain, ThesisIsa, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin,
-        VolcanoRng, VolcanoSpec,
+        AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2, LandCover,
+        SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams, Terrain, ThesisIsa,
+        UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng, VolcanoSpec,
     };
 }

@@ -63,10 +63,30 @@ mod tests {
     #[test]
     fn streams_are_reproducible_and_independent() {
         let v = VolcanoRng::new(42);
-        let a: Vec<u32> = (0..8).map({ let mut r = v.stream("slice", 3); move |_| r.random() }).collect();
-        let b: Vec<u32> = (0..8).map({ let mut r = v.stream("slice", 3); move |_| r.random() }).collect();
-        let c: Vec<u32> = (0..8).map({ let mut r = v.stream("slice", 4); move |_| r.random() }).collect();
-        let d: Vec<u32> = (0..8).map({ let mut r = VolcanoRng::new(43).stream("slice", 3); move |_| r.random() }).collect();
+        let a: Vec<u32> = (0..8)
+            .map({
+                let mut r = v.stream("slice", 3);
+                move |_| r.random()
+            })
+            .collect();
+        let b: Vec<u32> = (0..8)
+            .map({
+                let mut r = v.stream("slice", 3);
+                move |_| r.random()
+            })
+            .collect();
+        let c: Vec<u32> = (0..8)
+            .map({
+                let mut r = v.stream("slice", 4);
+                move |_| r.random()
+            })
+            .collect();
+        let d: Vec<u32> = (0..8)
+            .map({
+                let mut r = VolcanoRng::new(43).stream("slice", 3);
+                move |_| r.random()
+            })
+            .collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_ne!(a, d);

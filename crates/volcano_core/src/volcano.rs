@@ -106,10 +106,7 @@ impl VolcanoSpec {
     /// The component and the transform placing its vent (y is snapped later).
     pub fn build(&self) -> Result<(Volcano, Transform), ConfigError> {
         self.validate()?;
-        Ok((
-            Volcano::new(self.vent_radius, self.seed)?,
-            Transform::from_xyz(self.vent.0, 0.0, self.vent.1),
-        ))
+        Ok((Volcano::new(self.vent_radius, self.seed)?, Transform::from_xyz(self.vent.0, 0.0, self.vent.1)))
     }
 }
 
@@ -117,12 +114,15 @@ impl VolcanoSpec {
 #[derive(Component, Debug, Clone, Copy, PartialEq, Default, Reflect)]
 pub struct VentPosition(pub Vec3);
 
+type VolcanoQueryData<'a> =
+    (Entity, Ref<'a, Volcano>, &'a mut Transform, Option<&'a VentPosition>, Option<&'a VolcanoRng>);
+
 /// Snaps vents to the terrain under them, creates the volcano's RNG and keeps it in step with
 /// the seed.
 pub(crate) fn snap_vents(
     mut commands: Commands,
     terrains: Query<Ref<Terrain>>,
-    mut volcanoes: Query<(Entity, Ref<Volcano>, &mut Transform, Option<&VentPosition>, Option<&VolcanoRng>)>,
+    mut volcanoes: Query<VolcanoQueryData>,
 ) {
     let terrain_changed = terrains.iter().any(|t| t.is_changed());
     for (entity, volcano, mut transform, vent, rng) in &mut volcanoes {

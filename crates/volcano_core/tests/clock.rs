@@ -190,7 +190,8 @@ fn vent_snaps_to_terrain() {
         }
     }
     app.world_mut().spawn(terrain);
-    let v = app.world_mut().spawn((Volcano::new(10.0, 4).unwrap(), Transform::from_xyz(20.0, -999.0, 3.0))).id();
+    let v =
+        app.world_mut().spawn((Volcano::new(10.0, 4).unwrap(), Transform::from_xyz(20.0, -999.0, 3.0))).id();
     app.update();
     app.update();
     let e = app.world().entity(v);

@@ -15,11 +15,19 @@ pub trait SimDomainAppExt {
     /// domain must be ordered and the domain stays deterministic), the clock
     /// `Time<DomainClock<D>>`, and the driver system. Panics only on a zero cadence, which is
     /// a programming error in plugin code, not user input.
-    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(&mut self, set: SimSystems, cadence: Cadence) -> &mut Self;
+    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(
+        &mut self,
+        set: SimSystems,
+        cadence: Cadence,
+    ) -> &mut Self;
 }
 
 impl SimDomainAppExt for App {
-    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(&mut self, set: SimSystems, cadence: Cadence) -> &mut Self {
+    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(
+        &mut self,
+        set: SimSystems,
+        cadence: Cadence,
+    ) -> &mut Self {
         let clock = DomainClock::<D>::new(cadence).expect("plugin registered a domain with a zero cadence");
         self.insert_resource(Time::new_with(clock));
         self.init_schedule(D::default());

@@ -68,7 +68,7 @@ impl Cadence {
     pub fn steps_at_tick(self, tick: u64) -> u32 {
         match self {
             Cadence::Substeps(n) => n,
-            Cadence::EveryNthTick(k) => u32::from(tick % k.max(1) as u64 == 0),
+            Cadence::EveryNthTick(k) => u32::from(tick.is_multiple_of(k.max(1) as u64)),
         }
     }
 }

@@ -104,7 +104,8 @@ impl StratovolcanoParams {
                 // strongest mid-flank, fading at the crater and the foot.
                 let theta = z.atan2(x);
                 let flank = (std::f64::consts::PI * (r / r_foot).clamp(0.0, 1.0)).sin();
-                let ridge = ridges.get([theta.cos() * 6.0 + 10.0, theta.sin() * 6.0 + 10.0, r / r_foot * 2.0]);
+                let ridge =
+                    ridges.get([theta.cos() * 6.0 + 10.0, theta.sin() * 6.0 + 10.0, r / r_foot * 2.0]);
                 // Rolling landscape, fading under the cone.
                 let outside = ((r / r_foot - 0.6) / 0.6).clamp(0.0, 1.0);
                 let hill = hills.get([x / 4_000.0, z / 4_000.0]);

@@ -130,7 +130,8 @@ impl Terrain {
         let (lo, hi) = self.height_range();
         let min = self.heights.origin();
         let max = min + self.heights.extent();
-        let (t0, t1) = slab(origin, dir, Vec3::new(min.x, lo - 1.0, min.y), Vec3::new(max.x, hi + 1.0, max.y))?;
+        let (t0, t1) =
+            slab(origin, dir, Vec3::new(min.x, lo - 1.0, min.y), Vec3::new(max.x, hi + 1.0, max.y))?;
         let step = (self.heights.cell() * 0.5) as f32;
         let above = |t: f32| {
             let p = origin + dir * t;

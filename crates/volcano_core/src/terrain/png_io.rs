@@ -58,7 +58,10 @@ impl Terrain {
         let values: Vec<f32> = match info.bit_depth {
             png::BitDepth::Sixteen => buf[..w * h * 2]
                 .chunks_exact(2)
-                .map(|c| (scale.base_altitude + u16::from_be_bytes([c[0], c[1]]) as f64 * scale.metres_per_unit) as f32)
+                .map(|c| {
+                    (scale.base_altitude + u16::from_be_bytes([c[0], c[1]]) as f64 * scale.metres_per_unit)
+                        as f32
+                })
                 .collect(),
             png::BitDepth::Eight => buf[..w * h]
                 .iter()

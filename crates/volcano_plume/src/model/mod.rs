@@ -1,0 +1,7 @@
+//! Model layer: plain structs and functions, each physical law beside the thesis equation it
+//! implements.
+
+pub mod params;
+pub mod run;
+pub mod slice;
+pub mod wind;

@@ -1,0 +1,119 @@
+//! Single-slice runs from the vent: the validation experiment of §3.7.2 and the CLI's
+//! `summary.json` / `trajectory.csv`.
+
+use bevy::math::DVec2;
+use serde::Serialize;
+use volcano_core::error::ConfigError;
+
+use super::params::PlumeParams;
+use super::slice::{Phase, Slice, SliceEnv};
+
+/// Outcome of a single slice followed from the vent until it collapses or reaches its apex.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SingleSliceSummary {
+    /// "plume" (reached an apex after being buoyant) or "collapse".
+    pub regime: &'static str,
+    /// Highest altitude above the vent (m).
+    pub apex_m: f64,
+    /// First altitude where the slice is lighter than the air.
+    pub buoyant_from_m: Option<f64>,
+    /// Where it becomes as dense as the air again (top of the buoyant rise).
+    pub neutral_buoyancy_m: Option<f64>,
+    /// Apex of a collapsing slice.
+    pub collapse_altitude_m: Option<f64>,
+    /// Largest horizontal distance from the vent along the wind (m).
+    pub max_downwind_m: f64,
+    /// Time from the vent to the end of the run (s).
+    pub duration_s: f64,
+    /// Mass budget `(initial + entrained − sedimented − mass) / (initial + entrained)`, ≈ 0.
+    pub mass_budget_rel_error: f64,
+}
+
+/// One trajectory sample.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct TrajectorySample {
+    /// Time since emission (s).
+    pub t: f64,
+    /// Position (m), z above the vent.
+    pub x: f64,
+    /// Position (m).
+    pub y: f64,
+    /// Altitude above the vent (m).
+    pub z: f64,
+    /// Velocity (m/s).
+    pub vx: f64,
+    /// Velocity (m/s).
+    pub vy: f64,
+    /// Velocity (m/s).
+    pub vz: f64,
+    /// Size (m).
+    pub r: f64,
+    /// Density (kg/m³).
+    pub rho: f64,
+    /// Temperature (K).
+    pub temperature: f64,
+    /// Air density at the slice (kg/m³).
+    pub rho_air: f64,
+}
+
+/// Follows one slice from the vent for at most `max_seconds`, sampling the trajectory every
+/// `sample_every` seconds (0 for none).
+pub fn run_single_slice(
+    p: &PlumeParams,
+    max_seconds: f64,
+    sample_every: f64,
+) -> Result<(SingleSliceSummary, Vec<TrajectorySample>), ConfigError> {
+    p.validate()?;
+    let air = p.atmosphere.profile();
+    let wind = |z: f64| p.wind.at(z);
+    let env = SliceEnv { air, vent_altitude: p.vent_altitude, wind: &wind };
+    let mut s = Slice::at_vent(p);
+    let wind_dir = {
+        let w = p.wind.at(1.0e5);
+        if w.length() > 0.0 { w.normalize() } else { DVec2::X }
+    };
+    let mut samples = Vec::new();
+    let mut next_sample = 0.0;
+    let mut max_downwind: f64 = 0.0;
+    let steps = (max_seconds / p.dt).ceil() as u64;
+    let sample = |s: &Slice| TrajectorySample {
+        t: s.age,
+        x: s.position.x,
+        y: s.position.y,
+        z: s.position.z,
+        vx: s.velocity.x,
+        vy: s.velocity.y,
+        vz: s.velocity.z,
+        r: s.r,
+        rho: s.density,
+        temperature: s.temperature,
+        rho_air: air.density(p.vent_altitude + s.position.z),
+    };
+    for _ in 0..steps {
+        if sample_every > 0.0 && s.age + 1e-9 >= next_sample {
+            samples.push(sample(&s));
+            next_sample += sample_every;
+        }
+        s.step(p, &env);
+        max_downwind = max_downwind.max(s.position.truncate().dot(wind_dir));
+        if matches!(s.phase, Phase::Umbrella | Phase::Collapsed) {
+            break;
+        }
+    }
+    if sample_every > 0.0 {
+        samples.push(sample(&s));
+    }
+    let collapsed = s.phase == Phase::Collapsed;
+    let summary = SingleSliceSummary {
+        regime: if collapsed { "collapse" } else { "plume" },
+        apex_m: s.apex,
+        buoyant_from_m: s.buoyant_from,
+        neutral_buoyancy_m: s.neutral_altitude,
+        collapse_altitude_m: collapsed.then_some(s.apex),
+        max_downwind_m: max_downwind,
+        duration_s: s.age,
+        mass_budget_rel_error: (s.initial_mass + s.entrained_mass - s.sedimented_mass - s.mass)
+            / (s.initial_mass + s.entrained_mass),
+    };
+    Ok((summary, samples))
+}

@@ -1,0 +1,89 @@
+//! The thesis preset against the numbers settled in DESIGN.md §3.1 (independent
+//! re-implementation): single slice, no wind, vent at sea level.
+
+use volcano_plume::model::run::run_single_slice;
+use volcano_plume::{PlumeParams, Preset, WindProfile};
+
+fn near(value: f64, target: f64, tol: f64) -> bool {
+    ((value - target) / target).abs() <= tol
+}
+
+#[test]
+fn collapse_thresholds_bracket_the_settled_values() {
+    // DESIGN.md §3.1: threshold ≈160 m/s with contraction, ≈148 m/s without.
+    for (contraction, below, above) in [(true, 157.0, 163.0), (false, 145.0, 151.0)] {
+        let regime = |v0| {
+            let p = PlumeParams { v0, contraction, ..Preset::Thesis.params() };
+            run_single_slice(&p, 900.0, 0.0).unwrap().0.regime
+        };
+        assert_eq!(regime(below), "collapse", "contraction {contraction}, {below} m/s");
+        assert_eq!(regime(above), "plume", "contraction {contraction}, {above} m/s");
+    }
+}
+
+#[test]
+fn time_step_barely_matters() {
+    let apex = |dt| {
+        let p = PlumeParams { v0: 200.0, dt, ..Preset::Thesis.params() };
+        run_single_slice(&p, 900.0, 0.0).unwrap().0.apex_m
+    };
+    let (fine, coarse) = (apex(0.0005), apex(0.02));
+    assert!(near(coarse, fine, 0.02), "apex {fine} m at 0.5 ms vs {coarse} m at 20 ms");
+}
+
+#[test]
+fn thesis_preset_with_contraction() {
+    let p = Preset::Thesis.params();
+    let (s, _) = run_single_slice(&p, 600.0, 0.0).unwrap();
+    assert_eq!(s.regime, "collapse");
+    assert!(near(s.collapse_altitude_m.unwrap(), 1_930.0, 0.05), "{s:?}");
+    let p = PlumeParams { v0: 200.0, ..p };
+    let (s, _) = run_single_slice(&p, 600.0, 0.0).unwrap();
+    assert_eq!(s.regime, "plume");
+    assert!(near(s.apex_m, 10_200.0, 0.05), "{s:?}");
+}
+
+#[test]
+fn thesis_preset_without_contraction() {
+    let p = PlumeParams { contraction: false, ..Preset::Thesis.params() };
+    let (s, traj) = run_single_slice(&p, 600.0, 0.1).unwrap();
+    assert_eq!(s.regime, "plume");
+    assert!(near(s.apex_m, 17_900.0, 0.05), "{s:?}");
+    // Drop-then-rise inflection of the vertical speed: it falls (jet decelerating), reaches a
+    // minimum, then rises again once buoyant.
+    // (Measured: 150 → 42 m/s near 2.3 km, back up to 142 m/s near 11 km, 0 at the apex.)
+    let vz: Vec<f64> = traj.iter().map(|t| t.vz).collect();
+    let late_peak = (vz.len() / 4..vz.len()).max_by(|&a, &b| vz[a].total_cmp(&vz[b])).unwrap();
+    let v_min = vz[..late_peak].iter().cloned().fold(f64::MAX, f64::min);
+    assert!(v_min < 0.5 * p.v0, "the jet must decelerate: min {v_min}");
+    assert!(vz[late_peak] > v_min + 50.0, "and accelerate again once buoyant: {v_min} → {}", vz[late_peak]);
+    assert!(vz.last().unwrap().abs() < 1.0, "and stop at the apex");
+}
+
+#[test]
+fn wind_lowers_the_apex_and_pushes_downwind() {
+    let mut prev: Option<(f64, f64)> = None;
+    for w in [0.0, 15.0, 45.0, 105.0] {
+        let p = PlumeParams {
+            v0: 200.0,
+            wind: WindProfile::Linear { max: w, top: 12_000.0, direction_deg: 0.0 },
+            ..Preset::Thesis.params()
+        };
+        let (s, _) = run_single_slice(&p, 900.0, 0.0).unwrap();
+        if let Some((apex, down)) = prev {
+            assert!(s.apex_m < apex, "wind {w}: apex {} not below {apex}", s.apex_m);
+            assert!(s.max_downwind_m > down, "wind {w}: downwind {} not beyond {down}", s.max_downwind_m);
+        }
+        prev = Some((s.apex_m, s.max_downwind_m));
+    }
+}
+
+#[test]
+fn mass_accounting_closes() {
+    for c in [true, false] {
+        let p = PlumeParams { contraction: c, sigma_col: 0.05, ..Preset::Thesis.params() };
+        let (s, _) = run_single_slice(&p, 600.0, 0.0).unwrap();
+        // Rounding only: about one ulp per step over ~10⁵ steps.
+        assert!(s.mass_budget_rel_error.abs() < 1e-10, "{s:?}");
+    }
+}
