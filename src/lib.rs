@@ -29,6 +29,7 @@ use bevy::app::{PluginGroup, PluginGroupBuilder};
 pub use volcano_core as core;
 #[cfg(feature = "egui")]
 pub use volcano_egui as egui;
+pub use volcano_plume as plume;
 #[cfg(feature = "render")]
 pub use volcano_render as render;
 

@@ -31,7 +31,7 @@ fn scene_steps_headless_and_the_vent_sits_on_the_terrain() {
         "2 base ticks per update after the zero first update"
     );
     let mut q = app.world_mut().query::<(&VentPosition, &Volcano)>();
-    let (vent, volcano) = q.single(app.world()).unwrap();
+    let (vent, volcano) = q.single(app.world()).map(|(v, vol)| (*v, vol.clone())).unwrap();
     let mut t = app.world_mut().query::<&Terrain>();
     let terrain = t.single(app.world()).unwrap();
     assert!((vent.0.y - terrain.height_at(0.0, 0.0)).abs() < 1e-3);

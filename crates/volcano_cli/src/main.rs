@@ -1,6 +1,8 @@
 //! `volcano`: the headless runner. Renders scenes to PNG without a display or GPU (Mesa's
-//! llvmpipe through Vulkan) and lists the scene registry; later issues add scenario runs and
-//! validation curves.
+//! llvmpipe through Vulkan), lists the scene registry, and runs the plume's single-slice
+//! validation experiment.
+
+mod plume;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -44,6 +46,20 @@ enum Command {
     },
     /// List the scenes of the registry.
     Scenes,
+    /// Follow one plume slice from the vent (thesis §3.7.2): writes DIR/summary.json and
+    /// DIR/trajectory.csv (z up above the vent, x downwind, metres).
+    Plume {
+        #[command(flatten)]
+        params: plume::PlumeArgs,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
+    /// Ejection speed below which the column collapses (bisection on v0), as JSON.
+    PlumeThreshold {
+        #[command(flatten)]
+        params: plume::PlumeArgs,
+    },
 }
 
 fn main() -> ExitCode {
@@ -58,6 +74,8 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
+        Command::Plume { params, out } => plume::plume(&params, &out),
+        Command::PlumeThreshold { params } => plume::threshold(&params),
         Command::Render { scene, ticks, out, width, height, min_stddev } => {
             render(&scene, ticks, out, width, height, min_stddev)
         }
@@ -103,11 +121,10 @@ fn render(scene: &str, ticks: u32, out: PathBuf, width: u32, height: u32, min_st
         eprintln!("error: rendering failed ({exit:?}); is a Vulkan driver installed (mesa-vulkan-drivers)?");
         return ExitCode::FAILURE;
     }
-    let tick = app.world().get_resource::<SimTick>().map_or(0, |t| t.0);
     match png_pixel_stddev(&out) {
         Ok(sd) => {
             println!(
-                "wrote {} ({width}×{height}) after {tick} ticks in {:.1} s; pixel std-dev {sd:.1}",
+                "wrote {} ({width}×{height}) after {ticks} ticks in {:.1} s; pixel std-dev {sd:.1}",
                 out.display(),
                 started.elapsed().as_secs_f64()
             );

@@ -18,8 +18,12 @@ use volcano_render::PointerCaptured;
 pub const SPEED_RANGE: std::ops::RangeInclusive<f32> = 0.1..=4.0;
 
 /// The volcano tuning panel. Needs a render app with a window (`DefaultPlugins`) and
-/// `volcano_core::VolcanoCorePlugin`; works alongside another egui user (it only adds
-/// `EguiPlugin` if missing).
+/// `volcano_core::VolcanoCorePlugin`; works alongside another egui user: it adds `EguiPlugin`
+/// only if missing, so an app that configures its own must add it *before* this plugin.
+///
+/// The panel draws on the primary egui context, which bevy_egui puts on the first camera. With
+/// bevy_egui 0.40 nothing is drawn on an HDR camera (seen with llvmpipe), which is why
+/// `volcano_render::camera_bundle` cameras are LDR.
 #[derive(Debug, Default, Clone)]
 pub struct VolcanoEguiPlugin;
 
@@ -62,8 +66,11 @@ impl PanelState {
         if !(dt.is_finite() && dt > 0.0) {
             return;
         }
-        self.frame_time =
-            if self.frame_time > 0.0 { self.frame_time + Self::SMOOTHING * (dt - self.frame_time) } else { dt };
+        self.frame_time = if self.frame_time > 0.0 {
+            self.frame_time + Self::SMOOTHING * (dt - self.frame_time)
+        } else {
+            dt
+        };
     }
 
     /// Frames per second from the smoothed frame time (0 before the first frame).
@@ -102,7 +109,10 @@ fn volcano_panel(
     }
     let ctx = contexts.ctx_mut()?;
     let mut control = control;
-    #[expect(deprecated, reason = "Panel::show_inside needs a parent Ui; the context-level show is fine here")]
+    #[expect(
+        deprecated,
+        reason = "Panel::show_inside needs a parent Ui; the context-level show is fine here"
+    )]
     egui::Panel::left("Volcano").resizable(true).default_size(220.0).show(ctx, |ui| {
         ui.heading("Volcano");
         ui.separator();

@@ -73,7 +73,8 @@ impl OrbitCamera {
         Self { focus, distance, ..default() }
     }
 
-    /// Copy with yaw wrapped to (−π, π] and pitch/distance clamped to the limits (NaNs reset).
+    /// Copy with yaw wrapped to (−π, π] and pitch/distance clamped to the limits (NaN or infinite
+    /// yaw and NaN pitch/distance reset to the defaults).
     pub fn clamped(&self) -> Self {
         let mut o = self.clone();
         let d = Self::default();
@@ -82,10 +83,10 @@ impl OrbitCamera {
         }
         o.yaw = if o.yaw.is_finite() { wrap_angle(o.yaw) } else { d.yaw };
         let (lo_p, hi_p) = (o.min_pitch.min(o.max_pitch), o.min_pitch.max(o.max_pitch));
-        o.pitch = if o.pitch.is_finite() { o.pitch.clamp(lo_p, hi_p) } else { d.pitch.clamp(lo_p, hi_p) };
+        o.pitch = if o.pitch.is_nan() { d.pitch } else { o.pitch }.clamp(lo_p, hi_p);
         let lo_d = o.min_distance.max(1e-3);
         let hi_d = o.max_distance.max(lo_d);
-        o.distance = if o.distance.is_finite() { o.distance.clamp(lo_d, hi_d) } else { lo_d.max(d.distance).min(hi_d) };
+        o.distance = if o.distance.is_nan() { d.distance } else { o.distance }.clamp(lo_d, hi_d);
         o
     }
 
@@ -137,8 +138,8 @@ fn wrap_angle(a: f32) -> f32 {
 }
 
 /// Components of the scene's main camera: [`Camera3d`] with a perspective projection for
-/// kilometre scenes, the sky ([`sky_camera_components`]: HDR, atmosphere, tonemapping,
-/// exposure), [`MainCamera`] and the orbit with its transform.
+/// kilometre scenes, tonemapping and exposure ([`sky_camera_components`]; the sky plugin adds
+/// the skybox and fog), [`MainCamera`] and the orbit with its transform.
 pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
     let near = 1.0;
     let projection = Projection::Perspective(PerspectiveProjection {
@@ -238,6 +239,31 @@ mod tests {
         let nan = OrbitCamera { distance: f32::NAN, yaw: f32::INFINITY, ..default() }.clamped();
         assert!(nan.distance.is_finite() && nan.yaw.is_finite());
         assert!((wrap_angle(3.0 * std::f32::consts::PI) - std::f32::consts::PI).abs() < 1e-5);
+    }
+
+    #[test]
+    fn mouse_drags_orbit_unless_a_ui_has_the_pointer() {
+        let mut app = App::new();
+        app.add_plugins(OrbitCameraPlugin)
+            .init_resource::<ButtonInput<MouseButton>>()
+            .init_resource::<AccumulatedMouseMotion>()
+            .init_resource::<AccumulatedMouseScroll>();
+        let cam = app.world_mut().spawn((Camera3d::default(), OrbitCamera::default())).id();
+        let drag = |app: &mut App| {
+            app.world_mut().resource_mut::<ButtonInput<MouseButton>>().press(MouseButton::Left);
+            app.world_mut().resource_mut::<AccumulatedMouseMotion>().delta = Vec2::new(40.0, 0.0);
+            app.update();
+            app.world().get::<OrbitCamera>(cam).unwrap().yaw
+        };
+        let yaw0 = OrbitCamera::default().yaw;
+        app.insert_resource(PointerCaptured(true));
+        assert_eq!(drag(&mut app), yaw0, "egui had the pointer");
+        app.insert_resource(PointerCaptured(false));
+        let yaw1 = drag(&mut app);
+        assert!((yaw1 - (yaw0 - 40.0 * 0.005)).abs() < 1e-5, "{yaw1}");
+        // The transform follows the orbit.
+        let t = app.world().get::<Transform>(cam).unwrap();
+        assert!((t.translation - app.world().get::<OrbitCamera>(cam).unwrap().eye()).length() < 1e-2);
     }
 
     #[test]

@@ -99,19 +99,24 @@ struct CaptureTarget {
 
 impl Plugin for HeadlessCapturePlugin {
     fn build(&self, app: &mut App) {
+        app.register_type::<CaptureStatus>()
+            .insert_resource(CaptureStatus::Waiting)
+            .add_observer(retarget_main_camera)
+            .add_systems(Last, drive_capture);
+    }
+
+    fn finish(&self, app: &mut App) {
+        // In `finish`, after every plugin's `build`, so the image assets exist whatever the
+        // order the plugins were added in.
         let (w, h) = (self.width.max(1), self.height.max(1));
         let image = Image::new_target_texture(w, h, TextureFormat::Rgba8UnormSrgb, None);
         let handle = app.world_mut().resource_mut::<Assets<Image>>().add(image);
-        app.register_type::<CaptureStatus>()
-            .insert_resource(CaptureStatus::Waiting)
-            .insert_resource(CaptureTarget {
-                image: handle,
-                out: self.out.clone(),
-                after: self.capture_after_updates,
-                updates: 0,
-            })
-            .add_observer(retarget_main_camera)
-            .add_systems(Last, drive_capture);
+        app.insert_resource(CaptureTarget {
+            image: handle,
+            out: self.out.clone(),
+            after: self.capture_after_updates,
+            updates: 0,
+        });
     }
 }
 
@@ -139,7 +144,9 @@ fn drive_capture(
             }
             let out = target.out.clone();
             commands.spawn(Screenshot::image(target.image.clone())).observe(
-                move |captured: On<ScreenshotCaptured>, mut commands: Commands, mut exit: MessageWriter<AppExit>| {
+                move |captured: On<ScreenshotCaptured>,
+                      mut commands: Commands,
+                      mut exit: MessageWriter<AppExit>| {
                     match write_png_rgb(&captured.image, &out) {
                         Ok(()) => {
                             info!("headless capture saved to {}", out.display());
@@ -157,7 +164,8 @@ fn drive_capture(
             commands.insert_resource(CaptureStatus::Requested(target.updates));
         }
         CaptureStatus::Requested(at) if target.updates > at + HeadlessCapturePlugin::SAFETY_UPDATES => {
-            let msg = format!("no screenshot {} updates after the request", HeadlessCapturePlugin::SAFETY_UPDATES);
+            let msg =
+                format!("no screenshot {} updates after the request", HeadlessCapturePlugin::SAFETY_UPDATES);
             error!("headless capture: {msg}");
             commands.insert_resource(CaptureStatus::Failed(msg));
             exit.write(AppExit::error());
@@ -250,9 +258,16 @@ mod tests {
         let path = dir.join("t.png");
         let (w, h) = (4u32, 2u32);
         // Left half pure blue, right half black: not blank.
-        let data: Vec<u8> = (0..w * h).flat_map(|i| if i % w < 2 { [0, 0, 255, 255] } else { [0, 0, 0, 255] }).collect();
+        let data: Vec<u8> =
+            (0..w * h).flat_map(|i| if i % w < 2 { [0, 0, 255, 255] } else { [0, 0, 0, 255] }).collect();
         let size = Extent3d { width: w, height: h, depth_or_array_layers: 1 };
-        let img = Image::new(size, TextureDimension::D2, data, TextureFormat::Rgba8UnormSrgb, RenderAssetUsages::all());
+        let img = Image::new(
+            size,
+            TextureDimension::D2,
+            data,
+            TextureFormat::Rgba8UnormSrgb,
+            RenderAssetUsages::all(),
+        );
         write_png_rgb(&img, &path).unwrap();
         let (rw, rh, rgb) = read_png_rgb(&path).unwrap();
         assert_eq!((rw, rh), (w, h));

@@ -30,10 +30,13 @@ use bevy::app::{App, Plugin};
 
 pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
 pub use headless::{
-    CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb, rgb_stddev,
-    write_png_rgb,
+    CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
+    rgb_stddev, write_png_rgb,
 };
-pub use sky::{SkyPlugin, SkySettings, Sun, VolcanoSky, sky_camera_components, sun_bundle};
+pub use sky::{
+    ActiveSky, GradientSky, SkyMode, SkyPlugin, SkySettings, Sun, VolcanoSky, sky_camera_components,
+    sun_bundle,
+};
 pub use terrain::{TerrainMesh, TerrainRenderPlugin, VentMarker, cover_color, terrain_mesh};
 
 /// Terrain mesh and vent markers, sun and sky, orbit camera. Needs the render plugins

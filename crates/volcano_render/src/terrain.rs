@@ -39,9 +39,18 @@ impl Plugin for TerrainRenderPlugin {
             .register_type::<VentMarker>()
             .add_systems(Update, (build_terrain_meshes, update_vent_markers));
     }
+
+    fn finish(&self, app: &mut App) {
+        // After every plugin's build, so the mesh and material asset stores exist.
+        if app.world().contains_resource::<Assets<StandardMaterial>>()
+            && app.world().contains_resource::<Assets<Mesh>>()
+        {
+            app.init_resource::<TerrainAssets>();
+        }
+    }
 }
 
-/// Shared handles, created on first use.
+/// Shared handles, created when the plugin finishes (needs the PBR asset stores).
 #[derive(Resource)]
 struct TerrainAssets {
     terrain_material: Handle<StandardMaterial>,
@@ -59,10 +68,11 @@ impl FromWorld for TerrainAssets {
             reflectance: 0.25,
             ..default()
         });
-        // Emissive in nits: bright enough to glow at the sunlight exposure the sky uses.
+        // Emissive in nits, scaled by the camera exposure: glows orange-red at daylight exposure.
         let vent_material = materials.add(StandardMaterial {
             base_color: Color::srgb(0.35, 0.03, 0.01),
-            emissive: LinearRgba::rgb(1.0, 0.12, 0.02) * 60_000.0,
+            emissive: LinearRgba::rgb(15_000.0, 1_500.0, 225.0),
+            emissive_exposure_weight: 1.0,
             perceptual_roughness: 0.8,
             ..default()
         });
@@ -74,10 +84,10 @@ impl FromWorld for TerrainAssets {
 /// Colour of a land-cover class on a surface with unit normal `normal` (y-up), in linear RGB.
 /// Vegetation and snow give way to rock on steep slopes, and everything darkens with slope.
 pub fn cover_color(cover: LandCover, normal: Vec3) -> LinearRgba {
-    let rock = LinearRgba::from(Srgba::rgb(0.26, 0.22, 0.20));
+    let rock = LinearRgba::from(Srgba::rgb(0.34, 0.31, 0.26));
     let base = match cover {
         LandCover::Ground => rock,
-        LandCover::Vegetation => LinearRgba::from(Srgba::rgb(0.27, 0.34, 0.17)),
+        LandCover::Vegetation => LinearRgba::from(Srgba::rgb(0.30, 0.36, 0.19)),
         LandCover::Water => LinearRgba::from(Srgba::rgb(0.08, 0.20, 0.36)),
         LandCover::Snow => LinearRgba::from(Srgba::rgb(0.92, 0.93, 0.96)),
     };
@@ -193,14 +203,7 @@ fn build_terrain_meshes(
     mut meshes: ResMut<Assets<Mesh>>,
     assets: Option<Res<TerrainAssets>>,
 ) {
-    if terrains.is_empty() {
-        return;
-    }
-    let Some(assets) = assets else {
-        // Create the shared handles now; the meshes are built next frame.
-        commands.init_resource::<TerrainAssets>();
-        return;
-    };
+    let Some(assets) = assets else { return };
     for (entity, terrain, children) in &terrains {
         let (mesh, stride) = terrain_mesh(terrain, MAX_VERTICES_PER_SIDE);
         let existing = children.and_then(|c| c.iter().find(|c| mesh_children.contains(*c)));
@@ -228,23 +231,21 @@ fn build_terrain_meshes(
     }
 }
 
+/// What [`update_vent_markers`] reads of a volcano.
+type VolcanoVent =
+    (Entity, &'static Volcano, &'static VentPosition, &'static Transform, Option<&'static Children>);
+
+/// A volcano whose radius or vent moved.
+type VentChanged = Or<(Changed<Volcano>, Changed<VentPosition>)>;
+
 /// Spawns or resizes the vent marker of every volcano whose vent or radius changed.
 fn update_vent_markers(
     mut commands: Commands,
-    volcanoes: Query<
-        (Entity, &Volcano, &VentPosition, &Transform, Option<&Children>),
-        Or<(Changed<Volcano>, Changed<VentPosition>)>,
-    >,
+    volcanoes: Query<VolcanoVent, VentChanged>,
     mut markers: Query<&mut Transform, (With<VentMarker>, Without<Volcano>)>,
     assets: Option<Res<TerrainAssets>>,
 ) {
-    if volcanoes.is_empty() {
-        return;
-    }
-    let Some(assets) = assets else {
-        commands.init_resource::<TerrainAssets>();
-        return;
-    };
+    let Some(assets) = assets else { return };
     for (entity, volcano, vent, frame, children) in &volcanoes {
         let r = volcano.vent_radius();
         let h = (0.6 * r).max(10.0);
@@ -288,9 +289,8 @@ mod tests {
 
     #[test]
     fn mesh_follows_the_heightfield() {
-        let terrain = StratovolcanoParams { resolution: 65, cell: 300.0, ..Default::default() }
-            .generate()
-            .unwrap();
+        let terrain =
+            StratovolcanoParams { resolution: 65, cell: 300.0, ..Default::default() }.generate().unwrap();
         let (mesh, stride) = terrain_mesh(&terrain, 33);
         assert_eq!(stride, 2);
         assert_eq!(mesh.count_vertices(), 33 * 33);
@@ -307,6 +307,56 @@ mod tests {
             let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vec3::from(pos[i as usize]));
             assert!((b - a).cross(c - a).y > 0.0);
         }
+    }
+
+    /// Terrain and volcano on a headless app (no renderer): one mesh child and one vent marker,
+    /// replaced in place when the terrain changes.
+    #[test]
+    fn mesh_child_and_vent_marker_follow_the_entities() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, bevy::asset::AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<StandardMaterial>()
+            .add_plugins((volcano_core::VolcanoCorePlugin, TerrainRenderPlugin));
+        app.finish();
+        app.cleanup();
+        let terrain =
+            StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap();
+        let t = app.world_mut().spawn(terrain).id();
+        let v = app.world_mut().spawn((Volcano::default(), Transform::from_xyz(100.0, 0.0, -50.0))).id();
+        for _ in 0..3 {
+            app.update();
+        }
+        let world = app.world_mut();
+        let meshes: Vec<(Entity, Handle<Mesh>)> = world
+            .query_filtered::<(&ChildOf, &Mesh3d), With<TerrainMesh>>()
+            .iter(world)
+            .map(|(c, m)| (c.parent(), m.0.clone()))
+            .collect();
+        assert_eq!(meshes.len(), 1);
+        assert_eq!(meshes[0].0, t);
+        let markers: Vec<(Entity, Transform)> = world
+            .query_filtered::<(&ChildOf, &Transform), With<VentMarker>>()
+            .iter(world)
+            .map(|(c, tr)| (c.parent(), *tr))
+            .collect();
+        assert_eq!(markers.len(), 1);
+        assert_eq!(markers[0].0, v);
+        // Scaled to the vent radius, sitting on the snapped vent (local frame of the volcano).
+        assert_eq!(markers[0].1.scale.x, 100.0);
+        assert!(markers[0].1.translation.x.abs() < 1e-3 && markers[0].1.translation.y > 0.0);
+
+        // Edit the terrain: the same child gets the new mesh.
+        world.get_mut::<Terrain>(t).unwrap().heights_mut().map_in_place(|h| h + 1000.0);
+        app.update();
+        let world = app.world_mut();
+        let after: Vec<Handle<Mesh>> =
+            world.query_filtered::<&Mesh3d, With<TerrainMesh>>().iter(world).map(|m| m.0.clone()).collect();
+        assert_eq!(after, vec![meshes[0].1.clone()]);
+        let mesh = world.resource::<Assets<Mesh>>().get(&after[0]).unwrap();
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        let min_y = pos.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min);
+        assert!(min_y > 1000.0, "mesh not rebuilt: lowest vertex {min_y}");
     }
 
     #[test]

@@ -117,3 +117,22 @@ pub fn run_single_slice(
     };
     Ok((summary, samples))
 }
+
+/// Smallest ejection speed (m/s) for which a single slice rises as a plume instead of
+/// collapsing, by bisection on `v0` in `[lo, hi]` to within `tol`. `None` if the regime does
+/// not change over the interval (always plume or always collapse).
+pub fn collapse_threshold(p: &PlumeParams, lo: f64, hi: f64, tol: f64) -> Result<Option<f64>, ConfigError> {
+    let rises = |v0: f64| -> Result<bool, ConfigError> {
+        let q = PlumeParams { v0, ..p.clone() };
+        Ok(run_single_slice(&q, 3_600.0, 0.0)?.0.regime == "plume")
+    };
+    let (mut a, mut b) = (lo, hi);
+    if rises(a)? || !rises(b)? {
+        return Ok(None);
+    }
+    while b - a > tol.max(1e-6) {
+        let m = 0.5 * (a + b);
+        if rises(m)? { b = m } else { a = m }
+    }
+    Ok(Some(0.5 * (a + b)))
+}

@@ -1,0 +1,63 @@
+//! The `volcano` binary end to end: the headless render of the main scene is not blank, and
+//! bad arguments fail with a message instead of a panic.
+
+use std::process::Command;
+
+fn volcano() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_volcano"))
+}
+
+#[test]
+fn render_eruption_scene_is_not_blank() {
+    let dir = std::env::temp_dir().join(format!("volcano-cli-test-{}", std::process::id()));
+    let out = dir.join("eruption.png");
+    let o = volcano()
+        .args(["render", "--scene", "eruption", "--ticks", "10", "--width", "320", "--height", "180"])
+        .args(["--min-stddev", "8", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "render failed: {stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    let sd = volcano_render::png_pixel_stddev(&out).unwrap();
+    assert!(sd > 8.0, "blank frame: std-dev {sd}");
+    let (w, h, _) = volcano_render::read_png_rgb(&out).unwrap();
+    assert_eq!((w, h), (320, 180));
+    let _ = std::fs::remove_dir_all(dir);
+}
+
+#[test]
+fn bad_arguments_are_errors() {
+    let o = volcano().args(["render", "--scene", "atlantis", "--out", "/tmp/x.png"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("unknown scene"));
+    let o = volcano().args(["render", "--width", "0", "--out", "/tmp/x.png"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+}
+
+#[test]
+fn plume_summary_and_threshold() {
+    let dir = std::env::temp_dir().join(format!("volcano-plume-test-{}", std::process::id()));
+    let o =
+        volcano().args(["plume", "--preset", "thesis", "--v0", "200", "--out"]).arg(&dir).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["regime"], "plume");
+    let apex = summary["apex_m"].as_f64().unwrap();
+    assert!((apex - 10_200.0).abs() < 510.0, "apex {apex}");
+    assert!(summary["collapse_altitude_m"].is_null());
+    let csv = std::fs::read_to_string(dir.join("trajectory.csv")).unwrap();
+    assert!(csv.starts_with("t,x,y,z,vx,vy,vz,r,rho,T,rho_air\n"));
+    // One row per 0.1 s over the ≈131 s rise.
+    let rows = csv.lines().count() - 1;
+    assert!((1_300..1_330).contains(&rows), "{rows} rows");
+    let o = volcano().args(["plume-threshold", "--preset", "thesis"]).output().unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let t = v["threshold_m_s"].as_f64().unwrap();
+    assert!((155.0..165.0).contains(&t), "threshold {t}");
+    let o = volcano().args(["plume", "--v0", "-3", "--out"]).arg(&dir).output().unwrap();
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("v0"));
+    let _ = std::fs::remove_dir_all(dir);
+}

@@ -1,0 +1,80 @@
+//! Renders a small procedural volcano offscreen (no window, no GPU needed: llvmpipe Vulkan
+//! works) and checks the PNG is a real picture: right size, not one colour, terrain in the
+//! middle different from the sky at the top.
+
+use std::path::PathBuf;
+
+use bevy::prelude::*;
+use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
+use volcano_render::{
+    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugin, camera_bundle, headless_default_plugins,
+    read_png_rgb, rgb_stddev,
+};
+
+const W: u32 = 320;
+const H: u32 = 240;
+
+fn scene(mut commands: Commands) {
+    let terrain = StratovolcanoParams { resolution: 96, cell: 200.0, ..Default::default() }
+        .generate()
+        .expect("valid terrain parameters");
+    commands.spawn((Name::new("Terrain"), terrain));
+    commands.spawn((Name::new("Volcano"), Volcano::default(), Transform::default()));
+    let orbit = OrbitCamera {
+        focus: Vec3::new(0.0, 900.0, 0.0),
+        yaw: 0.35,
+        pitch: 12f32.to_radians(),
+        distance: 16_000.0,
+        ..default()
+    };
+    commands.spawn(camera_bundle(orbit));
+    // The sun: VolcanoRenderPlugin spawns its default one (south-west, 35° high).
+}
+
+/// Mean RGB of the pixel rectangle `[x0, x1) × [y0, y1)`.
+fn region_mean(rgb: &[u8], (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = ((y * W + x) * 3) as usize;
+            for c in 0..3 {
+                sum[c] += rgb[i + c] as f64;
+            }
+        }
+    }
+    let n = ((x1 - x0) * (y1 - y0)) as f64;
+    sum.map(|s| s / n)
+}
+
+#[test]
+fn renders_a_volcano_under_a_sky() {
+    // Cargo's scratch directory for integration tests (kept, so the frame can be looked at).
+    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_smoke.png");
+    let _ = std::fs::remove_file(&out);
+
+    let exit = App::new()
+        .add_plugins(headless_default_plugins())
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins(HeadlessCapturePlugin {
+            width: W,
+            height: H,
+            out: out.clone(),
+            capture_after_updates: 10,
+        })
+        .add_systems(Startup, scene)
+        .run();
+    assert!(exit.is_success(), "app exited with {exit:?}");
+    eprintln!("smoke frame: {}", out.display());
+
+    let (w, h, rgb) = read_png_rgb(&out).expect("PNG written and readable");
+    assert_eq!((w, h), (W, H));
+    let sigma = rgb_stddev(&rgb);
+    assert!(sigma > 8.0, "frame looks blank: pixel σ = {sigma:.2}");
+
+    let sky = region_mean(&rgb, (0, W), (0, H / 8));
+    let ground = region_mean(&rgb, (W / 4, 3 * W / 4), (3 * H / 4, H));
+    let diff: f64 = (0..3).map(|c| (sky[c] - ground[c]).abs()).sum();
+    eprintln!("sky mean {sky:?}, ground mean {ground:?}, σ {sigma:.1}");
+    assert!(diff > 30.0, "sky {sky:?} and terrain {ground:?} look alike");
+    assert!(sky[2] > sky[0], "the sky should be bluish: {sky:?}");
+}
