@@ -236,8 +236,11 @@ mod tests {
         let good = include_str!("../assets/scenes/eruption.ron");
         let e = SceneSpec::from_ron(&good.replace("vent_radius: 100.0", "vent_radius: -1.0")).unwrap_err();
         assert!(e.to_string().contains("vent_radius"), "{e}");
-        let e = SceneSpec::from_ron(&good.replace("pitch_deg: 14.0", "pitch_deg: 95.0")).unwrap_err();
+        let mut spec = SceneSpec::from_ron(good).unwrap();
+        spec.camera.pitch_deg = 95.0;
+        let e = spec.validate().unwrap_err();
         assert!(e.to_string().contains("pitch_deg"), "{e}");
+        assert!(VolcanoScenePlugin::new(spec).is_err());
         let e = SceneSpec::from_ron(&good.replace("cell: 40.0", "cell: 0.0")).unwrap_err();
         assert!(e.to_string().contains("cell"), "{e}");
         let e = SceneSpec::from_ron(&good[..good.len() / 2]).unwrap_err();
