@@ -4,4 +4,6 @@
 pub mod params;
 pub mod run;
 pub mod slice;
+pub mod spheres;
+pub mod umbrella;
 pub mod wind;

@@ -1,0 +1,213 @@
+//! Multi-scale rotating spheres (thesis §3.5.1).
+//!
+//! - s1: `n` spheres of radius ≈ r/2 whose centres lie on the slice's vortex ring (radius r/2,
+//!   in the slice plane), sizes jittered (uniform 0.5–1.5, normalised to mean 1, as the
+//!   authors' prototype), a random angular offset, and a spin `Ω = v_s / r_s` about the ring
+//!   tangent (the sphere's surface moves with the slice's speed at the column's outside).
+//! - s2, s3: *procedural*, not simulated. Child `k` of a parent sits at a pseudo-random point of
+//!   the parent's surface derived from `(seed, parent id, k)` only, with radius ÷5 per level, and
+//!   turns rigidly with its parent. Rendering and export enumerate them with
+//!   [`detail_spheres`], so millions of them cost no memory.
+
+use bevy::math::{DQuat, DVec3};
+use bevy::reflect::Reflect;
+use rand::RngExt;
+use serde::{Deserialize, Serialize};
+use volcano_core::error::{ConfigError, in_range};
+
+/// Sphere counts and jitter.
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SphereParams {
+    /// s1 spheres per slice (thesis: 6).
+    pub s1_per_slice: u32,
+    /// Size jitter: s1 radii scale by a uniform factor in `[1 − j, 1 + j]`, normalised to mean 1.
+    pub size_jitter: f64,
+    /// s2 spheres per s1 sphere (prototype: 200, slider to 500).
+    pub s2_per_s1: u32,
+    /// s3 spheres per s2 sphere (0 to skip the third scale).
+    pub s3_per_s2: u32,
+}
+
+impl Default for SphereParams {
+    fn default() -> Self {
+        Self { s1_per_slice: 6, size_jitter: 0.5, s2_per_s1: 200, s3_per_s2: 0 }
+    }
+}
+
+impl SphereParams {
+    /// Radius ratio between a sphere and its children (§3.5.1).
+    pub const CHILD_RATIO: f64 = 0.2;
+
+    /// Checks counts and jitter.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        in_range("s1_per_slice", self.s1_per_slice as f64, 1.0, 64.0)?;
+        in_range("size_jitter", self.size_jitter, 0.0, 0.9)?;
+        in_range("s2_per_s1", self.s2_per_s1 as f64, 0.0, 500.0)?;
+        in_range("s3_per_s2", self.s3_per_s2 as f64, 0.0, 100.0)?;
+        Ok(())
+    }
+}
+
+/// An s1 sphere in its slice's frame (slice plane = local xy, local z = slice axis).
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct S1Sphere {
+    /// Angle of the centre on the vortex ring (rad).
+    pub ring_angle: f64,
+    /// Size factor (mean 1 over the slice); radius = factor × r/2.
+    pub size_factor: f64,
+}
+
+impl S1Sphere {
+    /// Centre relative to the slice centre, in the slice frame, for slice size `r`.
+    pub fn local_offset(&self, r: f64) -> DVec3 {
+        DVec3::new(self.ring_angle.cos(), self.ring_angle.sin(), 0.0) * (0.5 * r)
+    }
+    /// Radius for slice size `r`.
+    pub fn radius(&self, r: f64) -> f64 {
+        self.size_factor * 0.5 * r
+    }
+    /// Unit tangent of the ring at this sphere (slice frame), the spin axis.
+    pub fn spin_axis(&self) -> DVec3 {
+        DVec3::new(-self.ring_angle.sin(), self.ring_angle.cos(), 0.0)
+    }
+    /// Angular speed `Ω = v / r_s` (rad/s) for slice speed `v` and size `r`.
+    pub fn angular_speed(&self, speed: f64, r: f64) -> f64 {
+        speed / self.radius(r).max(1e-9)
+    }
+}
+
+/// The s1 spheres of one slice: evenly spaced on the ring after a random angular offset, with
+/// jittered sizes normalised to mean 1. `rng` is the slice's own stream.
+pub fn s1_ring(p: &SphereParams, rng: &mut impl rand::Rng) -> Vec<S1Sphere> {
+    let n = p.s1_per_slice.max(1) as usize;
+    let offset: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let j = p.size_jitter.clamp(0.0, 0.9);
+    let raw: Vec<f64> =
+        (0..n).map(|_| if j > 0.0 { rng.random_range(1.0 - j..=1.0 + j) } else { 1.0 }).collect();
+    let mean = raw.iter().sum::<f64>() / n as f64;
+    raw.iter()
+        .enumerate()
+        .map(|(i, s)| S1Sphere {
+            ring_angle: offset + std::f64::consts::TAU * i as f64 / n as f64,
+            size_factor: s / mean,
+        })
+        .collect()
+}
+
+/// One procedural detail sphere in world space.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DetailSphere {
+    /// Centre (world, m).
+    pub center: DVec3,
+    /// Radius (m).
+    pub radius: f64,
+    /// 2 for s2, 3 for s3.
+    pub level: u8,
+}
+
+/// SplitMix64 finaliser: a stateless, counter-based hash. Written by hand because the detail
+/// spheres need random access by index (child k of parent p, every frame, ~10⁶ per frame);
+/// the `rand` generators are sequential streams, and seeking a ChaCha stream per child costs
+/// far more than this.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// A uniformly distributed unit vector from a 64-bit key (two 32-bit uniforms).
+fn unit_from_key(key: u64) -> DVec3 {
+    let h = mix(key);
+    let u = (h >> 32) as f64 / 4_294_967_296.0;
+    let v = (h & 0xffff_ffff) as f64 / 4_294_967_296.0;
+    let z = 1.0 - 2.0 * u;
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    let phi = std::f64::consts::TAU * v;
+    DVec3::new(s * phi.cos(), s * phi.sin(), z)
+}
+
+/// Enumerates the s2 (and s3) children of one s1 sphere: centre `center`, radius `radius`,
+/// current orientation `rotation` (children turn rigidly with it), identified by
+/// `(seed, parent_id)`. Deterministic: the same inputs give the same spheres in the same order.
+pub fn detail_spheres(
+    p: &SphereParams,
+    seed: u64,
+    parent_id: u64,
+    center: DVec3,
+    radius: f64,
+    rotation: DQuat,
+) -> impl Iterator<Item = DetailSphere> {
+    let base = mix(seed ^ mix(parent_id));
+    let (n2, n3) = (p.s2_per_s1 as u64, p.s3_per_s2 as u64);
+    let r2 = radius * SphereParams::CHILD_RATIO;
+    let r3 = r2 * SphereParams::CHILD_RATIO;
+    (0..n2).flat_map(move |k| {
+        let key2 = mix(base ^ k);
+        let c2 = center + rotation * (unit_from_key(key2) * radius);
+        let s2 = DetailSphere { center: c2, radius: r2, level: 2 };
+        std::iter::once(s2).chain((0..n3).map(move |m| {
+            let c3 = c2 + rotation * (unit_from_key(mix(key2 ^ (m + 1))) * r2);
+            DetailSphere { center: c3, radius: r3, level: 3 }
+        }))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use volcano_core::rng::derive_stream;
+
+    #[test]
+    fn s1_ring_follows_parameters() {
+        let p = SphereParams { s1_per_slice: 6, size_jitter: 0.5, ..Default::default() };
+        let mut rng = derive_stream(7, 1);
+        let ring = s1_ring(&p, &mut rng);
+        assert_eq!(ring.len(), 6);
+        let mean = ring.iter().map(|s| s.size_factor).sum::<f64>() / 6.0;
+        assert!((mean - 1.0).abs() < 1e-12);
+        assert!(ring.iter().all(|s| s.size_factor > 0.5 / 1.5 - 1e-9 && s.size_factor < 1.5 / 0.5 + 1e-9));
+        let r = 80.0;
+        for s in &ring {
+            assert!((s.local_offset(r).length() - 40.0).abs() < 1e-9, "centres on the ring of radius r/2");
+            assert!(s.spin_axis().dot(s.local_offset(r)).abs() < 1e-9, "spin about the ring tangent");
+            assert!((s.angular_speed(100.0, r) - 100.0 / s.radius(r)).abs() < 1e-9);
+        }
+        // Same stream → same ring; another stream → another offset.
+        let again = s1_ring(&p, &mut derive_stream(7, 1));
+        assert_eq!(ring, again);
+        assert_ne!(ring, s1_ring(&p, &mut derive_stream(7, 2)));
+    }
+
+    #[test]
+    fn detail_spheres_are_deterministic_and_sized() {
+        let p = SphereParams { s2_per_s1: 50, s3_per_s2: 4, ..Default::default() };
+        let c = DVec3::new(10.0, 2000.0, -5.0);
+        let rot = DQuat::from_rotation_y(0.7);
+        let a: Vec<_> = detail_spheres(&p, 3, 99, c, 25.0, rot).collect();
+        let b: Vec<_> = detail_spheres(&p, 3, 99, c, 25.0, rot).collect();
+        assert_eq!(a, b);
+        assert_eq!(a.len(), 50 * (1 + 4));
+        assert_eq!(a.iter().filter(|s| s.level == 2).count(), 50);
+        for s in a.iter().filter(|s| s.level == 2) {
+            assert!((s.radius - 5.0).abs() < 1e-12);
+            assert!(((s.center - c).length() - 25.0).abs() < 1e-9, "s2 centres on the parent surface");
+        }
+        assert!(a.iter().filter(|s| s.level == 3).all(|s| (s.radius - 1.0).abs() < 1e-12));
+        let other: Vec<_> = detail_spheres(&p, 3, 100, c, 25.0, rot).collect();
+        assert_ne!(a, other);
+        // Rigid attachment: rotating the parent rotates every child about its centre.
+        let turned: Vec<_> = detail_spheres(&p, 3, 99, c, 25.0, DQuat::from_rotation_y(0.2) * rot).collect();
+        for (x, y) in a.iter().zip(&turned) {
+            let expect = c + DQuat::from_rotation_y(0.2) * (x.center - c);
+            assert!((y.center - expect).length() < 1e-9);
+        }
+        // Roughly uniform on the sphere: the mean direction of many children is near zero.
+        let many = SphereParams { s2_per_s1: 500, ..Default::default() };
+        let mean: DVec3 =
+            detail_spheres(&many, 1, 1, DVec3::ZERO, 1.0, DQuat::IDENTITY).map(|s| s.center).sum::<DVec3>()
+                / 500.0;
+        assert!(mean.length() < 0.1, "mean direction {mean}");
+    }
+}
