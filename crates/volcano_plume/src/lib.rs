@@ -2,11 +2,19 @@
 //! entrainment, forces of weight, buoyancy, friction and wind, and the phases jet → buoyant
 //! plume → umbrella, or collapse.
 //!
-//! This first part holds the *model* layer ([`model`]): plain data and functions, testable
-//! without ECS. The plugin, spheres, umbrella and rendering build on it.
+//! [`model`] holds plain data and functions, testable without ECS; [`plugin`] runs them in the
+//! `PlumeStep` domain: add an [`Eruption`] next to a `Volcano` and slices, s1 spheres and the
+//! umbrella appear as entities.
 
+pub mod components;
 pub mod model;
+pub mod plugin;
 
+pub use components::{
+    EmissionState, Eruption, NeutralBuoyancyReached, PlumeCollapsed, PlumeSlice, S1, Umbrella,
+    UmbrellaSpreading,
+};
 pub use model::params::{PlumeParams, Preset};
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
 pub use model::wind::WindProfile;
+pub use plugin::{PlumePlugin, PlumeStep};

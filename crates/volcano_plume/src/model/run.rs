@@ -94,7 +94,7 @@ pub fn run_single_slice(
             samples.push(sample(&s));
             next_sample += sample_every;
         }
-        s.step(p, &env);
+        s.step(p, &env, p.dt);
         max_downwind = max_downwind.max(s.position.truncate().dot(wind_dir));
         if matches!(s.phase, Phase::Umbrella | Phase::Collapsed) {
             break;

@@ -121,14 +121,15 @@ impl Slice {
         std::f64::consts::PI * self.r.powi(3)
     }
 
-    /// Advances the slice by `p.dt` while it rises (jet or buoyant). Umbrella and collapsed
-    /// slices are left to the umbrella and pyroclastic models and are not changed here.
-    pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv) -> StepReport {
+    /// Advances the slice by `dt` seconds (`p.dt` in stand-alone runs, the plume domain's step
+    /// in the plugin) while it rises (jet or buoyant). Umbrella and collapsed slices are left to
+    /// the umbrella and pyroclastic models and are not changed here. A non-finite or
+    /// non-positive `dt` does nothing.
+    pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
         let mut report = StepReport::default();
-        if matches!(self.phase, Phase::Umbrella | Phase::Collapsed) {
+        if matches!(self.phase, Phase::Umbrella | Phase::Collapsed) || !(dt.is_finite() && dt > 0.0) {
             return report;
         }
-        let dt = p.dt;
         let air = env.air.sample(env.vent_altitude + self.position.z);
         let (rho_a, t_a) = (air.density, air.temperature);
         let wind = (env.wind)(self.position.z);

@@ -1,0 +1,150 @@
+//! Components and messages of the plume plugin.
+
+use bevy::ecs::entity::Entity;
+use bevy::math::DVec3;
+use bevy::prelude::{Component, Message, Vec3};
+use bevy::reflect::Reflect;
+use volcano_core::error::ConfigError;
+
+use crate::model::params::PlumeParams;
+use crate::model::slice::Slice;
+use crate::model::spheres::{S1Sphere, SphereParams};
+use crate::model::umbrella::UmbrellaSphere;
+use crate::model::wind::WindProfile;
+
+/// An explosive eruption on a [`volcano_core::Volcano`]: emits a slice every `r₀ / (2 v₀)`
+/// seconds while `active`. Edits to the parameters apply to new slices.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[require(EmissionState)]
+pub struct Eruption {
+    /// Slice model parameters (validated on construction; re-checked before each emission).
+    pub params: PlumeParams,
+    /// Sphere counts.
+    pub spheres: SphereParams,
+    /// Whether slices are emitted.
+    pub active: bool,
+    /// Umbrella spheres older than this are removed (s).
+    pub umbrella_lifetime: f64,
+}
+
+impl Eruption {
+    /// An eruption with validated parameters.
+    pub fn new(params: PlumeParams, spheres: SphereParams) -> Result<Self, ConfigError> {
+        params.validate()?;
+        spheres.validate()?;
+        Ok(Self { params, spheres, active: true, umbrella_lifetime: 900.0 })
+    }
+
+    /// The thesis preset (Table 3.1, v₀ = 150 m/s): the column collapses at ≈1.9 km.
+    pub fn thesis() -> Self {
+        Self {
+            params: PlumeParams::default(),
+            spheres: SphereParams::default(),
+            active: true,
+            umbrella_lifetime: 900.0,
+        }
+    }
+
+    /// A Plinian column for demos: Table 3.1 with v₀ = 200 m/s, which rises to ≈10.2 km with
+    /// an umbrella from ≈7.4 km (single-slice values, vent at sea level, no wind), plus a
+    /// 20 m/s wind at 12 km so the umbrella drifts. Everything else as in the thesis.
+    pub fn plinian() -> Self {
+        let params = PlumeParams {
+            v0: 200.0,
+            wind: WindProfile::Linear { max: 20.0, top: 12_000.0, direction_deg: 0.0 },
+            ..PlumeParams::default()
+        };
+        Self { params, ..Self::thesis() }
+    }
+}
+
+/// Emission bookkeeping of an [`Eruption`].
+#[derive(Component, Debug, Clone, Default, PartialEq, Reflect)]
+pub struct EmissionState {
+    /// Seconds since the last slice.
+    pub since_last: f64,
+    /// Slices emitted so far.
+    pub emitted: u64,
+}
+
+/// A live column slice. Its model state is in the plume frame (z up above the vent, x/y
+/// horizontal); the entity's `Transform` is kept in world space (y up).
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub struct PlumeSlice {
+    /// The volcano entity that emitted it.
+    pub volcano: Entity,
+    /// Emission index (also the id of its random stream).
+    pub index: u64,
+    /// Vent position in world space when emitted.
+    pub vent: Vec3,
+    /// Model state.
+    pub state: Slice,
+}
+
+/// An s1 sphere riding on a slice's vortex ring.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub struct S1 {
+    /// The slice entity.
+    pub slice: Entity,
+    /// Position on the ring, size factor.
+    pub sphere: S1Sphere,
+    /// Accumulated spin angle about the ring tangent (rad).
+    pub spin: f64,
+    /// Stable id for detail-sphere generation: `(slice index << 8) | k`.
+    pub id: u64,
+}
+
+/// An s1 sphere detached into the umbrella.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub struct Umbrella {
+    /// Kinematics.
+    pub sphere: UmbrellaSphere,
+    /// Radius (m).
+    pub radius: f64,
+    /// Seconds since it detached.
+    pub age: f64,
+    /// Vent position in world space.
+    pub vent: Vec3,
+    /// Stable id (as for [`S1`]).
+    pub id: u64,
+}
+
+/// A slice's vertical velocity turned negative before it became buoyant (§3.6). Until the
+/// pyroclastic model lands, the slice and its spheres are then removed.
+#[derive(Message, Debug, Clone, Copy, PartialEq)]
+pub struct PlumeCollapsed {
+    /// Emitting volcano.
+    pub volcano: Entity,
+    /// World position of the slice when it collapsed.
+    pub position: Vec3,
+    /// Slice mass (kg).
+    pub mass: f64,
+}
+
+/// A slice rose through its neutral-buoyancy altitude.
+#[derive(Message, Debug, Clone, Copy, PartialEq)]
+pub struct NeutralBuoyancyReached {
+    /// Emitting volcano.
+    pub volcano: Entity,
+    /// Altitude above the vent (m).
+    pub altitude: f64,
+    /// Vertical speed at that moment (m/s).
+    pub speed: f64,
+}
+
+/// A slice reached its apex and its spheres now spread as the umbrella.
+#[derive(Message, Debug, Clone, Copy, PartialEq)]
+pub struct UmbrellaSpreading {
+    /// Emitting volcano.
+    pub volcano: Entity,
+    /// Apex above the vent (m).
+    pub apex: f64,
+    /// Neutral-buoyancy altitude above the vent (m).
+    pub neutral: f64,
+}
+
+/// Plume frame (z up, metres above the vent) to a world offset (y up). Model x → world x,
+/// model y → world −z, so counter-clockwise angles from +x seen from above are preserved.
+pub fn plume_to_world(p: DVec3) -> Vec3 {
+    Vec3::new(p.x as f32, p.z as f32, -p.y as f32)
+}

@@ -1,0 +1,212 @@
+//! [`PlumePlugin`]: the plume domain (`PlumeStep`, `Substeps(10)` = 0.002 s per step as in
+//! Table 3.1). Systems gather, call the model, write back.
+
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::math::{DQuat, DVec2, DVec3};
+use bevy::prelude::*;
+use volcano_core::prelude::*;
+
+use crate::components::*;
+use crate::model::slice::{Phase, Slice, SliceEnv};
+use crate::model::spheres::s1_ring;
+use crate::model::umbrella::UmbrellaSphere;
+
+/// Schedule of the plume domain.
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+pub struct PlumeStep;
+
+/// Largest number of live slices per eruption; older ones are retired beyond it.
+pub const MAX_SLICES_PER_ERUPTION: usize = 2_000;
+
+/// Explosive plumes: slices, s1 spheres, umbrella, messages.
+#[derive(Debug, Default, Clone)]
+pub struct PlumePlugin;
+
+impl Plugin for PlumePlugin {
+    fn build(&self, app: &mut App) {
+        app.add_sim_domain::<PlumeStep>(SimSystems::Plume, Cadence::Substeps(10))
+            .add_message::<PlumeCollapsed>()
+            .add_message::<NeutralBuoyancyReached>()
+            .add_message::<UmbrellaSpreading>()
+            .register_type::<Eruption>()
+            .register_type::<PlumeSlice>()
+            .register_type::<S1>()
+            .register_type::<Umbrella>()
+            .add_systems(PlumeStep, (emit_slices, step_slices, step_umbrella).chain())
+            .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
+    }
+}
+
+fn emit_slices(
+    time: Res<Time>,
+    mut commands: Commands,
+    mut volcanoes: Query<(Entity, &Eruption, &mut EmissionState, &VentPosition, &VolcanoRng)>,
+) {
+    let dt = time.delta_secs_f64();
+    for (entity, eruption, mut emission, vent, rng) in &mut volcanoes {
+        if !eruption.active || eruption.params.validate().is_err() || eruption.spheres.validate().is_err() {
+            continue;
+        }
+        emission.since_last += dt;
+        let interval = eruption.params.emission_interval();
+        // Emit at most a few per step so a huge edit cannot flood the world.
+        let mut budget = 4;
+        while emission.since_last >= interval && budget > 0 {
+            emission.since_last -= interval;
+            budget -= 1;
+            let index = emission.emitted;
+            emission.emitted += 1;
+            let state = Slice::at_vent(&eruption.params);
+            let mut stream = rng.stream("slice", index);
+            let ring = s1_ring(&eruption.spheres, &mut stream);
+            let slice = commands
+                .spawn((
+                    Name::new(format!("Plume slice {index}")),
+                    Transform::from_translation(vent.0),
+                    PlumeSlice { volcano: entity, index, vent: vent.0, state },
+                ))
+                .id();
+            for (k, sphere) in ring.into_iter().enumerate() {
+                commands.spawn((
+                    Transform::from_translation(vent.0),
+                    S1 { slice, sphere, spin: 0.0, id: (index << 8) | k as u64 },
+                ));
+            }
+        }
+        if emission.since_last >= interval {
+            // Drop the backlog rather than accumulate it.
+            emission.since_last = 0.0;
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn step_slices(
+    time: Res<Time>,
+    mut commands: Commands,
+    eruptions: Query<&Eruption>,
+    mut slices: Query<(Entity, &mut PlumeSlice, &mut Transform), Without<S1>>,
+    mut spheres: Query<(Entity, &mut S1)>,
+    mut collapsed: MessageWriter<PlumeCollapsed>,
+    mut neutral: MessageWriter<NeutralBuoyancyReached>,
+    mut umbrella: MessageWriter<UmbrellaSpreading>,
+) {
+    let dt = time.delta_secs_f64();
+    let mut finished: Vec<(Entity, Phase, PlumeSlice)> = Vec::new();
+    for (entity, mut slice, mut transform) in &mut slices {
+        let Ok(eruption) = eruptions.get(slice.volcano) else {
+            finished.push((entity, Phase::Collapsed, slice.clone()));
+            continue;
+        };
+        let p = &eruption.params;
+        let wind = |z: f64| p.wind.at(z);
+        let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: slice.vent.y as f64, wind: &wind };
+        let report = slice.state.step(p, &env, dt);
+        if report.reached_neutral {
+            neutral.write(NeutralBuoyancyReached {
+                volcano: slice.volcano,
+                altitude: slice.state.neutral_altitude.unwrap_or(0.0),
+                speed: slice.state.neutral_speed.unwrap_or(0.0),
+            });
+        }
+        transform.translation = slice.vent + plume_to_world(slice.state.position);
+        transform.rotation = orientation(slice.state.velocity);
+        if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) || !slice.state.is_finite() {
+            finished.push((entity, slice.state.phase, slice.clone()));
+        }
+    }
+    // Spin the s1 spheres: Ω = v / r_s about the ring tangent.
+    for (_, mut s1) in &mut spheres {
+        if let Ok((_, slice, _)) = slices.get(s1.slice) {
+            let w = s1.sphere.angular_speed(slice.state.velocity.length(), slice.state.r);
+            s1.spin = (s1.spin + w * dt) % std::f64::consts::TAU;
+        }
+    }
+    for (entity, phase, slice) in finished {
+        let s = &slice.state;
+        let world = slice.vent + plume_to_world(s.position);
+        if phase == Phase::Umbrella {
+            umbrella.write(UmbrellaSpreading {
+                volcano: slice.volcano,
+                apex: s.apex,
+                neutral: s.neutral_altitude.unwrap_or(s.apex),
+            });
+        } else {
+            collapsed.write(PlumeCollapsed { volcano: slice.volcano, position: world, mass: s.mass });
+        }
+        for (sphere_entity, s1) in spheres.iter().filter(|(_, s1)| s1.slice == entity) {
+            if phase == Phase::Umbrella {
+                let offset = s1.sphere.local_offset(s.r);
+                let horizontal = DVec2::new(offset.x, offset.y) + s.position.truncate();
+                let axis = s.position.truncate();
+                let dir = (horizontal - axis).try_normalize().unwrap_or(DVec2::X);
+                let kin = UmbrellaSphere {
+                    axis,
+                    direction: dir,
+                    d: s.r,
+                    r: s.r,
+                    v_neutral: s.neutral_speed.unwrap_or(0.0),
+                    z_apex: s.apex,
+                    z_neutral: s.neutral_altitude.unwrap_or(s.apex),
+                };
+                commands.entity(sphere_entity).remove::<S1>().insert(Umbrella {
+                    sphere: kin,
+                    radius: s1.sphere.radius(s.r),
+                    age: 0.0,
+                    vent: slice.vent,
+                    id: s1.id,
+                });
+            } else {
+                commands.entity(sphere_entity).despawn();
+            }
+        }
+        commands.entity(entity).despawn();
+    }
+}
+
+fn step_umbrella(
+    time: Res<Time>,
+    mut commands: Commands,
+    eruptions: Query<&Eruption>,
+    mut spheres: Query<(Entity, &mut Umbrella, &mut Transform)>,
+) {
+    let dt = time.delta_secs_f64();
+    let lifetime = eruptions.iter().map(|e| e.umbrella_lifetime).fold(0.0, f64::max);
+    for (entity, mut u, mut transform) in &mut spheres {
+        u.sphere.step(dt);
+        u.age += dt;
+        let h = u.sphere.horizontal();
+        transform.translation = u.vent + plume_to_world(DVec3::new(h.x, h.y, u.sphere.altitude()));
+        transform.scale = Vec3::splat(u.radius as f32);
+        if u.age > lifetime {
+            commands.entity(entity).despawn();
+        }
+    }
+}
+
+/// Places s1 spheres on their slice's ring in world space (scale = radius).
+fn sync_sphere_transforms(
+    slices: Query<(&PlumeSlice, &Transform), Without<S1>>,
+    mut spheres: Query<(&S1, &mut Transform), Without<PlumeSlice>>,
+) {
+    for (s1, mut transform) in &mut spheres {
+        if let Ok((slice, slice_tf)) = slices.get(s1.slice) {
+            let r = slice.state.r;
+            let local = s1.sphere.local_offset(r);
+            // Slice frame: local z along the trajectory; local x/y in the slice plane.
+            let world_offset = slice_tf.rotation * plume_to_world(local);
+            transform.translation = slice_tf.translation + world_offset;
+            let spin_axis = slice_tf.rotation * plume_to_world(s1.sphere.spin_axis());
+            transform.rotation = Quat::from_axis_angle(spin_axis.normalize_or(Vec3::X), s1.spin as f32);
+            transform.scale = Vec3::splat(s1.sphere.radius(r) as f32);
+        }
+    }
+}
+
+/// Rotation taking the plume axis (world +y) to the direction of motion: slices stay
+/// orthogonal to their trajectory (§3.4.3).
+fn orientation(velocity: DVec3) -> Quat {
+    let dir = plume_to_world(velocity).normalize_or(Vec3::Y);
+    let q = DQuat::from_rotation_arc(DVec3::Y, dir.as_dvec3());
+    q.as_quat()
+}

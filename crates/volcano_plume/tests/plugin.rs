@@ -1,0 +1,115 @@
+//! The plume plugin on a headless app: collapse vs umbrella regimes, messages, mass per slice,
+//! and frame-rate independence.
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano_core::prelude::*;
+use volcano_plume::*;
+
+#[derive(Resource, Default, Debug)]
+struct Seen {
+    collapsed: usize,
+    neutral: usize,
+    umbrella: usize,
+    apex: f64,
+}
+
+fn count(
+    mut seen: ResMut<Seen>,
+    mut c: MessageReader<PlumeCollapsed>,
+    mut n: MessageReader<NeutralBuoyancyReached>,
+    mut u: MessageReader<UmbrellaSpreading>,
+) {
+    seen.collapsed += c.read().count();
+    seen.neutral += n.read().count();
+    for m in u.read() {
+        seen.umbrella += 1;
+        seen.apex = m.apex;
+    }
+}
+
+fn app(eruption: Eruption, ticks_per_update: u32) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
+        .init_resource::<Seen>()
+        .add_systems(FixedUpdate, count.in_set(SimSystems::End));
+    app.world_mut().spawn(Terrain::flat(33, 10.0, 0.0).unwrap());
+    app.world_mut().spawn((Volcano::new(100.0, 11).unwrap(), eruption, Transform::default()));
+    app
+}
+
+fn run(app: &mut App, ticks: u64) {
+    while app.world().resource::<SimTick>().0 < ticks {
+        app.update();
+    }
+}
+
+#[test]
+fn thesis_preset_collapses_and_emits_at_the_thesis_rate() {
+    let mut app = app(Eruption::thesis(), 5);
+    run(&mut app, 50 * 45);
+    let seen = std::mem::take(&mut *app.world_mut().resource_mut::<Seen>());
+    assert!(seen.collapsed > 0, "{seen:?}");
+    assert_eq!((seen.umbrella, seen.neutral), (0, 0), "{seen:?}");
+    // One slice every r0 / (2 v0) = 1/3 s: 135 in 45 s.
+    let emitted = app.world_mut().query::<&EmissionState>().single(app.world()).unwrap().emitted;
+    assert!((134..=136).contains(&emitted), "{emitted}");
+    let live = app.world_mut().query::<&PlumeSlice>().iter(app.world()).count();
+    let s1 = app.world_mut().query::<&S1>().iter(app.world()).count();
+    assert_eq!(s1, 6 * live, "six s1 spheres per live slice");
+    // The first slices collapsed near 1.93 km (single-slice value) and were removed.
+    assert_eq!(live as u64 + seen.collapsed as u64, emitted);
+}
+
+#[test]
+fn plinian_column_spreads_an_umbrella() {
+    let mut app = app(Eruption::plinian(), 5);
+    run(&mut app, 50 * 140);
+    let seen = std::mem::take(&mut *app.world_mut().resource_mut::<Seen>());
+    assert!(seen.umbrella > 0 && seen.neutral > 0 && seen.collapsed == 0, "{seen:?}");
+    // 20 m/s wind at 12 km lowers the apex a little below the calm 10.2 km.
+    assert!(seen.apex > 8_000.0 && seen.apex < 10_200.0, "apex {}", seen.apex);
+    let umbrella: Vec<Vec3> = app
+        .world_mut()
+        .query_filtered::<&Transform, With<Umbrella>>()
+        .iter(app.world())
+        .map(|t| t.translation)
+        .collect();
+    assert!(!umbrella.is_empty());
+    assert!(umbrella.iter().all(|p| p.is_finite() && p.y > 6_000.0));
+}
+
+#[test]
+fn plume_is_frame_rate_independent() {
+    let state = |tpu| {
+        let mut app = app(Eruption::plinian(), tpu);
+        run(&mut app, 1_000);
+        let mut v: Vec<(u64, [u64; 4])> = app
+            .world_mut()
+            .query::<&PlumeSlice>()
+            .iter(app.world())
+            .map(|s| {
+                let st = &s.state;
+                (
+                    s.index,
+                    [st.position.z.to_bits(), st.position.x.to_bits(), st.mass.to_bits(), st.r.to_bits()],
+                )
+            })
+            .collect();
+        v.sort();
+        v
+    };
+    let (a, b) = (state(1), state(5));
+    assert!(a.len() > 50);
+    assert_eq!(a, b, "same ticks must give bit-identical slices at 1 and 5 ticks per frame");
+}
+
+#[test]
+fn invalid_eruption_parameters_are_rejected() {
+    let mut p = Eruption::thesis().params;
+    p.r0 = -1.0;
+    assert!(Eruption::new(p, Default::default()).unwrap_err().to_string().contains("r0"));
+}
