@@ -14,13 +14,14 @@
 //!     .add_systems(Startup, |mut commands: Commands| {
 //!         let terrain = StratovolcanoParams::default().generate().expect("valid parameters");
 //!         commands.spawn(terrain);
-//!         commands.spawn((Volcano::default(), Transform::default()));
+//!         commands.spawn((Volcano::default(), Eruption::plinian(), Transform::default()));
 //!     })
 //!     .run();
 //! ```
 //!
 //! Crates: [`volcano_core`] (units, atmosphere profiles, grids, terrain, RNG, multi-rate
-//! clock), `volcano_render` (feature `render`) and `volcano_egui` (feature `egui`).
+//! clock), [`volcano_plume`] (eruption columns), `volcano_render` (feature `render`) and
+//! `volcano_egui` (feature `egui`).
 
 pub mod scenes;
 
@@ -39,7 +40,9 @@ pub struct VolcanoSimPlugins;
 
 impl PluginGroup for VolcanoSimPlugins {
     fn build(self) -> PluginGroupBuilder {
-        PluginGroupBuilder::start::<Self>().add(volcano_core::VolcanoCorePlugin)
+        PluginGroupBuilder::start::<Self>()
+            .add(volcano_core::VolcanoCorePlugin)
+            .add(volcano_plume::PlumePlugin)
     }
 }
 
@@ -69,4 +72,8 @@ pub mod prelude {
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_core::prelude::*;
+    pub use volcano_plume::{
+        Eruption, NeutralBuoyancyReached, PlumeCollapsed, PlumeParams, PlumeSlice, UmbrellaSpreading,
+        WindProfile,
+    };
 }

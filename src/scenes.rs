@@ -102,6 +102,25 @@ pub struct SunSpec {
     pub illuminance_lux: f32,
 }
 
+/// Which eruption a scene's volcano starts with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect, Serialize, Deserialize)]
+pub enum EruptionPreset {
+    /// Thesis Table 3.1 as written (v₀ = 150 m/s): collapses at ≈1.9 km.
+    Thesis,
+    /// Table 3.1 with v₀ = 200 m/s and a light wind: a Plinian column with an umbrella.
+    Plinian,
+}
+
+impl EruptionPreset {
+    /// The component.
+    pub fn eruption(self) -> volcano_plume::Eruption {
+        match self {
+            EruptionPreset::Thesis => volcano_plume::Eruption::thesis(),
+            EruptionPreset::Plinian => volcano_plume::Eruption::plinian(),
+        }
+    }
+}
+
 /// A scene: terrain, volcano, camera and sun.
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -114,6 +133,9 @@ pub struct SceneSpec {
     pub terrain: TerrainSpec,
     /// The volcano.
     pub volcano: VolcanoSpec,
+    /// Its eruption, if any.
+    #[serde(default)]
+    pub eruption: Option<EruptionPreset>,
     /// Initial camera.
     pub camera: CameraSpec,
     /// Sun.
@@ -189,7 +211,10 @@ impl Plugin for VolcanoScenePlugin {
             commands.spawn((Name::new("Terrain"), terrain.clone()));
             // `build` cannot fail here: the spec was validated in `new`.
             if let Ok((volcano, transform)) = spec.volcano.build() {
-                commands.spawn((Name::new("Volcano"), volcano, transform));
+                let mut e = commands.spawn((Name::new("Volcano"), volcano, transform));
+                if let Some(preset) = spec.eruption {
+                    e.insert(preset.eruption());
+                }
             }
             #[cfg(feature = "render")]
             spawn_view(&mut commands, &spec);

@@ -102,20 +102,30 @@ fn render(scene: &str, ticks: u32, out: PathBuf, width: u32, height: u32, min_st
     }
     let _ = std::fs::remove_file(&out);
     let started = std::time::Instant::now();
+    // Largest divisor of `ticks` up to 250 base ticks (5 s) per update.
+    let chunk = (1..=ticks.clamp(1, 250)).rev().find(|d| ticks % d == 0).unwrap_or(1);
     let mut app = App::new();
     app.add_plugins(headless_default_plugins())
         .add_plugins(VolcanoSimPlugins)
         .add_plugins(volcano::render::VolcanoRenderPlugin)
         .add_plugins(scene)
-        // One base tick per update: the frame shows exactly `ticks` simulated ticks (the first
-        // update has zero delta, hence the +1).
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
+        // Several base ticks per update so long runs do not render thousands of software
+        // frames: `chunk` divides `ticks`, so exactly `ticks` ticks are simulated; afterwards
+        // time stops while the capture settles.
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * chunk))
+        .add_systems(Last, move |tick: Res<SimTick>, mut strategy: ResMut<TimeUpdateStrategy>| {
+            if tick.0 >= u64::from(ticks) {
+                *strategy = TimeUpdateStrategy::ManualDuration(Duration::ZERO);
+            }
+        })
         .add_plugins(HeadlessCapturePlugin {
             width,
             height,
             out: out.clone(),
-            capture_after_updates: ticks + 1,
+            // The first update has zero delta; then ticks/chunk updates; then 3 to settle.
+            capture_after_updates: 1 + ticks / chunk + 3,
         });
+    app.world_mut().resource_mut::<Time<Virtual>>().set_max_delta(Duration::from_millis(20) * chunk.max(13));
     let exit = app.run();
     if !exit.is_success() || !out.exists() {
         eprintln!("error: rendering failed ({exit:?}); is a Vulkan driver installed (mesa-vulkan-drivers)?");

@@ -23,6 +23,7 @@
 
 pub mod camera;
 pub mod headless;
+pub mod plume;
 pub mod sky;
 pub mod terrain;
 
@@ -46,7 +47,7 @@ pub struct VolcanoRenderPlugin;
 
 impl Plugin for VolcanoRenderPlugin {
     fn build(&self, app: &mut App) {
-        app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin));
+        app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, plume::PlumeRenderPlugin));
     }
 }
 
