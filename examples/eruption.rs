@@ -15,11 +15,15 @@ fn main() -> AppExit {
             return AppExit::error();
         }
     };
-    App::new()
-        .add_plugins(DefaultPlugins.set(WindowPlugin {
-            primary_window: Some(Window { title: "volcano: eruption".into(), ..default() }),
-            ..default()
-        }))
-        .add_plugins((VolcanoPlugins, scene))
-        .run()
+    let mut app = App::new();
+    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+        primary_window: Some(Window { title: "volcano: eruption".into(), ..default() }),
+        ..default()
+    }))
+    .add_plugins((VolcanoPlugins, scene));
+    // `VOLCANO_SCREENSHOT=out.png` (e.g. under xvfb-run): screenshot after 60 frames and exit.
+    if let Some(capture) = volcano::render::WindowScreenshotPlugin::from_env() {
+        app.add_plugins(capture);
+    }
+    app.run()
 }

@@ -4,7 +4,6 @@
 //! window is captured after 60 frames and the app exits (handy under `xvfb-run`).
 
 use bevy::prelude::*;
-use bevy::render::view::screenshot::{Screenshot, save_to_disk};
 use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
 use volcano_egui::VolcanoEguiPlugin;
 use volcano_render::{OrbitCamera, VolcanoRenderPlugin, camera_bundle};
@@ -21,19 +20,8 @@ fn main() -> AppExit {
     }))
     .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin, VolcanoEguiPlugin))
     .add_systems(Startup, scene);
-    if let Ok(path) = std::env::var("VOLCANO_SCREENSHOT") {
-        app.add_systems(
-            Update,
-            move |mut commands: Commands, mut frames: Local<u32>, mut exit: MessageWriter<AppExit>| {
-                *frames += 1;
-                if *frames == 60 {
-                    commands.spawn(Screenshot::primary_window()).observe(save_to_disk(path.clone()));
-                }
-                if *frames == 90 {
-                    exit.write(AppExit::Success);
-                }
-            },
-        );
+    if let Some(capture) = volcano_render::WindowScreenshotPlugin::from_env() {
+        app.add_plugins(capture);
     }
     app.run()
 }

@@ -26,6 +26,7 @@ pub mod headless;
 pub mod plume;
 pub mod sky;
 pub mod terrain;
+pub mod window_capture;
 
 use bevy::app::{App, Plugin};
 
@@ -39,6 +40,7 @@ pub use sky::{
     sun_bundle,
 };
 pub use terrain::{TerrainMesh, TerrainRenderPlugin, VentMarker, cover_color, terrain_mesh};
+pub use window_capture::WindowScreenshotPlugin;
 
 /// Terrain mesh and vent markers, sun and sky, orbit camera. Needs the render plugins
 /// (`DefaultPlugins` or [`headless_default_plugins`]); does not add headless capture.
