@@ -103,7 +103,7 @@ fn render(scene: &str, ticks: u32, out: PathBuf, width: u32, height: u32, min_st
     let _ = std::fs::remove_file(&out);
     let started = std::time::Instant::now();
     // Largest divisor of `ticks` up to 250 base ticks (5 s) per update.
-    let chunk = (1..=ticks.clamp(1, 250)).rev().find(|d| ticks % d == 0).unwrap_or(1);
+    let chunk = (1..=ticks.clamp(1, 250)).rev().find(|d| ticks.is_multiple_of(*d)).unwrap_or(1);
     let mut app = App::new();
     app.add_plugins(headless_default_plugins())
         .add_plugins(VolcanoSimPlugins)
