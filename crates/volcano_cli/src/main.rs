@@ -2,6 +2,7 @@
 //! llvmpipe through Vulkan), lists the scene registry, and runs the plume's single-slice
 //! validation experiment.
 
+mod plots;
 mod plume;
 
 use std::path::PathBuf;
@@ -55,6 +56,15 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Fig 3.5 A/B/C as PNG: density vs altitude, altitude vs vertical speed for v0 =
+    /// 150/175/200/250 m/s, trajectories for winds of 15/45/105 m/s at 12 km.
+    PlumePlots {
+        #[command(flatten)]
+        params: plume::PlumeArgs,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Ejection speed below which the column collapses (bisection on v0), as JSON.
     PlumeThreshold {
         #[command(flatten)]
@@ -76,6 +86,7 @@ fn main() -> ExitCode {
         }
         Command::Plume { params, out } => plume::plume(&params, &out),
         Command::PlumeThreshold { params } => plume::threshold(&params),
+        Command::PlumePlots { params, out } => plots::plume_plots(&params.params(), &out),
         Command::Render { scene, ticks, out, width, height, min_stddev } => {
             render(&scene, ticks, out, width, height, min_stddev)
         }

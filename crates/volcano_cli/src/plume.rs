@@ -71,7 +71,8 @@ pub struct PlumeArgs {
 }
 
 impl PlumeArgs {
-    fn params(&self) -> PlumeParams {
+    /// The preset with the command-line overrides applied.
+    pub fn params(&self) -> PlumeParams {
         let mut p = match self.preset {
             PresetArg::Thesis => Preset::Thesis.params(),
         };

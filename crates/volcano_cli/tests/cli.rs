@@ -61,3 +61,21 @@ fn plume_summary_and_threshold() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("v0"));
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn plume_plots_are_written_and_not_blank() {
+    let dir = std::env::temp_dir().join(format!("volcano-plots-test-{}", std::process::id()));
+    let o = volcano()
+        .args(["plume-plots", "--preset", "thesis", "--v0", "200", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["fig3_5a.png", "fig3_5b.png", "fig3_5c.png"] {
+        let (w, h, _) = volcano_render::read_png_rgb(dir.join(f)).unwrap();
+        assert_eq!((w, h), (800, 600));
+        let sd = volcano_render::png_pixel_stddev(dir.join(f)).unwrap();
+        assert!(sd > 5.0, "{f} looks blank: {sd}");
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}
