@@ -2,6 +2,7 @@
 //! llvmpipe through Vulkan), lists the scene registry, and runs the plume's single-slice
 //! validation experiment.
 
+mod export;
 mod plots;
 mod plume;
 
@@ -49,12 +50,27 @@ enum Command {
     Scenes,
     /// Follow one plume slice from the vent (thesis §3.7.2): writes DIR/summary.json and
     /// DIR/trajectory.csv (z up above the vent, x downwind, metres).
+    ///
+    /// With `--export DIR --frames N` instead: run the eruption and write one binary PLY per
+    /// frame (x, y, z, radius, density of every sphere, all scales; y up) for offline renderers.
     Plume {
         #[command(flatten)]
         params: plume::PlumeArgs,
-        /// Output directory.
+        /// Output directory of the single-slice run.
+        #[arg(long, required_unless_present = "export")]
+        out: Option<PathBuf>,
+        /// Export PLY frames to this directory instead.
         #[arg(long)]
-        out: PathBuf,
+        export: Option<PathBuf>,
+        /// Number of PLY frames.
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+        /// Simulated seconds between frames.
+        #[arg(long, default_value_t = 0.04)]
+        frame_seconds: f64,
+        /// Simulated seconds before the first frame.
+        #[arg(long, default_value_t = 0.0)]
+        start_seconds: f64,
     },
     /// Fig 3.5 A/B/C as PNG: density vs altitude, altitude vs vertical speed for v0 =
     /// 150/175/200/250 m/s, trajectories for winds of 15/45/105 m/s at 12 km.
@@ -84,7 +100,11 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Command::Plume { params, out } => plume::plume(&params, &out),
+        Command::Plume { params, out, export, frames, frame_seconds, start_seconds } => match (export, out) {
+            (Some(dir), _) => export::export(&params.params(), &dir, frames, frame_seconds, start_seconds),
+            (None, Some(out)) => plume::plume(&params, &out),
+            (None, None) => ExitCode::from(2),
+        },
         Command::PlumeThreshold { params } => plume::threshold(&params),
         Command::PlumePlots { params, out } => plots::plume_plots(&params.params(), &out),
         Command::Render { scene, ticks, out, width, height, min_stddev } => {

@@ -79,3 +79,30 @@ fn plume_plots_are_written_and_not_blank() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn plume_export_writes_valid_ply_frames() {
+    let dir = std::env::temp_dir().join(format!("volcano-ply-test-{}", std::process::id()));
+    let o = volcano()
+        .args(["plume", "--preset", "thesis", "--v0", "200", "--frames", "2", "--frame-seconds", "1"])
+        .args(["--start-seconds", "3", "--export"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["frame_00000.ply", "frame_00001.ply"] {
+        let bytes = std::fs::read(dir.join(f)).unwrap();
+        let end = bytes.windows(11).position(|w| w == b"end_header\n").unwrap() + 11;
+        let header = std::str::from_utf8(&bytes[..end]).unwrap();
+        assert!(header.starts_with("ply\nformat binary_little_endian 1.0\n"));
+        let n: usize =
+            header.lines().find_map(|l| l.strip_prefix("element vertex ")).unwrap().parse().unwrap();
+        // 3 s at one slice per 0.25 s: ≥ 12 slices × 6 s1 × (1 + 200 s2).
+        assert!(n >= 12 * 6 * 201, "{f}: {n} spheres");
+        assert_eq!(bytes.len() - end, n * 5 * 4, "5 little-endian f32 per sphere");
+        let radius = f32::from_le_bytes(bytes[end + 12..end + 16].try_into().unwrap());
+        let density = f32::from_le_bytes(bytes[end + 16..end + 20].try_into().unwrap());
+        assert!(radius > 0.0 && density > 0.0 && radius.is_finite() && density.is_finite());
+    }
+    let _ = std::fs::remove_dir_all(dir);
+}

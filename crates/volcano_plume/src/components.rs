@@ -101,6 +101,8 @@ pub struct Umbrella {
     pub sphere: UmbrellaSphere,
     /// Radius (m).
     pub radius: f64,
+    /// Density of the slice it left (kg/m³), for shading and export.
+    pub density: f64,
     /// Seconds since it detached.
     pub age: f64,
     /// Vent position in world space.

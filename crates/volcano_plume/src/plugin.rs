@@ -152,6 +152,7 @@ fn step_slices(
                 commands.entity(sphere_entity).remove::<S1>().insert(Umbrella {
                     sphere: kin,
                     radius: s1.sphere.radius(s.r),
+                    density: s.density,
                     age: 0.0,
                     vent: slice.vent,
                     id: s1.id,
