@@ -15,6 +15,12 @@ use volcano::plume::{PlumeParams, Preset, WindProfile};
 pub enum PresetArg {
     /// Thesis Table 3.1 as written (v0 = 150 m/s, contraction on, printed ISA law).
     Thesis,
+    /// Table 3.1 at v0 = 200 m/s with a light wind: Plinian column (Fig 3.4).
+    #[value(name = "plinian_showcase")]
+    PlinianShowcase,
+    /// Table 3.1 at v0 = 70 m/s: collapsing column (Fig 3.6).
+    #[value(name = "pyroclastic_showcase")]
+    PyroclasticShowcase,
 }
 
 /// Atmosphere names on the command line.
@@ -75,6 +81,8 @@ impl PlumeArgs {
     pub fn params(&self) -> PlumeParams {
         let mut p = match self.preset {
             PresetArg::Thesis => Preset::Thesis.params(),
+            PresetArg::PlinianShowcase => Preset::PlinianShowcase.params(),
+            PresetArg::PyroclasticShowcase => Preset::PyroclasticShowcase.params(),
         };
         p.v0 = self.v0.unwrap_or(p.v0);
         p.r0 = self.r0.unwrap_or(p.r0);

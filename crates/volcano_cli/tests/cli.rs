@@ -56,6 +56,12 @@ fn plume_summary_and_threshold() {
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let t = v["threshold_m_s"].as_f64().unwrap();
     assert!((155.0..165.0).contains(&t), "threshold {t}");
+    let o =
+        volcano().args(["plume", "--preset", "pyroclastic_showcase", "--out"]).arg(&dir).output().unwrap();
+    assert!(o.status.success());
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["regime"], "collapse");
     let o = volcano().args(["plume", "--v0", "-3", "--out"]).arg(&dir).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("v0"));

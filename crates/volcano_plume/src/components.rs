@@ -10,7 +10,6 @@ use crate::model::params::PlumeParams;
 use crate::model::slice::Slice;
 use crate::model::spheres::{S1Sphere, SphereParams};
 use crate::model::umbrella::UmbrellaSphere;
-use crate::model::wind::WindProfile;
 
 /// An explosive eruption on a [`volcano_core::Volcano`]: emits a slice every `r₀ / (2 v₀)`
 /// seconds while `active`. Edits to the parameters apply to new slices.
@@ -45,16 +44,17 @@ impl Eruption {
         }
     }
 
-    /// A Plinian column for demos: Table 3.1 with v₀ = 200 m/s, which rises to ≈10.2 km with
-    /// an umbrella from ≈7.4 km (single-slice values, vent at sea level, no wind), plus a
-    /// 20 m/s wind at 12 km so the umbrella drifts. Everything else as in the thesis.
+    /// A Plinian column for demos (preset `plinian_showcase`): Table 3.1 with v₀ = 200 m/s,
+    /// which rises to ≈10 km with an umbrella from ≈7.4 km (single-slice values, vent at sea
+    /// level), and a 20 m/s wind at 12 km so the umbrella drifts.
     pub fn plinian() -> Self {
-        let params = PlumeParams {
-            v0: 200.0,
-            wind: WindProfile::Linear { max: 20.0, top: 12_000.0, direction_deg: 0.0 },
-            ..PlumeParams::default()
-        };
-        Self { params, ..Self::thesis() }
+        Self { params: crate::Preset::PlinianShowcase.params(), ..Self::thesis() }
+    }
+
+    /// A collapsing column (preset `pyroclastic_showcase`, v₀ = 70 m/s): falls back from
+    /// ≈255 m. Until the pyroclastic model lands, collapsed slices are removed.
+    pub fn pyroclastic() -> Self {
+        Self { params: crate::Preset::PyroclasticShowcase.params(), ..Self::thesis() }
     }
 }
 

@@ -67,21 +67,54 @@ impl Default for PlumeParams {
     }
 }
 
-/// Named parameter sets.
+/// Named parameter sets, shipped as RON files in `crates/volcano_plume/presets/` (the files are
+/// the source of truth and document what each changes from Table 3.1 and why).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect, Serialize, Deserialize)]
 pub enum Preset {
     /// The thesis as written: Table 3.1, v₀ = 150 m/s, contraction on, the printed ISA law.
-    /// With these values the column collapses at ≈1.9 km (the thesis' own 9 km claim is not
-    /// reproduced by its Table 3.1 under any reading; DESIGN.md §3.1).
+    /// With these values the column collapses at ≈1.9 km (DESIGN.md §3.1).
     Thesis,
+    /// Table 3.1 at v₀ = 200 m/s with a light wind: a Plinian column with an umbrella (Fig 3.4).
+    PlinianShowcase,
+    /// Table 3.1 at v₀ = 70 m/s: a collapsing column (Fig 3.6).
+    PyroclasticShowcase,
 }
 
 impl Preset {
-    /// The parameters of this preset.
-    pub fn params(self) -> PlumeParams {
+    /// Every preset.
+    pub const ALL: [Preset; 3] = [Preset::Thesis, Preset::PlinianShowcase, Preset::PyroclasticShowcase];
+
+    /// File name stem of the preset.
+    pub fn name(self) -> &'static str {
         match self {
-            Preset::Thesis => PlumeParams::default(),
+            Preset::Thesis => "thesis",
+            Preset::PlinianShowcase => "plinian_showcase",
+            Preset::PyroclasticShowcase => "pyroclastic_showcase",
         }
+    }
+
+    /// The preset's RON text.
+    pub fn ron(self) -> &'static str {
+        match self {
+            Preset::Thesis => include_str!("../../presets/thesis.ron"),
+            Preset::PlinianShowcase => include_str!("../../presets/plinian_showcase.ron"),
+            Preset::PyroclasticShowcase => include_str!("../../presets/pyroclastic_showcase.ron"),
+        }
+    }
+
+    /// The preset by file name stem.
+    pub fn by_name(name: &str) -> Result<Self, ConfigError> {
+        Self::ALL.into_iter().find(|p| p.name() == name).ok_or_else(|| ConfigError::UnknownName {
+            kind: "plume preset",
+            name: name.to_string(),
+            known: Self::ALL.map(Preset::name).join(", "),
+        })
+    }
+
+    /// The parameters of this preset. The embedded files are checked by the crate's tests, so
+    /// the fallback to Table 3.1 cannot be reached in a released build.
+    pub fn params(self) -> PlumeParams {
+        PlumeParams::from_ron(self.ron()).unwrap_or_default()
     }
 }
 
@@ -114,5 +147,22 @@ impl PlumeParams {
     /// Seconds between slice emissions, `r₀ / (2 v₀)` (§3.4.1).
     pub fn emission_interval(&self) -> f64 {
         self.r0 / (2.0 * self.v0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shipped_presets_parse_and_validate() {
+        for p in Preset::ALL {
+            PlumeParams::from_ron(p.ron()).unwrap_or_else(|e| panic!("{}: {e}", p.name()));
+            assert_eq!(Preset::by_name(p.name()).unwrap(), p);
+        }
+        assert_eq!(Preset::Thesis.params(), PlumeParams::default(), "thesis.ron is Table 3.1");
+        assert_eq!(Preset::PlinianShowcase.params().v0, 200.0);
+        assert_eq!(Preset::PyroclasticShowcase.params().v0, 70.0);
+        assert!(Preset::by_name("vesuvius").unwrap_err().to_string().contains("plinian_showcase"));
     }
 }
