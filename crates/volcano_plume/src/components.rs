@@ -97,6 +97,8 @@ pub struct S1 {
 /// An s1 sphere detached into the umbrella.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 pub struct Umbrella {
+    /// The volcano whose eruption it belongs to (its wind drifts the umbrella).
+    pub volcano: Entity,
     /// Kinematics.
     pub sphere: UmbrellaSphere,
     /// Radius (m).

@@ -150,6 +150,7 @@ fn step_slices(
                     z_neutral: s.neutral_altitude.unwrap_or(s.apex),
                 };
                 commands.entity(sphere_entity).remove::<S1>().insert(Umbrella {
+                    volcano: slice.volcano,
                     sphere: kin,
                     radius: s1.sphere.radius(s.r),
                     density: s.density,
@@ -172,10 +173,17 @@ fn step_umbrella(
     mut spheres: Query<(Entity, &mut Umbrella, &mut Transform)>,
 ) {
     let dt = time.delta_secs_f64();
-    let lifetime = eruptions.iter().map(|e| e.umbrella_lifetime).fold(0.0, f64::max);
     for (entity, mut u, mut transform) in &mut spheres {
+        let Ok(eruption) = eruptions.get(u.volcano) else {
+            commands.entity(entity).despawn();
+            continue;
+        };
         u.sphere.step(dt);
+        // The spreading cloud drifts with the wind at its altitude (the column axis moves).
+        let drift = eruption.params.wind.at(u.sphere.altitude()) * dt;
+        u.sphere.axis += drift;
         u.age += dt;
+        let lifetime = eruption.umbrella_lifetime;
         let h = u.sphere.horizontal();
         transform.translation = u.vent + plume_to_world(DVec3::new(h.x, h.y, u.sphere.altitude()));
         transform.scale = Vec3::splat(u.radius as f32);

@@ -80,6 +80,10 @@ fn plinian_column_spreads_an_umbrella() {
         .collect();
     assert!(!umbrella.is_empty());
     assert!(umbrella.iter().all(|p| p.is_finite() && p.y > 6_000.0));
+    // The wind blows toward +x (model) = world +x: the umbrella's centre has drifted that way.
+    let mean_x = umbrella.iter().map(|p| p.x).sum::<f32>() / umbrella.len() as f32;
+    let mean_z = umbrella.iter().map(|p| p.z).sum::<f32>() / umbrella.len() as f32;
+    assert!(mean_x > 100.0 && mean_x > 5.0 * mean_z.abs(), "umbrella centre ({mean_x}, {mean_z})");
 }
 
 #[test]
