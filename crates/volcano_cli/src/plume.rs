@@ -91,6 +91,8 @@ impl PlumeArgs {
         p.vent_altitude = self.vent_altitude.unwrap_or(p.vent_altitude);
         if let Some(w) = self.wind_max {
             p.wind = WindProfile::Linear { max: w, top: 12_000.0, direction_deg: self.wind_direction };
+        } else if let WindProfile::Linear { direction_deg, .. } = &mut p.wind {
+            *direction_deg = self.wind_direction;
         }
         if let Some(c) = self.contraction {
             p.contraction = matches!(c, Switch::On);
@@ -115,7 +117,10 @@ pub fn plume(args: &PlumeArgs, out: &Path) -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    if let Err(e) = write_outputs(out, &summary, &traj, args.wind_direction) {
+    // Output frame: x downwind (the wind's direction aloft), whatever the input direction.
+    let w = p.wind.at(1.0e5);
+    let downwind_deg = if w.length() > 0.0 { w.y.atan2(w.x).to_degrees() } else { 0.0 };
+    if let Err(e) = write_outputs(out, &summary, &traj, downwind_deg) {
         eprintln!("error: cannot write to {}: {e}", out.display());
         return ExitCode::FAILURE;
     }

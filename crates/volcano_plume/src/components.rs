@@ -22,16 +22,25 @@ pub struct Eruption {
     pub spheres: SphereParams,
     /// Whether slices are emitted.
     pub active: bool,
-    /// Umbrella spheres older than this are removed (s).
+    /// Umbrella spheres older than this are removed (s, in [0, 3600]). At the Plinian preset's
+    /// 24 s1 spheres per second, 300 s keeps about 7,000 umbrella spheres alive.
     pub umbrella_lifetime: f64,
 }
 
 impl Eruption {
     /// An eruption with validated parameters.
     pub fn new(params: PlumeParams, spheres: SphereParams) -> Result<Self, ConfigError> {
-        params.validate()?;
-        spheres.validate()?;
-        Ok(Self { params, spheres, active: true, umbrella_lifetime: 900.0 })
+        let e = Self { params, spheres, active: true, umbrella_lifetime: 300.0 };
+        e.validate()?;
+        Ok(e)
+    }
+
+    /// Checks every field (also used each step, so edits through reflection are caught).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.params.validate()?;
+        self.spheres.validate()?;
+        volcano_core::error::in_range("umbrella_lifetime", self.umbrella_lifetime, 0.0, 3_600.0)?;
+        Ok(())
     }
 
     /// The thesis preset (Table 3.1, v₀ = 150 m/s): the column collapses at ≈1.9 km.

@@ -15,9 +15,6 @@ use crate::model::umbrella::UmbrellaSphere;
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
 pub struct PlumeStep;
 
-/// Largest number of live slices per eruption; older ones are retired beyond it.
-pub const MAX_SLICES_PER_ERUPTION: usize = 2_000;
-
 /// Explosive plumes: slices, s1 spheres, umbrella, messages.
 #[derive(Debug, Default, Clone)]
 pub struct PlumePlugin;
@@ -44,7 +41,7 @@ fn emit_slices(
 ) {
     let dt = time.delta_secs_f64();
     for (entity, eruption, mut emission, vent, rng) in &mut volcanoes {
-        if !eruption.active || eruption.params.validate().is_err() || eruption.spheres.validate().is_err() {
+        if !eruption.active || eruption.validate().is_err() {
             continue;
         }
         emission.since_last += dt;
@@ -98,6 +95,10 @@ fn step_slices(
             finished.push((entity, Phase::Collapsed, slice.clone()));
             continue;
         };
+        if eruption.validate().is_err() {
+            // An invalid live edit: freeze the column until the parameters are fixed.
+            continue;
+        }
         let p = &eruption.params;
         let wind = |z: f64| p.wind.at(z);
         let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: slice.vent.y as f64, wind: &wind };
@@ -111,7 +112,17 @@ fn step_slices(
         }
         transform.translation = slice.vent + plume_to_world(slice.state.position);
         transform.rotation = orientation(slice.state.velocity);
-        if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) || !slice.state.is_finite() {
+        if !slice.state.is_finite() {
+            warn!("plume slice {} became non-finite and was removed", slice.index);
+            commands.entity(entity).despawn();
+            for (sphere_entity, s1) in spheres.iter() {
+                if s1.slice == entity {
+                    commands.entity(sphere_entity).despawn();
+                }
+            }
+            continue;
+        }
+        if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) {
             finished.push((entity, slice.state.phase, slice.clone()));
         }
     }
@@ -136,14 +147,17 @@ fn step_slices(
         }
         for (sphere_entity, s1) in spheres.iter().filter(|(_, s1)| s1.slice == entity) {
             if phase == Phase::Umbrella {
-                let offset = s1.sphere.local_offset(s.r);
-                let horizontal = DVec2::new(offset.x, offset.y) + s.position.truncate();
+                // The sphere's actual offset from the slice centre (the slice may be tilted by
+                // the wind), projected on the horizontal: the umbrella starts where it was.
+                let tilt = orientation(s.velocity).as_dquat();
+                let world = tilt * plume_to_world(s1.sphere.local_offset(s.r)).as_dvec3();
+                let offset = DVec2::new(world.x, -world.z);
                 let axis = s.position.truncate();
-                let dir = (horizontal - axis).try_normalize().unwrap_or(DVec2::X);
+                let dir = offset.try_normalize().unwrap_or(DVec2::X);
                 let kin = UmbrellaSphere {
                     axis,
                     direction: dir,
-                    d: s.r,
+                    d: offset.length(),
                     r: s.r,
                     v_neutral: s.neutral_speed.unwrap_or(0.0),
                     z_apex: s.apex,

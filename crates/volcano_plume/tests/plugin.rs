@@ -14,6 +14,7 @@ struct Seen {
     neutral: usize,
     umbrella: usize,
     apex: f64,
+    collapse_heights: Vec<f32>,
 }
 
 fn count(
@@ -22,7 +23,10 @@ fn count(
     mut n: MessageReader<NeutralBuoyancyReached>,
     mut u: MessageReader<UmbrellaSpreading>,
 ) {
-    seen.collapsed += c.read().count();
+    for m in c.read() {
+        seen.collapsed += 1;
+        seen.collapse_heights.push(m.position.y);
+    }
     seen.neutral += n.read().count();
     for m in u.read() {
         seen.umbrella += 1;
@@ -60,7 +64,9 @@ fn thesis_preset_collapses_and_emits_at_the_thesis_rate() {
     let live = app.world_mut().query::<&PlumeSlice>().iter(app.world()).count();
     let s1 = app.world_mut().query::<&S1>().iter(app.world()).count();
     assert_eq!(s1, 6 * live, "six s1 spheres per live slice");
-    // The first slices collapsed near 1.93 km (single-slice value) and were removed.
+    // Every slice collapsed near the single-slice value, 1,935 m above the vent (±5 %).
+    assert!(seen.collapse_heights.iter().all(|&y| (y - 1_935.0).abs() < 97.0), "{:?}", seen.collapse_heights);
+    // Collapsed slices were removed.
     assert_eq!(live as u64 + seen.collapsed as u64, emitted);
 }
 

@@ -46,9 +46,16 @@ proptest! {
         dt in 1e-4f64..0.1,
         contraction in any::<bool>(),
         vent in -1000.0f64..9000.0,
+        sigma_col in 0.0f64..1e-2,
+        tau in 0.0f64..100.0,
+        ks in 0.0f64..1.0,
+        kw in 0.0f64..5.0,
+        drag in 0.0f64..10.0,
+        lambda in 0.0f64..1e5,
     ) {
         let p = PlumeParams {
-            v0, r0, rho0, t0, dt, contraction, vent_altitude: vent,
+            v0, r0, rho0, t0, dt, contraction, vent_altitude: vent, sigma_col, tau, ks, kw,
+            drag_coefficient: drag, wind_coefficient: lambda,
             wind: WindProfile::Linear { max: wind, top: 12_000.0, direction_deg: 30.0 },
             ..Preset::Thesis.params()
         };

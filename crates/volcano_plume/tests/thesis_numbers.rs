@@ -81,9 +81,27 @@ fn wind_lowers_the_apex_and_pushes_downwind() {
 #[test]
 fn mass_accounting_closes() {
     for c in [true, false] {
-        let p = PlumeParams { contraction: c, sigma_col: 0.05, ..Preset::Thesis.params() };
+        let p = PlumeParams { contraction: c, sigma_col: 0.005, ..Preset::Thesis.params() };
         let (s, _) = run_single_slice(&p, 600.0, 0.0).unwrap();
         // Rounding only: about one ulp per step over ~10⁵ steps.
         assert!(s.mass_budget_rel_error.abs() < 1e-10, "{s:?}");
     }
+}
+
+#[test]
+fn sedimentation_without_entrainment_is_linear_in_time() {
+    // No entrainment (k_s = k_w = 0): volume and temperature stay put, so eq 3.9 gives
+    // M(t) = M0 − σ V0 t exactly. Checked from the trajectory's density and size.
+    let sigma = 0.004;
+    let p = PlumeParams { ks: 0.0, kw: 0.0, sigma_col: sigma, ..Preset::Thesis.params() };
+    let (_, traj) = run_single_slice(&p, 600.0, 0.1).unwrap();
+    let v0 = std::f64::consts::PI * p.r0.powi(3);
+    let m0 = p.rho0 * v0;
+    for s in traj.iter().step_by(10) {
+        let m = s.rho * std::f64::consts::PI * s.r.powi(3);
+        assert!((s.r - p.r0).abs() < 1e-9, "size must not change: {}", s.r);
+        let expect = m0 - sigma * v0 * s.t;
+        assert!(((m - expect) / m0).abs() < 1e-6, "t={}: {m} vs {expect}", s.t);
+    }
+    assert!(traj.len() > 20);
 }

@@ -123,9 +123,9 @@ impl<D> DomainClock<D> {
     pub fn time_scale(&self) -> f64 {
         self.time_scale
     }
-    /// Sets the time scale; must be finite and > 0 (pause instead of using 0).
+    /// Sets the time scale, in [1e-6, 1e6] (pause instead of using 0).
     pub fn set_time_scale(&mut self, scale: f64) -> Result<(), ConfigError> {
-        self.time_scale = crate::error::positive("time_scale", scale)?;
+        self.time_scale = crate::error::in_range("time_scale", scale, 1e-6, 1e6)?;
         Ok(())
     }
     /// Whether this domain is paused.

@@ -130,7 +130,7 @@ impl PlumeParams {
         in_range("ks", self.ks, 0.0, 1.0)?;
         in_range("kw", self.kw, 0.0, 5.0)?;
         in_range("tau", self.tau, 0.0, 100.0)?;
-        in_range("sigma_col", self.sigma_col, 0.0, 100.0)?;
+        in_range("sigma_col", self.sigma_col, 0.0, 1e-2)?;
         positive("dt", self.dt)?;
         in_range("dt", self.dt, 1e-5, 0.1)?;
         in_range("vent_altitude", self.vent_altitude, -1_000.0, 9_000.0)?;

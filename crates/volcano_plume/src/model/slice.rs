@@ -17,6 +17,9 @@ use volcano_core::units::G0;
 
 use super::params::PlumeParams;
 
+/// Density floor for sedimentation (kg/m³), far below any air density in the troposphere.
+pub const MIN_DENSITY: f64 = 1e-3;
+
 /// Phase of a slice's life.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect)]
 pub enum Phase {
@@ -153,8 +156,9 @@ impl Slice {
         let v_slice = if p.contraction { self.volume() * t_new / self.temperature } else { self.volume() };
         let v_air = ring * t_new / t_a;
         let volume = v_slice + v_air;
-        // Sedimentation, eq 3.9 with σ_col as a density decrement rate (kg/m³/s).
-        let sed = (p.sigma_col * self.volume() * dt).min(m_before * 0.5);
+        // Sedimentation, eq 3.9 with σ_col as a density decrement rate (kg/m³/s), never taking
+        // the slice below a density floor (ash cannot sediment out of pure gas forever).
+        let sed = (p.sigma_col * self.volume() * dt).min((m_before - MIN_DENSITY * self.volume()).max(0.0));
         let mass = m_before + m_air - sed;
 
         self.temperature = t_new;

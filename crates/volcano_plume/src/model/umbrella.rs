@@ -49,9 +49,23 @@ impl UmbrellaSphere {
 
     /// Advances by `dt`. `dd/dt = v r / d` has the exact solution `d² = d₀² + 2 v r t`, used
     /// here so any time step is stable and step-size independent.
+    /// Inside `d < r` the speed is `v` (the clamp), so the sphere moves linearly until `d = r`.
     pub fn step(&mut self, dt: f64) {
-        let d0 = self.d.max(self.r);
-        self.d = (d0 * d0 + 2.0 * self.v_neutral.max(0.0) * self.r * dt.max(0.0)).sqrt();
+        let v = self.v_neutral.max(0.0);
+        let mut t = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
+        if v == 0.0 || t == 0.0 {
+            return;
+        }
+        if self.d < self.r {
+            let to_r = (self.r - self.d) / v;
+            if to_r >= t {
+                self.d += v * t;
+                return;
+            }
+            self.d = self.r;
+            t -= to_r;
+        }
+        self.d = (self.d * self.d + 2.0 * v * self.r * t).sqrt();
     }
 }
 
@@ -102,6 +116,13 @@ mod tests {
         }
         // At d = 10 r the excess over neutral is a tenth.
         assert!((altitude(7_400.0, 10_200.0, 300.0, 3_000.0) - 7_680.0).abs() < 1e-9);
+        // Starting inside the clamp (d < r) it moves at v, then follows the exact law.
+        let mut inner = UmbrellaSphere { d: 150.0, ..sphere() };
+        inner.step(1.0);
+        assert!((inner.d - 210.0).abs() < 1e-9);
+        inner.step(10.0);
+        let expect = (300.0f64.powi(2) + 2.0 * 60.0 * 300.0 * 8.5).sqrt();
+        assert!((inner.d - expect).abs() < 1e-9, "{} vs {expect}", inner.d);
         // A slice stopped at the apex (v = 0) does not spread.
         let mut still = UmbrellaSphere { v_neutral: 0.0, ..sphere() };
         still.step(100.0);
