@@ -147,13 +147,13 @@ fn step_slices(
         }
         for (sphere_entity, s1) in spheres.iter().filter(|(_, s1)| s1.slice == entity) {
             if phase == Phase::Umbrella {
-                // The sphere's actual offset from the slice centre (the slice may be tilted by
-                // the wind), projected on the horizontal: the umbrella starts where it was.
-                let tilt = orientation(s.velocity).as_dquat();
-                let world = tilt * plume_to_world(s1.sphere.local_offset(s.r)).as_dvec3();
-                let offset = DVec2::new(world.x, -world.z);
+                // Spread radially around the column axis in the direction of the sphere's place
+                // on the vortex ring, starting from the ring radius r/2 where it sat (the
+                // umbrella law's clamp d ≥ r then moves it at v until d = r).
+                let ring = s1.sphere.local_offset(s.r);
                 let axis = s.position.truncate();
-                let dir = offset.try_normalize().unwrap_or(DVec2::X);
+                let dir = DVec2::new(ring.x, ring.y).try_normalize().unwrap_or(DVec2::X);
+                let offset = dir * (0.5 * s.r);
                 let kin = UmbrellaSphere {
                     axis,
                     direction: dir,
