@@ -1,6 +1,7 @@
 //! [`PlumePlugin`]: the plume domain (`PlumeStep`, `Substeps(10)` = 0.002 s per step as in
 //! Table 3.1). Systems gather, call the model, write back.
 
+use bevy::ecs::entity::EntityHashSet;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::math::{DQuat, DVec2, DVec3};
 use bevy::prelude::*;
@@ -81,7 +82,7 @@ fn emit_slices(
 fn step_slices(
     time: Res<Time>,
     mut commands: Commands,
-    eruptions: Query<&Eruption>,
+    eruptions: Query<(Entity, &Eruption)>,
     mut slices: Query<(Entity, &mut PlumeSlice, &mut Transform), Without<S1>>,
     mut spheres: Query<(Entity, &mut S1)>,
     mut collapsed: MessageWriter<PlumeCollapsed>,
@@ -89,13 +90,16 @@ fn step_slices(
     mut umbrella: MessageWriter<UmbrellaSpreading>,
 ) {
     let dt = time.delta_secs_f64();
+    // Validate each eruption once per step, not once per slice.
+    let invalid: EntityHashSet =
+        eruptions.iter().filter(|(_, e)| e.validate().is_err()).map(|(e, _)| e).collect();
     let mut finished: Vec<(Entity, Phase, PlumeSlice)> = Vec::new();
     for (entity, mut slice, mut transform) in &mut slices {
-        let Ok(eruption) = eruptions.get(slice.volcano) else {
+        let Ok((_, eruption)) = eruptions.get(slice.volcano) else {
             finished.push((entity, Phase::Collapsed, slice.clone()));
             continue;
         };
-        if eruption.validate().is_err() {
+        if invalid.contains(&slice.volcano) {
             // An invalid live edit: freeze the column until the parameters are fixed.
             continue;
         }
@@ -153,11 +157,10 @@ fn step_slices(
                 let ring = s1.sphere.local_offset(s.r);
                 let axis = s.position.truncate();
                 let dir = DVec2::new(ring.x, ring.y).try_normalize().unwrap_or(DVec2::X);
-                let offset = dir * (0.5 * s.r);
                 let kin = UmbrellaSphere {
                     axis,
                     direction: dir,
-                    d: offset.length(),
+                    d: 0.5 * s.r,
                     r: s.r,
                     v_neutral: s.neutral_speed.unwrap_or(0.0),
                     z_apex: s.apex,
