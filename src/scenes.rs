@@ -9,7 +9,10 @@ use volcano_core::terrain::png_io::HeightmapScale;
 use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
 
 /// Built-in scenes: (name, RON text).
-const BUILTIN: &[(&str, &str)] = &[("eruption", include_str!("../assets/scenes/eruption.ron"))];
+const BUILTIN: &[(&str, &str)] = &[
+    ("eruption", include_str!("../assets/scenes/eruption.ron")),
+    ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
+];
 
 /// Names of the built-in scenes.
 pub fn names() -> Vec<&'static str> {

@@ -9,11 +9,11 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
 
-use bevy::math::{DQuat, DVec3};
+use bevy::math::DVec3;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use volcano::plume::model::spheres::detail_spheres;
-use volcano::plume::{Eruption, PlumeParams, PlumeSlice, S1, Umbrella};
+use volcano::plume::view::{for_each_sphere, gather_parents};
+use volcano::plume::{Eruption, PlumeParams};
 use volcano::prelude::*;
 
 /// One exported sphere.
@@ -45,38 +45,13 @@ pub fn write_ply(path: &Path, points: &[PointRecord]) -> std::io::Result<()> {
     f.flush()
 }
 
-fn gather(world: &mut World, seed: u64, eruption: &Eruption) -> Vec<PointRecord> {
+/// Every sphere of every scale, through the same enumeration the renderer uses.
+fn gather(world: &mut World) -> Vec<PointRecord> {
+    let (eruptions, parents) = gather_parents(world);
     let mut out = Vec::new();
-    let push_family = |id: u64, t: &Transform, radius: f64, density: f64, out: &mut Vec<PointRecord>| {
-        let center = t.translation.as_dvec3();
-        out.push(PointRecord { center, radius, density });
-        let rot = DQuat::from_xyzw(
-            t.rotation.x as f64,
-            t.rotation.y as f64,
-            t.rotation.z as f64,
-            t.rotation.w as f64,
-        );
-        out.extend(detail_spheres(&eruption.spheres, seed, id, center, radius, rot).map(|d| PointRecord {
-            center: d.center,
-            radius: d.radius,
-            density,
-        }));
-    };
-    let slices: std::collections::HashMap<Entity, f64> =
-        world.query::<(Entity, &PlumeSlice)>().iter(world).map(|(e, s)| (e, s.state.density)).collect();
-    let mut q = world.query::<(&S1, &Transform)>();
-    let mut s1: Vec<_> = q.iter(world).map(|(s, t)| (s.id, s.slice, *t)).collect();
-    s1.sort_by_key(|e| e.0);
-    for (id, slice, t) in s1 {
-        let density = slices.get(&slice).copied().unwrap_or(0.0);
-        push_family(id, &t, t.scale.x as f64, density, &mut out);
-    }
-    let mut q = world.query::<(&Umbrella, &Transform)>();
-    let mut um: Vec<_> = q.iter(world).map(|(u, t)| (u.id, u.radius, u.density, *t)).collect();
-    um.sort_by_key(|e| e.0);
-    for (id, radius, density, t) in um {
-        push_family(id, &t, radius, density, &mut out);
-    }
+    for_each_sphere(&eruptions, &parents, |s| {
+        out.push(PointRecord { center: s.center, radius: s.radius, density: s.density })
+    });
     out
 }
 
@@ -130,7 +105,7 @@ pub fn export(
     let mut total = 0usize;
     for f in 0..frames {
         run_to(&mut app, start_ticks + f as u64 * ticks_per_frame);
-        let points = gather(app.world_mut(), seed, &eruption);
+        let points = gather(app.world_mut());
         total += points.len();
         let path = dir.join(format!("frame_{f:05}.ply"));
         if let Err(e) = write_ply(&path, &points) {

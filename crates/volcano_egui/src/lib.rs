@@ -2,9 +2,14 @@
 //! bevy-inspector-egui 0.37 uses, so both can share an app).
 //!
 //! [`VolcanoEguiPlugin`] adds `EguiPlugin` unless the app already has it, draws a "Volcano" side
-//! panel (simulation pause/step/speed, tick counters, frame time and FPS) in
+//! panel (simulation pause/step/speed, tick counters, frame time and FPS) and an "Eruption"
+//! window ([`EruptionPanel`]: every eruption parameter, presets, wind, view, live density plot) in
 //! `EguiPrimaryContextPass`, and keeps [`volcano_render::PointerCaptured`] up to date so the
 //! orbit camera ignores the mouse while egui uses it.
+
+mod eruption;
+
+pub use eruption::EruptionPanel;
 
 use bevy::prelude::*;
 use bevy::time::Real;
@@ -38,6 +43,7 @@ impl Plugin for VolcanoEguiPlugin {
             .add_systems(PreUpdate, capture_pointer)
             .add_systems(Update, measure_frame_time)
             .add_systems(EguiPrimaryContextPass, volcano_panel);
+        eruption::build(app);
     }
 }
 

@@ -9,6 +9,7 @@
 pub mod components;
 pub mod model;
 pub mod plugin;
+pub mod view;
 
 pub use components::{
     EmissionState, Eruption, NeutralBuoyancyReached, PlumeCollapsed, PlumeSlice, S1, Umbrella,
@@ -18,3 +19,4 @@ pub use model::params::{PlumeParams, Preset};
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
 pub use model::wind::WindProfile;
 pub use plugin::{PlumePlugin, PlumeStep};
+pub use view::{AshInstance, PlumeInstances, PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};

@@ -155,6 +155,8 @@ pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
         projection,
         sky_camera_components(SkySettings::default().exposure_ev100),
         MainCamera,
+        // The instanced ash draw issues direct (not indirect) draws.
+        bevy::render::view::NoIndirectDrawing,
         orbit.transform(),
         orbit,
     )

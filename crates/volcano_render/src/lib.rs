@@ -35,6 +35,7 @@ pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_stddev, write_png_rgb,
 };
+pub use plume::{AshCloud, PlumeRenderMode, PlumeRenderPlugin, PlumeVisuals};
 pub use sky::{
     ActiveSky, GradientSky, SkyMode, SkyPlugin, SkySettings, Sun, VolcanoSky, sky_camera_components,
     sun_bundle,
@@ -49,14 +50,14 @@ pub struct VolcanoRenderPlugin;
 
 impl Plugin for VolcanoRenderPlugin {
     fn build(&self, app: &mut App) {
-        app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, plume::PlumeRenderPlugin));
+        app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, PlumeRenderPlugin));
     }
 }
 
 /// Everything a scene usually needs from this crate.
 pub mod prelude {
     pub use crate::{
-        HeadlessCapturePlugin, MainCamera, OrbitCamera, PointerCaptured, SkySettings, Sun,
+        HeadlessCapturePlugin, MainCamera, OrbitCamera, PlumeRenderMode, PointerCaptured, SkySettings, Sun,
         VolcanoRenderPlugin, camera_bundle, headless_default_plugins, sun_bundle,
     };
 }

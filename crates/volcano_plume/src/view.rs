@@ -1,0 +1,426 @@
+//! What rendering and export see of a column: every sphere of every scale, enumerated in a
+//! fixed order from the ECS state (s1 spheres on slices, umbrella spheres, and their
+//! procedural s2/s3 children), and the per-frame instance list the renderer uploads.
+//!
+//! [`gather_parents`] reads the world once (sorted by sphere id, so the order does not depend
+//! on archetype layout); [`for_each_sphere`] walks parents and children; [`build_instances`]
+//! turns them into [`AshInstance`]s: camera-facing smoke billboards for the s1/umbrella
+//! spheres (their texture turned by the spin projected on the screen, §3.7.1) and sphere
+//! impostors for the detail spheres, shaded by density (lighter and thinner aloft).
+
+use std::sync::Arc;
+
+use bevy::ecs::entity::EntityHashMap;
+use bevy::math::{DQuat, DVec3};
+use bevy::prelude::*;
+use volcano_core::VolcanoRng;
+
+use crate::components::{Eruption, PlumeSlice, S1, Umbrella};
+use crate::model::spheres::{SphereParams, detail_spheres};
+
+/// A first-scale sphere (on a slice, or spreading in the umbrella) as the views see it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ParentSphere {
+    /// Stable id (slice index << 8 | ring index); the detail spheres derive from it.
+    pub id: u64,
+    /// Index of the eruption in the [`EruptionView`] list.
+    pub eruption: usize,
+    /// Centre (world, m, y up).
+    pub center: Vec3,
+    /// Radius (m).
+    pub radius: f32,
+    /// Orientation (spin about the ring tangent); detail spheres turn rigidly with it.
+    pub rotation: Quat,
+    /// Density of the slice it belongs to (kg/m³).
+    pub density: f32,
+    /// Whether it has left its slice for the umbrella.
+    pub umbrella: bool,
+}
+
+/// Per-eruption data the views need.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EruptionView {
+    /// The volcano's seed (detail spheres derive from `(seed, parent id, index)`).
+    pub seed: u64,
+    /// Sphere counts.
+    pub spheres: SphereParams,
+    /// Vent density ρ₀ (kg/m³), the dark end of the density shading.
+    pub rho0: f32,
+}
+
+/// Reads every eruption and first-scale sphere, in a deterministic order.
+pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere>) {
+    let mut eruptions: Vec<(Entity, EruptionView)> = world
+        .query::<(Entity, &Eruption, &VolcanoRng)>()
+        .iter(world)
+        .map(|(e, er, rng)| {
+            (e, EruptionView { seed: rng.seed(), spheres: er.spheres.clone(), rho0: er.params.rho0 as f32 })
+        })
+        .collect();
+    eruptions.sort_by_key(|(e, _)| *e);
+    let index: EntityHashMap<usize> = eruptions.iter().enumerate().map(|(i, (e, _))| (*e, i)).collect();
+    let slices: EntityHashMap<(usize, f32)> = world
+        .query::<(Entity, &PlumeSlice)>()
+        .iter(world)
+        .filter_map(|(e, s)| index.get(&s.volcano).map(|&i| (e, (i, s.state.density as f32))))
+        .collect();
+    let mut parents: Vec<ParentSphere> = Vec::new();
+    for (s1, t) in world.query::<(&S1, &Transform)>().iter(world) {
+        if let Some(&(eruption, density)) = slices.get(&s1.slice) {
+            parents.push(ParentSphere {
+                id: s1.id,
+                eruption,
+                center: t.translation,
+                radius: t.scale.x,
+                rotation: t.rotation,
+                density,
+                umbrella: false,
+            });
+        }
+    }
+    for (u, t) in world.query::<(&Umbrella, &Transform)>().iter(world) {
+        if let Some(&eruption) = index.get(&u.volcano) {
+            parents.push(ParentSphere {
+                id: u.id,
+                eruption,
+                center: t.translation,
+                radius: u.radius as f32,
+                rotation: t.rotation,
+                density: u.density as f32,
+                umbrella: true,
+            });
+        }
+    }
+    parents.sort_by_key(|p| (p.eruption, p.id, p.umbrella));
+    (eruptions.into_iter().map(|(_, v)| v).collect(), parents)
+}
+
+/// One sphere of any scale: `level` 1 for a parent, 2 or 3 for detail spheres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SphereRecord {
+    /// Centre (world, m, y up).
+    pub center: DVec3,
+    /// Radius (m).
+    pub radius: f64,
+    /// Density of the material it stands for (kg/m³).
+    pub density: f64,
+    /// Scale: 1 (s1 or umbrella), 2, 3.
+    pub level: u8,
+}
+
+/// Calls `f` on every parent followed by its detail spheres (export and tests; the renderer
+/// uses [`build_instances`], which walks the same spheres).
+pub fn for_each_sphere(
+    eruptions: &[EruptionView],
+    parents: &[ParentSphere],
+    mut f: impl FnMut(SphereRecord),
+) {
+    for p in parents {
+        let Some(e) = eruptions.get(p.eruption) else { continue };
+        let center = p.center.as_dvec3();
+        let density = p.density as f64;
+        f(SphereRecord { center, radius: p.radius as f64, density, level: 1 });
+        let rot = DQuat::from_xyzw(
+            p.rotation.x as f64,
+            p.rotation.y as f64,
+            p.rotation.z as f64,
+            p.rotation.w as f64,
+        );
+        for d in detail_spheres(&e.spheres, e.seed, p.id, center, p.radius as f64, rot) {
+            f(SphereRecord { center: d.center, radius: d.radius, density, level: d.level });
+        }
+    }
+}
+
+/// One instance of the ash renderer (32 bytes, laid out for a GPU vertex buffer).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct AshInstance {
+    /// Centre (world, m).
+    pub center: [f32; 3],
+    /// Radius (m).
+    pub radius: f32,
+    /// Screen-space rotation of the smoke texture (rad): the spin projected on the view axis.
+    pub angle: f32,
+    /// 0 = dense ash at the vent (dark) … 1 = diluted aloft (light).
+    pub shade: f32,
+    /// Fraction of the billboard the smoke covers (thinner aloft), in (0, 1].
+    pub coverage: f32,
+    /// `0 ≤ k < 1`: detail-sphere impostor; `1 ≤ k < 2`: smoke billboard. The fractional part
+    /// picks the texture variant.
+    pub kind: f32,
+}
+
+/// Density shading: 0 at the vent density ρ₀, 1 at [`DILUTE_DENSITY`], on a log scale (the
+/// mixture thins by three orders of magnitude on its way up).
+pub fn shade_for(density: f32, rho0: f32) -> f32 {
+    let hi = rho0.max(DILUTE_DENSITY * 1.01);
+    let t = (hi / density.max(1e-6)).ln() / (hi / DILUTE_DENSITY).ln();
+    if t.is_finite() { t.clamp(0.0, 1.0) } else { 1.0 }
+}
+
+/// Density (kg/m³) rendered as fully diluted ash (below the air density at 15 km, so even the
+/// umbrella keeps some tint).
+pub const DILUTE_DENSITY: f32 = 0.05;
+
+/// What the renderer draws (a [`Resource`], editable live through reflection).
+#[derive(Resource, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct PlumeViewSettings {
+    /// Whether instances are produced at all (off: an empty list, nothing drawn).
+    pub enabled: bool,
+    /// Smoke billboards for s1 and umbrella spheres.
+    pub billboards: bool,
+    /// Detail-sphere impostors (s2/s3).
+    pub detail: bool,
+    /// Upper bound on instances per frame (detail spheres beyond it are skipped, evenly).
+    pub max_instances: u32,
+    /// Billboard size relative to the sphere radius (puffs overlap their neighbours).
+    pub billboard_scale: f32,
+}
+
+impl Default for PlumeViewSettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            billboards: true,
+            detail: true,
+            max_instances: 1_500_000,
+            billboard_scale: 1.35,
+        }
+    }
+}
+
+/// Where the viewer is (world), for the projected spin; `None` projects on +z.
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct PlumeViewpoint(pub Option<Vec3>);
+
+/// The instances of the current frame, shared with the render world without a copy.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct PlumeInstances(pub Arc<Vec<AshInstance>>);
+
+/// Builds the frame's instances: for each parent a smoke billboard, then its detail spheres
+/// (a deterministic subset when the total would pass `max_instances`, or when density makes
+/// the ash thinner aloft). Parent spin is projected on the viewing direction: a sphere turning
+/// about an axis `a` by angle `θ` turns its billboard by `θ (a · v̂)`, `v̂` toward the viewer.
+pub fn build_instances(
+    settings: &PlumeViewSettings,
+    viewpoint: Option<Vec3>,
+    eruptions: &[EruptionView],
+    parents: &[ParentSphere],
+    out: &mut Vec<AshInstance>,
+) {
+    out.clear();
+    if !settings.enabled {
+        return;
+    }
+    let max = settings.max_instances as usize;
+    let detail_total: usize = parents
+        .iter()
+        .filter_map(|p| eruptions.get(p.eruption))
+        .map(|e| e.spheres.s2_per_s1 as usize * (1 + e.spheres.s3_per_s2 as usize))
+        .sum();
+    let room = max.saturating_sub(if settings.billboards { parents.len() } else { 0 });
+    // Keep every detail sphere whose hash falls under `keep` (fixed-point, 2^16 = all).
+    let keep_budget = if detail_total == 0 { 1.0 } else { (room as f64 / detail_total as f64).min(1.0) };
+    out.reserve(parents.len() + ((detail_total as f64) * keep_budget) as usize);
+    for p in parents {
+        let Some(e) = eruptions.get(p.eruption) else { continue };
+        if !(p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0) {
+            continue;
+        }
+        let shade = shade_for(p.density, e.rho0);
+        let coverage = 1.0 - 0.45 * shade;
+        let variant = (mix32(p.id) & 0xffff) as f32 / 65_536.0;
+        if settings.billboards && out.len() < max {
+            let (axis, theta) = p.rotation.to_axis_angle();
+            let toward = match viewpoint {
+                Some(v) => (v - p.center).normalize_or(Vec3::Z),
+                None => Vec3::Z,
+            };
+            let angle = if p.umbrella { variant * std::f32::consts::TAU } else { theta * axis.dot(toward) };
+            out.push(AshInstance {
+                center: p.center.to_array(),
+                radius: p.radius * settings.billboard_scale,
+                angle,
+                shade,
+                coverage,
+                kind: 1.0 + variant,
+            });
+        }
+        if !settings.detail || e.spheres.s2_per_s1 == 0 {
+            continue;
+        }
+        // Thinner aloft: keep fewer detail spheres where the ash is diluted.
+        let keep = ((keep_budget * coverage as f64) * 65_536.0) as u64;
+        let rot = DQuat::from_xyzw(
+            p.rotation.x as f64,
+            p.rotation.y as f64,
+            p.rotation.z as f64,
+            p.rotation.w as f64,
+        );
+        let spheres = detail_spheres(&e.spheres, e.seed, p.id, p.center.as_dvec3(), p.radius as f64, rot);
+        for (k, d) in spheres.enumerate() {
+            if (mix32(p.id ^ ((k as u64) << 32)) & 0xffff) as u64 >= keep {
+                continue;
+            }
+            if out.len() >= max {
+                return;
+            }
+            out.push(AshInstance {
+                center: d.center.as_vec3().to_array(),
+                radius: d.radius as f32,
+                angle: 0.0,
+                shade: (shade + 0.08 * (d.level as f32 - 1.0)).min(1.0),
+                coverage,
+                kind: variant,
+            });
+        }
+    }
+}
+
+/// A cheap 32-bit hash of a 64-bit key (Murmur3 finaliser on the folded key); written by hand
+/// because it is a two-line mixing step, not worth a dependency.
+fn mix32(key: u64) -> u32 {
+    let mut h = (key ^ (key >> 32)) as u32;
+    h ^= h >> 16;
+    h = h.wrapping_mul(0x85eb_ca6b);
+    h ^= h >> 13;
+    h = h.wrapping_mul(0xc2b2_ae35);
+    h ^ (h >> 16)
+}
+
+/// Produces [`PlumeInstances`] every frame (after transforms are final). Added by the renderer;
+/// a headless game does not need it.
+#[derive(Debug, Default, Clone)]
+pub struct PlumeViewPlugin;
+
+impl Plugin for PlumeViewPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PlumeViewSettings>()
+            .init_resource::<PlumeViewpoint>()
+            .init_resource::<PlumeInstances>()
+            .register_type::<PlumeViewSettings>()
+            .register_type::<PlumeViewpoint>()
+            .add_systems(PostUpdate, update_instances);
+    }
+}
+
+/// Gathers the spheres and rebuilds the instance list (reusing the previous allocation when
+/// the render world has let go of it).
+pub fn update_instances(world: &mut World) {
+    let (eruptions, parents) = gather_parents(world);
+    let settings = world.resource::<PlumeViewSettings>().clone();
+    let viewpoint = world.resource::<PlumeViewpoint>().0;
+    let mut shared = std::mem::take(&mut world.resource_mut::<PlumeInstances>().0);
+    let mut list = match Arc::get_mut(&mut shared) {
+        Some(v) => std::mem::take(v),
+        None => Vec::new(),
+    };
+    build_instances(&settings, viewpoint, &eruptions, &parents, &mut list);
+    world.resource_mut::<PlumeInstances>().0 = Arc::new(list);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parent(id: u64, density: f32, umbrella: bool) -> ParentSphere {
+        ParentSphere {
+            id,
+            eruption: 0,
+            center: Vec3::new(0.0, 1000.0 + id as f32, 0.0),
+            radius: 50.0,
+            rotation: Quat::from_axis_angle(Vec3::X, 0.8),
+            density,
+            umbrella,
+        }
+    }
+
+    fn view(s2: u32) -> Vec<EruptionView> {
+        vec![EruptionView {
+            seed: 3,
+            spheres: SphereParams { s2_per_s1: s2, ..Default::default() },
+            rho0: 200.0,
+        }]
+    }
+
+    #[test]
+    fn shade_is_dark_at_the_vent_and_light_aloft() {
+        assert_eq!(shade_for(200.0, 200.0), 0.0);
+        assert_eq!(shade_for(DILUTE_DENSITY, 200.0), 1.0);
+        let mid = shade_for(3.0, 200.0);
+        assert!(mid > 0.3 && mid < 0.7, "{mid}");
+        assert!(shade_for(f32::NAN, 200.0).is_finite());
+        assert_eq!(shade_for(0.0, 200.0), 1.0);
+    }
+
+    #[test]
+    fn instance_counts_follow_settings_and_budget() {
+        let parents: Vec<_> = (0..10).map(|i| parent(i, 200.0, false)).collect();
+        let e = view(100);
+        let mut out = Vec::new();
+        let all = PlumeViewSettings { max_instances: u32::MAX, ..Default::default() };
+        build_instances(&all, None, &e, &parents, &mut out);
+        // Dense ash (shade 0): every detail sphere is kept.
+        assert_eq!(out.len(), 10 + 10 * 100);
+        assert_eq!(out.iter().filter(|i| i.kind >= 1.0).count(), 10);
+        let capped = PlumeViewSettings { max_instances: 500, ..Default::default() };
+        build_instances(&capped, None, &e, &parents, &mut out);
+        assert!(out.len() <= 500 && out.len() > 350, "budget spreads evenly: {}", out.len());
+        let spread: std::collections::HashSet<u32> =
+            out.iter().filter(|i| i.kind < 1.0).map(|i| (i.center[1] / 1.0) as u32).collect();
+        assert!(spread.len() > 5, "detail kept for many parents, not just the first");
+        let none = PlumeViewSettings { detail: false, ..Default::default() };
+        build_instances(&none, None, &e, &parents, &mut out);
+        assert_eq!(out.len(), 10);
+    }
+
+    #[test]
+    fn dilute_ash_is_lighter_and_thinner() {
+        let e = view(200);
+        let mut dense = Vec::new();
+        let mut dilute = Vec::new();
+        let s = PlumeViewSettings::default();
+        build_instances(&s, None, &e, &[parent(1, 150.0, false)], &mut dense);
+        build_instances(&s, None, &e, &[parent(1, 0.1, false)], &mut dilute);
+        assert!(dilute.len() < dense.len() * 3 / 4, "{} vs {}", dilute.len(), dense.len());
+        assert!(dilute[0].shade > dense[0].shade + 0.5);
+        assert!(dilute[0].coverage < dense[0].coverage);
+    }
+
+    #[test]
+    fn billboard_turns_with_the_projected_spin() {
+        let e = view(0);
+        let s = PlumeViewSettings::default();
+        let mut out = Vec::new();
+        // Spin axis x, angle 0.8: seen along the axis the billboard turns by the full angle,
+        // seen from the side (along z) not at all.
+        let p = parent(5, 100.0, false);
+        build_instances(&s, Some(p.center + Vec3::X * 1000.0), &e, &[p], &mut out);
+        assert!((out[0].angle - 0.8).abs() < 1e-4, "{}", out[0].angle);
+        build_instances(&s, Some(p.center + Vec3::Z * 1000.0), &e, &[p], &mut out);
+        assert!(out[0].angle.abs() < 1e-4, "{}", out[0].angle);
+    }
+
+    #[test]
+    fn enumeration_matches_instances_and_is_deterministic() {
+        let e = view(20);
+        let parents: Vec<_> = (0..4).map(|i| parent(i, 200.0, i % 2 == 0)).collect();
+        let mut a = Vec::new();
+        for_each_sphere(&e, &parents, |s| a.push(s));
+        let mut b = Vec::new();
+        for_each_sphere(&e, &parents, |s| b.push(s));
+        assert_eq!(a, b);
+        assert_eq!(a.len(), 4 * 21);
+        let mut inst = Vec::new();
+        let s = PlumeViewSettings { billboard_scale: 1.0, max_instances: u32::MAX, ..Default::default() };
+        build_instances(&s, None, &e, &parents, &mut inst);
+        assert_eq!(inst.len(), a.len());
+        for (r, i) in a.iter().zip(&inst) {
+            assert!((r.center.as_vec3() - Vec3::from_array(i.center)).length() < 1e-3);
+            assert!((r.radius as f32 - i.radius).abs() < 1e-4);
+        }
+    }
+}

@@ -1,0 +1,101 @@
+//! Eruption column rendering.
+//!
+//! - **Main view** ([`PlumeRenderMode::Ash`]): one instanced draw per frame of every sphere of
+//!   every scale. s1 and umbrella spheres are camera-facing smoke billboards whose texture
+//!   turns with the spin projected on the screen (thesis §3.7.1); s2/s3 detail spheres are
+//!   lit sphere impostors; all shaded by density, darker and denser near the vent, lighter and
+//!   thinner aloft. The instance list is built by [`volcano_plume::PlumeViewPlugin`].
+//! - **Debug views**: s1/umbrella spheres as mesh spheres and slices as gizmo circles.
+
+mod debug;
+mod pipeline;
+
+use bevy::asset::embedded_asset;
+use bevy::camera::visibility::NoFrustumCulling;
+use bevy::prelude::*;
+use volcano_plume::{PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};
+
+pub use debug::PlumeVisuals;
+pub use pipeline::AshCloud;
+
+use crate::camera::MainCamera;
+
+/// What the column looks like (a resource; switch it live from a panel).
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
+#[reflect(Resource)]
+pub enum PlumeRenderMode {
+    /// Smoke billboards + detail-sphere impostors (the main view).
+    #[default]
+    Ash,
+    /// Mesh spheres for s1 and umbrella spheres, gizmo circles for slices.
+    DebugSpheres,
+    /// Gizmo circles for slices only.
+    DebugSlices,
+    /// The main view with the slice circles on top.
+    AshWithSlices,
+}
+
+impl PlumeRenderMode {
+    /// Whether the instanced ash is drawn.
+    pub fn ash(self) -> bool {
+        matches!(self, Self::Ash | Self::AshWithSlices)
+    }
+    /// Whether s1/umbrella spheres are drawn as meshes.
+    pub fn debug_spheres(self) -> bool {
+        self == Self::DebugSpheres
+    }
+    /// Whether slices are drawn as circles.
+    pub fn debug_slices(self) -> bool {
+        matches!(self, Self::DebugSpheres | Self::DebugSlices | Self::AshWithSlices)
+    }
+}
+
+/// Adds the column's visuals (main and debug views) to plume entities.
+#[derive(Debug, Default, Clone)]
+pub struct PlumeRenderPlugin;
+
+impl Plugin for PlumeRenderPlugin {
+    fn build(&self, app: &mut App) {
+        embedded_asset!(app, "ash.wgsl");
+        if !app.is_plugin_added::<PlumeViewPlugin>() {
+            app.add_plugins(PlumeViewPlugin);
+        }
+        app.init_resource::<PlumeRenderMode>()
+            .register_type::<PlumeRenderMode>()
+            .register_type::<AshCloud>()
+            .add_systems(Startup, spawn_ash_cloud)
+            .add_systems(
+                PostUpdate,
+                (follow_camera, apply_mode).before(volcano_plume::view::update_instances),
+            );
+        debug::build(app);
+        pipeline::build(app);
+    }
+}
+
+fn spawn_ash_cloud(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>) {
+    commands.spawn((
+        Name::new("Ash instances"),
+        AshCloud,
+        Mesh3d(meshes.add(Rectangle::new(1.0, 1.0))),
+        Transform::default(),
+        Visibility::default(),
+        // The instances are positioned in the shader; the quad's own bounds mean nothing.
+        NoFrustumCulling,
+    ));
+}
+
+/// The projected spin needs the viewer's position.
+fn follow_camera(camera: Query<&GlobalTransform, With<MainCamera>>, mut viewpoint: ResMut<PlumeViewpoint>) {
+    let v = camera.iter().next().map(|t| t.translation());
+    if viewpoint.0 != v {
+        viewpoint.0 = v;
+    }
+}
+
+/// The main view off means no instances (the debug views draw their own).
+fn apply_mode(mode: Res<PlumeRenderMode>, mut settings: ResMut<PlumeViewSettings>) {
+    if mode.is_changed() && settings.enabled != mode.ash() {
+        settings.enabled = mode.ash();
+    }
+}

@@ -1,0 +1,86 @@
+//! The instanced ash renderer draws: a wall of dark detail-sphere impostors (left half) and
+//! smoke billboards (right half) placed across the top of the view hides the blue sky there.
+//! If the pipeline, the instance buffer or the shader were broken, the sky would show.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use bevy::prelude::*;
+use volcano_core::VolcanoCorePlugin;
+use volcano_plume::{AshInstance, PlumeInstances};
+use volcano_render::{
+    HeadlessCapturePlugin, MainCamera, OrbitCamera, VolcanoRenderPlugin, camera_bundle,
+    headless_default_plugins, read_png_rgb,
+};
+
+const W: u32 = 320;
+const H: u32 = 240;
+
+fn scene(mut commands: Commands) {
+    let orbit =
+        OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
+    commands.spawn(camera_bundle(orbit));
+}
+
+/// Replaces the frame's instances (after the plume view built its empty list).
+fn wall(camera: Query<&GlobalTransform, With<MainCamera>>, mut instances: ResMut<PlumeInstances>) {
+    let Some(cam) = camera.iter().next() else { return };
+    let (fwd, right, up) = (cam.forward().as_vec3(), cam.right().as_vec3(), cam.up().as_vec3());
+    let mut list = Vec::new();
+    for iy in 0..14 {
+        for ix in -34..34 {
+            let (x, y) = (ix as f32 * 40.0, 480.0 + iy as f32 * 40.0);
+            let center = cam.translation() + fwd * 2_000.0 + right * x + up * y;
+            let kind = if ix < 0 { 0.4 } else { 1.3 };
+            list.push(AshInstance {
+                center: center.to_array(),
+                radius: 60.0,
+                angle: 0.3,
+                shade: 0.0,
+                coverage: 1.0,
+                kind,
+            });
+        }
+    }
+    instances.0 = Arc::new(list);
+}
+
+fn region_mean(rgb: &[u8], (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = ((y * W + x) * 3) as usize;
+            for c in 0..3 {
+                sum[c] += rgb[i + c] as f64;
+            }
+        }
+    }
+    sum.map(|s| s / ((x1 - x0) * (y1 - y0)) as f64)
+}
+
+#[test]
+fn instanced_ash_covers_the_sky() {
+    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_ash.png");
+    let _ = std::fs::remove_file(&out);
+    let exit = App::new()
+        .add_plugins(headless_default_plugins())
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins(HeadlessCapturePlugin {
+            width: W,
+            height: H,
+            out: out.clone(),
+            capture_after_updates: 8,
+        })
+        .add_systems(Startup, scene)
+        .add_systems(PostUpdate, wall.after(volcano_plume::view::update_instances))
+        .run();
+    assert!(exit.is_success(), "app exited with {exit:?}");
+    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    // Top eighth: covered by ash (left: spheres, right: billboards); dark grey, not sky blue.
+    for (name, xs) in [("detail spheres", (8, W / 2 - 8)), ("billboards", (W / 2 + 8, W - 8))] {
+        let m = region_mean(&rgb, xs, (2, H / 8));
+        eprintln!("{name}: mean {m:?} ({})", out.display());
+        assert!(m.iter().all(|&c| c < 120.0), "{name}: the sky shows through: {m:?}");
+        assert!((m[2] - m[0]).abs() < 25.0, "{name}: still bluish: {m:?}");
+    }
+}
