@@ -170,26 +170,32 @@ fn eruption_window(
         .map(|s| [s.state.density.max(1e-6).log10(), s.state.position.z])
         .collect();
     let mut error = panel.error.clone();
-    egui::Window::new("Eruption").default_width(320.0).show(ctx, |ui| {
-        egui::ScrollArea::vertical().max_height(420.0).show(ui, |ui| {
-            changed = parameter_widgets(ui, &mut edited);
-            if let (Some(mode), Some(view)) = (mode.as_deref_mut(), view.as_deref_mut()) {
-                let (mut m, mut v) = (*mode, view.clone());
-                view_widgets(ui, &mut m, &mut v);
-                if m != *mode {
-                    *mode = m;
+    // Top right, clear of the "Volcano" side panel on the left.
+    let corner = ctx.content_rect().right_top() + egui::vec2(-10.0, 10.0);
+    egui::Window::new("Eruption")
+        .default_width(320.0)
+        .pivot(egui::Align2::RIGHT_TOP)
+        .default_pos(corner)
+        .show(ctx, |ui| {
+            egui::ScrollArea::vertical().max_height(420.0).show(ui, |ui| {
+                changed = parameter_widgets(ui, &mut edited);
+                if let (Some(mode), Some(view)) = (mode.as_deref_mut(), view.as_deref_mut()) {
+                    let (mut m, mut v) = (*mode, view.clone());
+                    view_widgets(ui, &mut m, &mut v);
+                    if m != *mode {
+                        *mode = m;
+                    }
+                    if v != *view {
+                        *view = v;
+                    }
                 }
-                if v != *view {
-                    *view = v;
-                }
+            });
+            if let Some(msg) = &error {
+                ui.colored_label(egui::Color32::from_rgb(230, 80, 60), format!("rejected: {msg}"));
             }
+            ui.label(format!("{} live slices", points.len()));
+            density_plot(ui, &edited, &points);
         });
-        if let Some(msg) = &error {
-            ui.colored_label(egui::Color32::from_rgb(230, 80, 60), format!("rejected: {msg}"));
-        }
-        ui.label(format!("{} live slices", points.len()));
-        density_plot(ui, &edited, &points);
-    });
     if changed {
         match edited.validate() {
             Ok(()) => {

@@ -88,6 +88,10 @@ pub struct PlumeSlice {
     pub vent: Vec3,
     /// Model state.
     pub state: Slice,
+    /// Spin angle of a ring sphere of mean size, `∫ v / (r/2) dt` (rad, unbounded): a sphere of
+    /// size factor `f` has turned by `ring_phase / f` (Ω = v / r_s, §3.5.1). One sum per slice
+    /// instead of one per sphere.
+    pub ring_phase: f64,
 }
 
 /// An s1 sphere riding on a slice's vortex ring.
@@ -97,7 +101,8 @@ pub struct S1 {
     pub slice: Entity,
     /// Position on the ring, size factor.
     pub sphere: S1Sphere,
-    /// Accumulated spin angle about the ring tangent (rad).
+    /// Spin angle about the ring tangent (rad, in [0, 2π)), updated once per base tick from
+    /// the slice's [`PlumeSlice::ring_phase`].
     pub spin: f64,
     /// Stable id for detail-sphere generation: `(slice index << 8) | k`.
     pub id: u64,

@@ -61,7 +61,7 @@ fn emit_slices(
                 .spawn((
                     Name::new(format!("Plume slice {index}")),
                     Transform::from_translation(vent.0),
-                    PlumeSlice { volcano: entity, index, vent: vent.0, state },
+                    PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0 },
                 ))
                 .id();
             for (k, sphere) in ring.into_iter().enumerate() {
@@ -84,7 +84,7 @@ fn step_slices(
     mut commands: Commands,
     eruptions: Query<(Entity, &Eruption)>,
     mut slices: Query<(Entity, &mut PlumeSlice, &mut Transform), Without<S1>>,
-    mut spheres: Query<(Entity, &mut S1)>,
+    spheres: Query<(Entity, &S1)>,
     mut collapsed: MessageWriter<PlumeCollapsed>,
     mut neutral: MessageWriter<NeutralBuoyancyReached>,
     mut umbrella: MessageWriter<UmbrellaSpreading>,
@@ -107,6 +107,8 @@ fn step_slices(
         let wind = |z: f64| p.wind.at(z);
         let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: slice.vent.y as f64, wind: &wind };
         let report = slice.state.step(p, &env, dt);
+        // Spin of the ring spheres: Ω = v / r_s about the ring tangent (mean size r_s = r/2).
+        slice.ring_phase += slice.state.velocity.length() / (0.5 * slice.state.r).max(1e-9) * dt;
         if report.reached_neutral {
             neutral.write(NeutralBuoyancyReached {
                 volcano: slice.volcano,
@@ -128,13 +130,6 @@ fn step_slices(
         }
         if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) {
             finished.push((entity, slice.state.phase, slice.clone()));
-        }
-    }
-    // Spin the s1 spheres: Ω = v / r_s about the ring tangent.
-    for (_, mut s1) in &mut spheres {
-        if let Ok((_, slice, _)) = slices.get(s1.slice) {
-            let w = s1.sphere.angular_speed(slice.state.velocity.length(), slice.state.r);
-            s1.spin = (s1.spin + w * dt) % std::f64::consts::TAU;
         }
     }
     for (entity, phase, slice) in finished {
@@ -210,13 +205,15 @@ fn step_umbrella(
     }
 }
 
-/// Places s1 spheres on their slice's ring in world space (scale = radius).
+/// Places s1 spheres on their slice's ring in world space (scale = radius) and turns them by
+/// their spin.
 fn sync_sphere_transforms(
     slices: Query<(&PlumeSlice, &Transform), Without<S1>>,
-    mut spheres: Query<(&S1, &mut Transform), Without<PlumeSlice>>,
+    mut spheres: Query<(&mut S1, &mut Transform), Without<PlumeSlice>>,
 ) {
-    for (s1, mut transform) in &mut spheres {
+    for (mut s1, mut transform) in &mut spheres {
         if let Ok((slice, slice_tf)) = slices.get(s1.slice) {
+            s1.spin = (slice.ring_phase / s1.sphere.size_factor.max(1e-9)) % std::f64::consts::TAU;
             let r = slice.state.r;
             let local = s1.sphere.local_offset(r);
             // Slice frame: local z along the trajectory; local x/y in the slice plane.

@@ -200,10 +200,15 @@ pub struct PlumeViewpoint(pub Option<Vec3>);
 #[derive(Resource, Debug, Clone, Default)]
 pub struct PlumeInstances(pub Arc<Vec<AshInstance>>);
 
-/// Builds the frame's instances: for each parent a smoke billboard, then its detail spheres
-/// (a deterministic subset when the total would pass `max_instances`, or when density makes
-/// the ash thinner aloft). Parent spin is projected on the viewing direction: a sphere turning
+/// Builds the frame's instances: for each parent a smoke billboard, then its first detail
+/// spheres (children are placed by hash, so any prefix is an even sample of the parent's
+/// surface). Fewer are kept where the ash is diluted (thinner aloft) and when the total would
+/// pass `max_instances`. Parent spin is projected on the viewing direction: a sphere turning
 /// about an axis `a` by angle `θ` turns its billboard by `θ (a · v̂)`, `v̂` toward the viewer.
+///
+/// The counts are planned first, so every parent owns a fixed range of `out` and the ranges
+/// are filled in parallel (compute task pool) with the same result on any number of threads.
+/// `out` is reused: only growth is initialised, every kept slot is overwritten.
 pub fn build_instances(
     settings: &PlumeViewSettings,
     viewpoint: Option<Vec3>,
@@ -211,72 +216,134 @@ pub fn build_instances(
     parents: &[ParentSphere],
     out: &mut Vec<AshInstance>,
 ) {
-    out.clear();
     if !settings.enabled {
+        out.clear();
         return;
     }
-    let max = settings.max_instances as usize;
-    let detail_total: usize = parents
-        .iter()
-        .filter_map(|p| eruptions.get(p.eruption))
-        .map(|e| e.spheres.s2_per_s1 as usize * (1 + e.spheres.s3_per_s2 as usize))
-        .sum();
-    let room = max.saturating_sub(if settings.billboards { parents.len() } else { 0 });
-    // Keep every detail sphere whose hash falls under `keep` (fixed-point, 2^16 = all).
-    let keep_budget = if detail_total == 0 { 1.0 } else { (room as f64 / detail_total as f64).min(1.0) };
-    out.reserve(parents.len() + ((detail_total as f64) * keep_budget) as usize);
-    for p in parents {
-        let Some(e) = eruptions.get(p.eruption) else { continue };
-        if !(p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0) {
-            continue;
+    let plan = plan_instances(settings, eruptions, parents);
+    let total = plan.last().map_or(0, |p| p.offset + p.count());
+    if out.len() > total {
+        out.truncate(total);
+    } else {
+        out.resize(total, AshInstance::default());
+    }
+    // Fixed chunking: the result does not depend on the number of threads.
+    const CHUNK: usize = 256;
+    let pool = bevy::tasks::ComputeTaskPool::get_or_init(bevy::tasks::TaskPool::default);
+    pool.scope(|scope| {
+        let mut rest: &mut [AshInstance] = out.as_mut_slice();
+        for (parents, plan) in parents.chunks(CHUNK).zip(plan.chunks(CHUNK)) {
+            let len: usize = plan.iter().map(Plan::count).sum();
+            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(len);
+            rest = tail;
+            scope.spawn(async move {
+                let mut slots = mine.iter_mut();
+                for (p, plan) in parents.iter().zip(plan) {
+                    fill_parent(settings, viewpoint, eruptions, p, plan, &mut slots);
+                }
+            });
         }
-        let shade = shade_for(p.density, e.rho0);
-        let coverage = 1.0 - 0.45 * shade;
-        let variant = (mix32(p.id) & 0xffff) as f32 / 65_536.0;
-        if settings.billboards && out.len() < max {
-            let (axis, theta) = p.rotation.to_axis_angle();
-            let toward = match viewpoint {
-                Some(v) => (v - p.center).normalize_or(Vec3::Z),
-                None => Vec3::Z,
+    });
+}
+
+/// How many instances one parent gets and where they start.
+#[derive(Debug, Clone, Copy)]
+struct Plan {
+    offset: usize,
+    billboard: bool,
+    detail: usize,
+    shade: f32,
+    coverage: f32,
+}
+
+impl Plan {
+    fn count(&self) -> usize {
+        self.billboard as usize + self.detail
+    }
+}
+
+fn plan_instances(
+    settings: &PlumeViewSettings,
+    eruptions: &[EruptionView],
+    parents: &[ParentSphere],
+) -> Vec<Plan> {
+    let max = settings.max_instances as usize;
+    let children = |e: &EruptionView| e.spheres.s2_per_s1 as usize * (1 + e.spheres.s3_per_s2 as usize);
+    let detail_total: usize = if settings.detail {
+        parents.iter().filter_map(|p| eruptions.get(p.eruption)).map(children).sum()
+    } else {
+        0
+    };
+    let room = max.saturating_sub(if settings.billboards { parents.len() } else { 0 });
+    let budget = if detail_total == 0 { 1.0 } else { (room as f64 / detail_total as f64).min(1.0) };
+    let mut offset = 0;
+    parents
+        .iter()
+        .map(|p| {
+            let valid = p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0;
+            let e = eruptions.get(p.eruption).filter(|_| valid);
+            let shade = e.map_or(1.0, |e| shade_for(p.density, e.rho0));
+            let coverage = 1.0 - 0.45 * shade;
+            let mut billboard = e.is_some() && settings.billboards;
+            let mut detail = match e {
+                Some(e) if settings.detail => (children(e) as f64 * budget * coverage as f64) as usize,
+                _ => 0,
             };
-            let angle = if p.umbrella { variant * std::f32::consts::TAU } else { theta * axis.dot(toward) };
-            out.push(AshInstance {
+            // Never pass the cap, whatever the rounding.
+            let left = max.saturating_sub(offset);
+            billboard &= left > 0;
+            detail = detail.min(left - billboard as usize);
+            let plan = Plan { offset, billboard, detail, shade, coverage };
+            offset += plan.count();
+            plan
+        })
+        .collect()
+}
+
+fn fill_parent<'a>(
+    settings: &PlumeViewSettings,
+    viewpoint: Option<Vec3>,
+    eruptions: &[EruptionView],
+    p: &ParentSphere,
+    plan: &Plan,
+    slots: &mut impl Iterator<Item = &'a mut AshInstance>,
+) {
+    let Some(e) = eruptions.get(p.eruption) else { return };
+    let variant = (mix32(p.id) & 0xffff) as f32 / 65_536.0;
+    let (shade, coverage) = (plan.shade, plan.coverage);
+    if plan.billboard {
+        let (axis, theta) = p.rotation.to_axis_angle();
+        let toward = match viewpoint {
+            Some(v) => (v - p.center).normalize_or(Vec3::Z),
+            None => Vec3::Z,
+        };
+        let angle = if p.umbrella { variant * std::f32::consts::TAU } else { theta * axis.dot(toward) };
+        if let Some(slot) = slots.next() {
+            *slot = AshInstance {
                 center: p.center.to_array(),
                 radius: p.radius * settings.billboard_scale,
                 angle,
                 shade,
                 coverage,
                 kind: 1.0 + variant,
-            });
+            };
         }
-        if !settings.detail || e.spheres.s2_per_s1 == 0 {
-            continue;
-        }
-        // Thinner aloft: keep fewer detail spheres where the ash is diluted.
-        let keep = ((keep_budget * coverage as f64) * 65_536.0) as u64;
-        let rot = DQuat::from_xyzw(
-            p.rotation.x as f64,
-            p.rotation.y as f64,
-            p.rotation.z as f64,
-            p.rotation.w as f64,
-        );
-        let spheres = detail_spheres(&e.spheres, e.seed, p.id, p.center.as_dvec3(), p.radius as f64, rot);
-        for (k, d) in spheres.enumerate() {
-            if (mix32(p.id ^ ((k as u64) << 32)) & 0xffff) as u64 >= keep {
-                continue;
-            }
-            if out.len() >= max {
-                return;
-            }
-            out.push(AshInstance {
-                center: d.center.as_vec3().to_array(),
-                radius: d.radius as f32,
-                angle: 0.0,
-                shade: (shade + 0.08 * (d.level as f32 - 1.0)).min(1.0),
-                coverage,
-                kind: variant,
-            });
-        }
+    }
+    if plan.detail == 0 {
+        return;
+    }
+    let rot =
+        DQuat::from_xyzw(p.rotation.x as f64, p.rotation.y as f64, p.rotation.z as f64, p.rotation.w as f64);
+    let spheres = detail_spheres(&e.spheres, e.seed, p.id, p.center.as_dvec3(), p.radius as f64, rot);
+    for (d, slot) in spheres.take(plan.detail).zip(slots) {
+        *slot = AshInstance {
+            center: d.center.as_vec3().to_array(),
+            radius: d.radius as f32,
+            angle: 0.0,
+            shade: (shade + 0.08 * (d.level as f32 - 1.0)).min(1.0),
+            coverage,
+            kind: variant,
+        };
     }
 }
 
@@ -421,6 +488,23 @@ mod tests {
         for (r, i) in a.iter().zip(&inst) {
             assert!((r.center.as_vec3() - Vec3::from_array(i.center)).length() < 1e-3);
             assert!((r.radius as f32 - i.radius).abs() < 1e-4);
+        }
+    }
+
+    #[test]
+    fn parallel_chunks_match_the_sequential_enumeration() {
+        // 700 parents: three chunks filled by different tasks.
+        let e = view(7);
+        let parents: Vec<_> = (0..700).map(|i| parent(i, 200.0, i % 3 == 0)).collect();
+        let mut seq = Vec::new();
+        for_each_sphere(&e, &parents, |s| seq.push(s));
+        let s = PlumeViewSettings { billboard_scale: 1.0, max_instances: u32::MAX, ..Default::default() };
+        let mut inst = vec![AshInstance::default(); 10]; // reused buffer with stale content
+        build_instances(&s, None, &e, &parents, &mut inst);
+        assert_eq!(inst.len(), seq.len());
+        for (r, i) in seq.iter().zip(&inst) {
+            assert_eq!(r.center.as_vec3().to_array(), i.center);
+            assert_eq!(r.radius as f32, i.radius);
         }
     }
 }
