@@ -45,6 +45,9 @@ enum Command {
         /// Fail (exit 1) if the frame's pixel standard deviation is below this: a blank check.
         #[arg(long, default_value_t = 0.0)]
         min_stddev: f64,
+        /// How the eruption column is drawn: the main view or a debug view.
+        #[arg(long, value_enum, default_value_t = PlumeView::Ash)]
+        plume_view: PlumeView,
     },
     /// List the scenes of the registry.
     Scenes,
@@ -107,13 +110,45 @@ fn main() -> ExitCode {
         },
         Command::PlumeThreshold { params } => plume::threshold(&params),
         Command::PlumePlots { params, out } => plots::plume_plots(&params.params(), &out),
-        Command::Render { scene, ticks, out, width, height, min_stddev } => {
-            render(&scene, ticks, out, width, height, min_stddev)
+        Command::Render { scene, ticks, out, width, height, min_stddev, plume_view } => {
+            render(&scene, ticks, out, (width, height), min_stddev, plume_view.into())
         }
     }
 }
 
-fn render(scene: &str, ticks: u32, out: PathBuf, width: u32, height: u32, min_stddev: f64) -> ExitCode {
+/// `--plume-view` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+enum PlumeView {
+    /// Smoke billboards and detail spheres (the main view).
+    Ash,
+    /// The main view with the slices as circles.
+    AshSlices,
+    /// s1 and umbrella spheres as meshes, slices as circles.
+    Spheres,
+    /// Slices as circles only.
+    Slices,
+}
+
+impl From<PlumeView> for volcano::render::PlumeRenderMode {
+    fn from(v: PlumeView) -> Self {
+        use volcano::render::PlumeRenderMode as M;
+        match v {
+            PlumeView::Ash => M::Ash,
+            PlumeView::AshSlices => M::AshWithSlices,
+            PlumeView::Spheres => M::DebugSpheres,
+            PlumeView::Slices => M::DebugSlices,
+        }
+    }
+}
+
+fn render(
+    scene: &str,
+    ticks: u32,
+    out: PathBuf,
+    (width, height): (u32, u32),
+    min_stddev: f64,
+    view: volcano::render::PlumeRenderMode,
+) -> ExitCode {
     if !(16..=8192).contains(&width) || !(16..=8192).contains(&height) {
         eprintln!("error: --width and --height must be in 16..=8192");
         return ExitCode::from(2);
@@ -140,6 +175,7 @@ fn render(scene: &str, ticks: u32, out: PathBuf, width: u32, height: u32, min_st
         .add_plugins(VolcanoSimPlugins)
         .add_plugins(volcano::render::VolcanoRenderPlugin)
         .add_plugins(scene)
+        .insert_resource(view)
         // Several base ticks per update so long runs do not render thousands of software
         // frames: `chunk` divides `ticks`, so exactly `ticks` ticks are simulated; afterwards
         // time stops while the capture settles.

@@ -2,6 +2,7 @@
 //! implements.
 
 pub mod params;
+pub mod pyroclastic;
 pub mod run;
 pub mod slice;
 pub mod spheres;
