@@ -7,6 +7,7 @@ use bevy::reflect::Reflect;
 use volcano_core::error::ConfigError;
 
 use crate::model::params::PlumeParams;
+use crate::model::pyroclastic::PyroclasticParams;
 use crate::model::slice::Slice;
 use crate::model::spheres::{S1Sphere, SphereParams};
 use crate::model::umbrella::UmbrellaSphere;
@@ -25,12 +26,15 @@ pub struct Eruption {
     /// Umbrella spheres older than this are removed (s, in [0, 3600]). At the Plinian preset's
     /// 24 s1 spheres per second, 300 s keeps about 7,000 umbrella spheres alive.
     pub umbrella_lifetime: f64,
+    /// Pyroclastic particles of collapsing slices (§3.6).
+    pub pyroclastic: PyroclasticParams,
 }
 
 impl Eruption {
     /// An eruption with validated parameters.
     pub fn new(params: PlumeParams, spheres: SphereParams) -> Result<Self, ConfigError> {
-        let e = Self { params, spheres, active: true, umbrella_lifetime: 300.0 };
+        let e =
+            Self { params, spheres, active: true, umbrella_lifetime: 300.0, pyroclastic: Default::default() };
         e.validate()?;
         Ok(e)
     }
@@ -40,6 +44,7 @@ impl Eruption {
         self.params.validate()?;
         self.spheres.validate()?;
         volcano_core::error::in_range("umbrella_lifetime", self.umbrella_lifetime, 0.0, 3_600.0)?;
+        self.pyroclastic.validate()?;
         Ok(())
     }
 
@@ -50,6 +55,7 @@ impl Eruption {
             spheres: SphereParams::default(),
             active: true,
             umbrella_lifetime: 900.0,
+            pyroclastic: Default::default(),
         }
     }
 
@@ -127,8 +133,8 @@ pub struct Umbrella {
     pub id: u64,
 }
 
-/// A slice's vertical velocity turned negative before it became buoyant (§3.6). Until the
-/// pyroclastic model lands, the slice and its spheres are then removed.
+/// A slice's vertical velocity turned negative before it became buoyant (§3.6): the slice and
+/// its spheres are replaced by pyroclastic particles ([`crate::PyroclasticFlowStarted`]).
 #[derive(Message, Debug, Clone, Copy, PartialEq)]
 pub struct PlumeCollapsed {
     /// Emitting volcano.

@@ -9,6 +9,7 @@
 pub mod components;
 pub mod model;
 pub mod plugin;
+pub mod pyroclastic;
 pub mod view;
 
 pub use components::{
@@ -16,7 +17,12 @@ pub use components::{
     UmbrellaSpreading,
 };
 pub use model::params::{PlumeParams, Preset};
+pub use model::pyroclastic::PyroclasticParams;
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
 pub use model::wind::WindProfile;
 pub use plugin::{PlumePlugin, PlumeStep};
+pub use pyroclastic::{
+    DepositMap, PyroParticle, PyroclasticBudget, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery,
+    PyroclasticStep, SecondaryColumnFormed,
+};
 pub use view::{AshInstance, PlumeInstances, PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};

@@ -22,6 +22,9 @@ pub struct PlumePlugin;
 
 impl Plugin for PlumePlugin {
     fn build(&self, app: &mut App) {
+        if !app.is_plugin_added::<crate::pyroclastic::PyroclasticPlugin>() {
+            app.add_plugins(crate::pyroclastic::PyroclasticPlugin);
+        }
         app.add_sim_domain::<PlumeStep>(SimSystems::Plume, Cadence::Substeps(10))
             .add_message::<PlumeCollapsed>()
             .add_message::<NeutralBuoyancyReached>()
@@ -95,7 +98,13 @@ fn step_slices(
         eruptions.iter().filter(|(_, e)| e.validate().is_err()).map(|(e, _)| e).collect();
     let mut finished: Vec<(Entity, Phase, PlumeSlice)> = Vec::new();
     for (entity, mut slice, mut transform) in &mut slices {
+        if slice.state.phase == Phase::Collapsed {
+            // Waiting for the pyroclastic hand-over (once per base tick).
+            continue;
+        }
         let Ok((_, eruption)) = eruptions.get(slice.volcano) else {
+            // Its volcano is gone: the hand-over will find no eruption and remove it.
+            slice.state.phase = Phase::Collapsed;
             finished.push((entity, Phase::Collapsed, slice.clone()));
             continue;
         };
@@ -174,7 +183,10 @@ fn step_slices(
                 commands.entity(sphere_entity).despawn();
             }
         }
-        commands.entity(entity).despawn();
+        // A collapsed slice stays for the pyroclastic hand-over, which removes it.
+        if phase != Phase::Collapsed {
+            commands.entity(entity).despawn();
+        }
     }
 }
 

@@ -17,6 +17,7 @@ use volcano_core::VolcanoRng;
 
 use crate::components::{Eruption, PlumeSlice, S1, Umbrella};
 use crate::model::spheres::{SphereParams, detail_spheres};
+use crate::pyroclastic::PyroParticle;
 
 /// A first-scale sphere (on a slice, or spreading in the umbrella) as the views see it.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -35,6 +36,9 @@ pub struct ParentSphere {
     pub density: f32,
     /// Whether it has left its slice for the umbrella.
     pub umbrella: bool,
+    /// Whether it is a pyroclastic particle (drawn as a puff, no detail spheres: it already
+    /// has the s2 size).
+    pub flow: bool,
 }
 
 /// Per-eruption data the views need.
@@ -75,6 +79,7 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
                 rotation: t.rotation,
                 density,
                 umbrella: false,
+                flow: false,
             });
         }
     }
@@ -88,10 +93,25 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
                 rotation: t.rotation,
                 density: u.density as f32,
                 umbrella: true,
+                flow: false,
             });
         }
     }
-    parents.sort_by_key(|p| (p.eruption, p.id, p.umbrella));
+    for (p, t) in world.query::<(&PyroParticle, &Transform)>().iter(world) {
+        if let Some(&eruption) = index.get(&p.volcano) {
+            parents.push(ParentSphere {
+                id: p.id,
+                eruption,
+                center: t.translation,
+                radius: p.particle.radius as f32,
+                rotation: Quat::IDENTITY,
+                density: p.particle.density() as f32,
+                umbrella: false,
+                flow: true,
+            });
+        }
+    }
+    parents.sort_by_key(|p| (p.eruption, p.flow, p.umbrella, p.id));
     (eruptions.into_iter().map(|(_, v)| v).collect(), parents)
 }
 
@@ -120,6 +140,9 @@ pub fn for_each_sphere(
         let center = p.center.as_dvec3();
         let density = p.density as f64;
         f(SphereRecord { center, radius: p.radius as f64, density, level: 1 });
+        if p.flow {
+            continue;
+        }
         let rot = DQuat::from_xyzw(
             p.rotation.x as f64,
             p.rotation.y as f64,
@@ -270,7 +293,7 @@ fn plan_instances(
     let max = settings.max_instances as usize;
     let children = |e: &EruptionView| e.spheres.s2_per_s1 as usize * (1 + e.spheres.s3_per_s2 as usize);
     let detail_total: usize = if settings.detail {
-        parents.iter().filter_map(|p| eruptions.get(p.eruption)).map(children).sum()
+        parents.iter().filter(|p| !p.flow).filter_map(|p| eruptions.get(p.eruption)).map(children).sum()
     } else {
         0
     };
@@ -286,7 +309,9 @@ fn plan_instances(
             let coverage = 1.0 - 0.45 * shade;
             let mut billboard = e.is_some() && settings.billboards;
             let mut detail = match e {
-                Some(e) if settings.detail => (children(e) as f64 * budget * coverage as f64) as usize,
+                Some(e) if settings.detail && !p.flow => {
+                    (children(e) as f64 * budget * coverage as f64) as usize
+                }
                 _ => 0,
             };
             // Never pass the cap, whatever the rounding.
@@ -317,7 +342,8 @@ fn fill_parent<'a>(
             Some(v) => (v - p.center).normalize_or(Vec3::Z),
             None => Vec3::Z,
         };
-        let angle = if p.umbrella { variant * std::f32::consts::TAU } else { theta * axis.dot(toward) };
+        let angle =
+            if p.umbrella || p.flow { variant * std::f32::consts::TAU } else { theta * axis.dot(toward) };
         if let Some(slot) = slots.next() {
             *slot = AshInstance {
                 center: p.center.to_array(),
@@ -402,6 +428,7 @@ mod tests {
             rotation: Quat::from_axis_angle(Vec3::X, 0.8),
             density,
             umbrella,
+            flow: false,
         }
     }
 

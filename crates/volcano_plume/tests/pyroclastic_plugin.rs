@@ -1,0 +1,122 @@
+//! The pyroclastic plugin on a headless app: a collapsing eruption on a cone hands its slices
+//! over to particles that stay on the terrain, run down, deposit, close the mass budget, lift
+//! off as secondary columns, and do so identically at any frame rate.
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano_core::prelude::*;
+use volcano_plume::pyroclastic::airborne_mass;
+use volcano_plume::*;
+
+#[derive(Resource, Default, Debug)]
+struct Seen {
+    flows: usize,
+    secondary: usize,
+}
+
+fn count(
+    mut seen: ResMut<Seen>,
+    mut f: MessageReader<PyroclasticFlowStarted>,
+    mut s: MessageReader<SecondaryColumnFormed>,
+) {
+    seen.flows += f.read().count();
+    seen.secondary += s.read().count();
+}
+
+fn app(ticks_per_update: u32) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
+        .init_resource::<Seen>()
+        .add_systems(FixedUpdate, count.in_set(SimSystems::End));
+    // A shallow crater, so the collapse (≈200 m wide) spills onto the flanks instead of pooling.
+    let terrain = StratovolcanoParams {
+        resolution: 128,
+        cell: 100.0,
+        crater_radius: 80.0,
+        crater_depth: 10.0,
+        ..Default::default()
+    }
+    .generate()
+    .unwrap();
+    app.world_mut().spawn(terrain);
+    let mut eruption = Eruption::pyroclastic();
+    eruption.active = true;
+    app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), eruption, Transform::default()));
+    app
+}
+
+fn run(app: &mut App, ticks: u64) {
+    while app.world().resource::<SimTick>().0 < ticks {
+        app.update();
+    }
+}
+
+#[test]
+fn collapse_runs_down_deposits_and_closes_the_budget() {
+    let mut app = app(5);
+    // 30 s: several collapses; the first particles land after ≈15 s and run down the flanks.
+    run(&mut app, 50 * 30);
+    let seen = app.world().resource::<Seen>();
+    assert!(seen.flows > 0, "collapses handed over: {seen:?}");
+    let world = app.world_mut();
+    let terrain = world.query::<&Terrain>().single(world).unwrap().clone();
+    let vent = world.query::<&VentPosition>().single(world).unwrap().0;
+    let mut far = 0.0f32;
+    for (p, t) in world.query::<(&PyroParticle, &Transform)>().iter(world) {
+        let ground = terrain.height_at(t.translation.x, t.translation.z);
+        assert!(
+            t.translation.y >= ground - 0.01,
+            "particle below the terrain: {} < {ground}",
+            t.translation.y
+        );
+        assert!(p.particle.mass.is_finite() && p.particle.mass >= 0.0);
+        far = far.max(Vec2::new(t.translation.x - vent.x, t.translation.z - vent.z).length());
+    }
+    assert!(far > 500.0, "flow ran out from the vent: {far} m");
+    let airborne = airborne_mass(world);
+    let b = *world.resource::<PyroclasticBudget>();
+    let total = airborne + b.deposited + b.lifted + b.lost;
+    assert!(b.collapsed > 0.0);
+    assert!((total - b.collapsed).abs() <= 1e-9 * b.collapsed, "budget: {b:?}, airborne {airborne}");
+    let map_total = world.resource::<DepositMap>().total();
+    assert!((map_total - b.deposited).abs() <= 1e-9 * b.deposited.max(1.0), "{map_total} vs {}", b.deposited);
+    assert!(b.deposited > 0.0);
+}
+
+#[test]
+fn flows_lift_off_as_secondary_columns() {
+    let mut app = app(10);
+    run(&mut app, 50 * 110);
+    let seen = app.world().resource::<Seen>();
+    let b = *app.world().resource::<PyroclasticBudget>();
+    assert!(seen.secondary > 0 && b.secondary_columns > 0, "{seen:?} {b:?}");
+    assert!(b.lifted > 0.0);
+}
+
+fn fingerprint(app: &mut App) -> Vec<(u64, [u64; 4])> {
+    let world = app.world_mut();
+    let mut v: Vec<_> = world
+        .query::<&PyroParticle>()
+        .iter(world)
+        .map(|p| {
+            let q = &p.particle;
+            (p.id, [q.position.x.to_bits(), q.position.y.to_bits(), q.position.z.to_bits(), q.mass.to_bits()])
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn pyroclastic_flow_is_frame_rate_independent() {
+    let mut a = app(1);
+    let mut b = app(7);
+    run(&mut a, 50 * 14);
+    run(&mut b, 50 * 14);
+    let (fa, fb) = (fingerprint(&mut a), fingerprint(&mut b));
+    assert!(!fa.is_empty());
+    assert_eq!(fa, fb);
+}
