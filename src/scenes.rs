@@ -12,6 +12,7 @@ use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
 const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
+    ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
 ];
 
 /// Names of the built-in scenes.
@@ -112,6 +113,8 @@ pub enum EruptionPreset {
     Thesis,
     /// Table 3.1 with v₀ = 200 m/s and a light wind: a Plinian column with an umbrella.
     Plinian,
+    /// Table 3.1 at v₀ = 70 m/s: the column collapses into pyroclastic flows.
+    Pyroclastic,
 }
 
 impl EruptionPreset {
@@ -120,6 +123,7 @@ impl EruptionPreset {
         match self {
             EruptionPreset::Thesis => volcano_plume::Eruption::thesis(),
             EruptionPreset::Plinian => volcano_plume::Eruption::plinian(),
+            EruptionPreset::Pyroclastic => volcano_plume::Eruption::pyroclastic(),
         }
     }
 }

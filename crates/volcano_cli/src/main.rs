@@ -5,6 +5,7 @@
 mod export;
 mod plots;
 mod plume;
+mod pyroclastic;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -89,6 +90,19 @@ enum Command {
         #[command(flatten)]
         params: plume::PlumeArgs,
     },
+    /// Run a collapsing eruption on the `pyroclastic_flow` scene's terrain (thesis §3.6):
+    /// writes DIR/summary.json (particles, runout, secondary columns, mass budget) and
+    /// DIR/deposit.png (top view: terrain, deposit, particle tracks).
+    Pyroclastic {
+        #[command(flatten)]
+        params: plume::PlumeArgs,
+        /// Simulated seconds.
+        #[arg(long, default_value_t = 120.0, allow_negative_numbers = true)]
+        seconds: f64,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 fn main() -> ExitCode {
@@ -110,6 +124,7 @@ fn main() -> ExitCode {
         },
         Command::PlumeThreshold { params } => plume::threshold(&params),
         Command::PlumePlots { params, out } => plots::plume_plots(&params.params(), &out),
+        Command::Pyroclastic { params, seconds, out } => pyroclastic::run(&params.params(), seconds, &out),
         Command::Render { scene, ticks, out, width, height, min_stddev, plume_view } => {
             render(&scene, ticks, out, (width, height), min_stddev, plume_view.into())
         }
