@@ -1,0 +1,192 @@
+//! Layer 2, the surface (thesis §5.4): surface velocity smoothed by the crust, and crust
+//! thickness from the time of contact with the air (eq 5.1) and the divergence of the surface
+//! velocity (eq 5.3), with the thesis' thresholds and reset rule.
+
+use super::field::FlowField;
+use super::params::LavaParams;
+
+/// Crust thickness (m) above which divergence changes the crust (thesis §5.4.2: 1 cm).
+pub const DIVERGENCE_MIN_CRUST: f64 = 0.01;
+/// Lava thinner than this (m) and moving carries no crust (thesis §5.4.2: 20 cm).
+pub const NO_CRUST_BELOW: f64 = 0.2;
+/// Speed (m/s) above which lava counts as moving for the no-crust rule.
+pub const MOVING_SPEED: f64 = 1e-3;
+
+/// Ratio of the surface speed to the depth-averaged speed of a Jeffreys (half-Poiseuille)
+/// profile, `u(h)/ū = 3/2`.
+pub const SURFACE_TO_MEAN: f64 = 1.5;
+
+/// Crust thickness after `t` seconds of contact with the air, `2√(κt)` (thesis eq 5.1).
+pub fn crust_from_contact(kappa: f64, t: f64) -> f64 {
+    2.0 * (kappa * t.max(0.0)).sqrt()
+}
+
+/// Contact time giving crust `h`, `t = h²/(4κ)`: the reset after stretching (thesis §5.4.2).
+pub fn contact_from_crust(kappa: f64, h: f64) -> f64 {
+    h * h / (4.0 * kappa)
+}
+
+/// Per-cell surface state of a lava field.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurfaceState {
+    nx: usize,
+    ny: usize,
+    /// Crust thickness (m).
+    pub crust: Vec<f64>,
+    /// Time of contact with the air (s).
+    pub contact: Vec<f64>,
+    /// Surface velocity (m/s), x and y.
+    pub vsurf: [Vec<f64>; 2],
+    /// Divergence of the surface velocity (1/s).
+    pub divergence: Vec<f64>,
+    raw: [Vec<f64>; 2],
+    old: [Vec<f64>; 2],
+}
+
+impl SurfaceState {
+    /// An empty surface (no crust) for a field of `nx × ny` cells.
+    pub fn new(nx: usize, ny: usize) -> Self {
+        let z = vec![0.0; nx * ny];
+        Self {
+            nx,
+            ny,
+            crust: z.clone(),
+            contact: z.clone(),
+            vsurf: [z.clone(), z.clone()],
+            divergence: z.clone(),
+            raw: [z.clone(), z.clone()],
+            old: [z.clone(), z],
+        }
+    }
+
+    /// Grid size `(nx, ny)`.
+    pub fn size(&self) -> (usize, usize) {
+        (self.nx, self.ny)
+    }
+
+    /// Largest and mean crust (m) over cells holding lava thicker than `min_h`.
+    pub fn crust_stats(&self, field: &FlowField, min_h: f64) -> (f64, f64) {
+        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+        for (c, &h) in self.crust.iter().zip(field.h.data()) {
+            if h > min_h {
+                max = max.max(*c);
+                sum += c;
+                n += 1;
+            }
+        }
+        (max, if n > 0 { sum / n as f64 } else { 0.0 })
+    }
+}
+
+/// Advances the surface layer by `dt` from the flow's current state.
+///
+/// 1. Surface velocity: `3/2 ×` the depth-averaged velocity, blended toward its 3×3 wet
+///    neighbourhood mean with weight `min(1, h_crust/rigid_crust)`: a thick crust moves as a
+///    block (thesis §5.4.1 "smoothing depending on the crust thickness"; the kernel is ours).
+/// 2. Crust and contact time are advected semi-Lagrangian along the surface velocity.
+/// 3. Radiation: `dh_c/dt = 2κ/h_c`, integrated exactly as `h_c ← √(h_c² + 4κ dt)`, which is
+///    eq (5.1) `h_c = 2√(κt)` for crust that is neither stretched nor compressed.
+/// 4. Divergence, eq (5.3) `(1/h_c) ∂h_c/∂t = −∇·v_surf`, integrated as
+///    `h_c ← h_c·exp(−∇·v dt)`, only where `h_c > 1 cm`; stretched below
+///    `crust_reset_ratio × 2√(κt)` resets `t = h_c²/(4κ)`.
+/// 5. No crust where the lava is thinner than 20 cm and moving; none where there is no lava;
+///    never thicker than the lava.
+pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaParams, dt: f64) {
+    let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
+    if s.nx != nx || s.ny != ny || !(dt.is_finite() && dt > 0.0) {
+        return;
+    }
+    let h = field.h.data();
+    let (u, v) = (field.vel[0].data(), field.vel[1].data());
+    let wet = |k: usize| h[k] >= params.min_thickness;
+    for k in 0..nx * ny {
+        s.raw[0][k] = SURFACE_TO_MEAN * u[k];
+        s.raw[1][k] = SURFACE_TO_MEAN * v[k];
+    }
+    // 1. smoothing by crust thickness.
+    for j in 0..ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            if !wet(k) {
+                s.vsurf[0][k] = 0.0;
+                s.vsurf[1][k] = 0.0;
+                continue;
+            }
+            let w = (s.crust[k] / params.rigid_crust).min(1.0);
+            let (mut mx, mut my, mut n) = (0.0, 0.0, 0.0);
+            for nj in j.saturating_sub(1)..(j + 2).min(ny) {
+                for ni in i.saturating_sub(1)..(i + 2).min(nx) {
+                    let q = nj * nx + ni;
+                    if wet(q) {
+                        mx += s.raw[0][q];
+                        my += s.raw[1][q];
+                        n += 1.0;
+                    }
+                }
+            }
+            s.vsurf[0][k] = (1.0 - w) * s.raw[0][k] + w * mx / n;
+            s.vsurf[1][k] = (1.0 - w) * s.raw[1][k] + w * my / n;
+        }
+    }
+    // Divergence by central differences; a dry neighbour counts as this cell's own value.
+    for j in 0..ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            if !wet(k) {
+                s.divergence[k] = 0.0;
+                continue;
+            }
+            let pick = |c: usize, comp: usize| if wet(c) { s.vsurf[comp][c] } else { s.vsurf[comp][k] };
+            let (im, ip) = (if i > 0 { k - 1 } else { k }, if i + 1 < nx { k + 1 } else { k });
+            let (jm, jp) = (if j > 0 { k - nx } else { k }, if j + 1 < ny { k + nx } else { k });
+            let ddx = (pick(ip, 0) - pick(im, 0)) / (dx * (ip - im).max(1) as f64);
+            let ddy = (pick(jp, 1) - pick(jm, 1)) / (dx * ((jp - jm) / nx).max(1) as f64);
+            s.divergence[k] = ddx + ddy;
+        }
+    }
+    // 2. semi-Lagrangian advection of crust and contact time.
+    s.old[0].copy_from_slice(&s.crust);
+    s.old[1].copy_from_slice(&s.contact);
+    for j in 0..ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            let (vx, vy) = (s.vsurf[0][k], s.vsurf[1][k]);
+            if vx == 0.0 && vy == 0.0 {
+                continue;
+            }
+            let gx = (i as f64 - vx * dt / dx).clamp(0.0, (nx - 1) as f64);
+            let gy = (j as f64 - vy * dt / dx).clamp(0.0, (ny - 1) as f64);
+            s.crust[k] = bilinear(&s.old[0], nx, ny, gx, gy);
+            s.contact[k] = bilinear(&s.old[1], nx, ny, gx, gy);
+        }
+    }
+    // 3–5. radiation, divergence, thresholds.
+    let kappa = params.kappa();
+    for (k, &hk) in h.iter().enumerate() {
+        let speed = s.vsurf[0][k].hypot(s.vsurf[1][k]);
+        if !wet(k) || (hk < NO_CRUST_BELOW && speed > MOVING_SPEED) {
+            s.crust[k] = 0.0;
+            s.contact[k] = 0.0;
+            continue;
+        }
+        s.contact[k] += dt;
+        let mut c = (s.crust[k] * s.crust[k] + 4.0 * kappa * dt).sqrt();
+        if c > DIVERGENCE_MIN_CRUST {
+            let div = s.divergence[k];
+            c *= (-div * dt).exp();
+            if div > 0.0 && c < params.crust_reset_ratio * crust_from_contact(kappa, s.contact[k]) {
+                s.contact[k] = contact_from_crust(kappa, c);
+            }
+        }
+        s.crust[k] = c.min(hk);
+    }
+}
+
+fn bilinear(a: &[f64], nx: usize, ny: usize, gx: f64, gy: f64) -> f64 {
+    let (i0, j0) = (gx.floor() as usize, gy.floor() as usize);
+    let (i1, j1) = ((i0 + 1).min(nx - 1), (j0 + 1).min(ny - 1));
+    let (tx, ty) = (gx - i0 as f64, gy - j0 as f64);
+    let r0 = a[j0 * nx + i0] * (1.0 - tx) + a[j0 * nx + i1] * tx;
+    let r1 = a[j1 * nx + i0] * (1.0 - tx) + a[j1 * nx + i1] * tx;
+    r0 * (1.0 - ty) + r1 * ty
+}
