@@ -190,3 +190,71 @@ fn bilinear(a: &[f64], nx: usize, ny: usize, gx: f64, gy: f64) -> f64 {
     let r1 = a[j1 * nx + i0] * (1.0 - tx) + a[j1 * nx + i1] * tx;
     r0 * (1.0 - ty) + r1 * ty
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::params::LavaParams;
+
+    fn sheet(n: usize, h: f64) -> FlowField {
+        let mut f = FlowField::flat(n, n, 0.5).unwrap();
+        f.h.data_mut().fill(h);
+        f.temp.data_mut().fill(1400.0);
+        f
+    }
+
+    #[test]
+    fn stretching_thins_crust_and_resets_contact_time() {
+        let p = LavaParams::isothermal(1000.0).unwrap();
+        let kappa = p.kappa();
+        let mut f = sheet(16, 1.0);
+        let mut s = SurfaceState::new(16, 16);
+        let t0 = 400.0;
+        s.crust.fill(crust_from_contact(kappa, t0)); // 4 cm
+        s.contact.fill(t0);
+        // Depth-averaged u = a·x: surface divergence 1.5·a = 0.3 /s everywhere.
+        let a = 0.2;
+        for j in 0..16 {
+            for i in 0..16 {
+                f.vel[0].set(i, j, a * (i as f64 - 7.5) * 0.5);
+            }
+        }
+        update_surface(&mut s, &f, &p, 0.5);
+        let k = 8 * 16 + 8;
+        assert!((s.divergence[k] - 1.5 * a).abs() < 1e-12, "{}", s.divergence[k]);
+        let grown = (0.04f64.powi(2) + 4.0 * kappa * 0.5).sqrt();
+        let expect = grown * (-1.5 * a * 0.5f64).exp();
+        assert!((s.crust[k] - expect).abs() < 1e-4, "{} vs {expect}", s.crust[k]);
+        // Stretched well below 2√(κt): contact reset to h²/(4κ).
+        assert!((s.contact[k] - contact_from_crust(kappa, s.crust[k])).abs() < 1e-6);
+        assert!(s.contact[k] < t0);
+    }
+
+    #[test]
+    fn compression_thickens_and_thin_moving_lava_has_no_crust() {
+        let p = LavaParams::isothermal(1000.0).unwrap();
+        let kappa = p.kappa();
+        let mut f = sheet(16, 1.0);
+        let mut s = SurfaceState::new(16, 16);
+        s.crust.fill(0.02);
+        s.contact.fill(100.0);
+        for j in 0..16 {
+            for i in 0..16 {
+                f.vel[1].set(i, j, -0.1 * (j as f64 - 7.5) * 0.5); // converging in y
+            }
+        }
+        update_surface(&mut s, &f, &p, 0.5);
+        let k = 8 * 16 + 8;
+        assert!(s.crust[k] > crust_from_contact(kappa, 100.5) * 1.01, "{}", s.crust[k]);
+        // 10 cm of moving lava: no crust (thesis 20 cm rule).
+        f.h.data_mut().fill(0.1);
+        update_surface(&mut s, &f, &p, 0.02);
+        assert_eq!(s.crust[k], 0.0);
+        assert_eq!(s.contact[k], 0.0);
+        // Below 1 cm the divergence does not act: crust grows as 2√(κt) even if compressed.
+        let mut s = SurfaceState::new(16, 16);
+        f.h.data_mut().fill(1.0);
+        update_surface(&mut s, &f, &p, 1.0);
+        assert!((s.crust[k] - crust_from_contact(kappa, 1.0)).abs() < 1e-12);
+    }
+}
