@@ -57,9 +57,43 @@ pub fn cool_and_freeze(field: &mut FlowField, params: &LavaParams, dt: f64) -> T
     report
 }
 
+/// Temperature (K) of the top of a crust of thickness `crust` (m) over lava at `t_core` (K):
+/// the steady balance of conduction through the crust, `k (T_core − T_s)/h_crust`, with the
+/// surface losses of [`top_heat_loss`], solved by Newton iterations (our estimate for
+/// gameplay and rendering; the thesis gives no surface-temperature law). No crust: `t_core`.
+pub fn surface_temperature(params: &LavaParams, t_core: f64, crust: f64) -> f64 {
+    let te = params.air_temperature;
+    if crust <= 0.0 || t_core <= te {
+        return t_core.max(te);
+    }
+    let g = params.conductivity / crust;
+    let mut ts = t_core;
+    for _ in 0..30 {
+        let f = g * (t_core - ts) - top_heat_loss(params, ts);
+        let df = -g - 4.0 * params.emissivity * STEFAN_BOLTZMANN * ts.powi(3) - params.convection;
+        let next = (ts - f / df).clamp(te, t_core);
+        if (next - ts).abs() < 1e-9 {
+            return next;
+        }
+        ts = next;
+    }
+    ts
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn crust_surface_is_cooler_and_balances_conduction() {
+        let p = LavaParams::default();
+        assert_eq!(surface_temperature(&p, 1400.0, 0.0), 1400.0);
+        let ts = surface_temperature(&p, 1400.0, 0.02);
+        assert!(ts > 400.0 && ts < 1000.0, "{ts}");
+        let conduction = p.conductivity * (1400.0 - ts) / 0.02;
+        assert!((conduction - top_heat_loss(&p, ts)).abs() < 1e-3 * conduction);
+        assert!(surface_temperature(&p, 1400.0, 0.05) < ts, "thicker crust, cooler surface");
+    }
 
     #[test]
     fn heat_loss_at_liquidus() {
