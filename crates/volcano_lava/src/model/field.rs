@@ -157,6 +157,7 @@ impl FlowField {
         }
         let (nx, ny, cell, origin) = (ground.nx(), ground.ny(), ground.cell(), ground.origin());
         let zero = Grid2::new(nx, ny, cell, origin, 0.0)?;
+        let scratch = super::flow::Scratch::new(&zero);
         Ok(Self {
             solid: zero.clone(),
             h: zero.clone(),
@@ -166,7 +167,7 @@ impl FlowField {
             edges,
             budget: VolumeBudget::default(),
             time: 0.0,
-            scratch: super::flow::Scratch::new(nx, ny),
+            scratch,
         })
     }
 

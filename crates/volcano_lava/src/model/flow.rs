@@ -11,38 +11,36 @@
 //! it at the donor temperature.
 
 use super::field::{Edge, FlowField};
+use volcano_core::Grid2;
+
 use super::params::{GRAVITY, LavaParams, ViscosityModel};
 
 /// Reusable work arrays of one field (allocated once).
-#[derive(Debug, Clone, PartialEq, Default)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct Scratch {
-    /// ρg/(3η) per cell (1/(m·s)).
-    coef: Vec<f64>,
-    /// x-face fluxes, `(nx+1) × ny`: m²/s, then m³ after the substep; +x positive.
+    /// Cell mobility ρ g h³/(3η(T)) (m³/s per unit gradient).
+    mob: Vec<f64>,
+    /// x-face fluxes, `(nx+1) × ny` (m²/s, +x positive); face `i` is west of cell `i`.
     fx: Vec<f64>,
-    /// y-face fluxes, `nx × (ny+1)`.
+    /// y-face fluxes, `nx × (ny+1)`; face `j` is south of row `j`.
     fy: Vec<f64>,
-    /// Per-cell outgoing volume, then the limiter factor in [0, 1].
-    out: Vec<f64>,
-    h_new: Vec<f64>,
-    t_new: Vec<f64>,
-    /// Face volumes accumulated over the step (for velocities).
-    acc_x: Vec<f64>,
-    acc_y: Vec<f64>,
+    /// Per-cell limiter factor in [0, 1].
+    lim: Vec<f64>,
+    h_new: Grid2<f64>,
+    t_new: Grid2<f64>,
 }
 
 impl Scratch {
-    pub(crate) fn new(nx: usize, ny: usize) -> Self {
+    pub(crate) fn new(template: &Grid2<f64>) -> Self {
+        let (nx, ny) = (template.nx(), template.ny());
         let n = nx * ny;
         Self {
-            coef: vec![0.0; n],
+            mob: vec![0.0; n],
             fx: vec![0.0; (nx + 1) * ny],
             fy: vec![0.0; nx * (ny + 1)],
-            out: vec![0.0; n],
-            h_new: vec![0.0; n],
-            t_new: vec![0.0; n],
-            acc_x: vec![0.0; (nx + 1) * ny],
-            acc_y: vec![0.0; nx * (ny + 1)],
+            lim: vec![0.0; n],
+            h_new: template.clone(),
+            t_new: template.clone(),
         }
     }
 }
@@ -91,15 +89,15 @@ pub fn bingham_factor(h: f64, plug: f64) -> f64 {
 fn face_flux(
     dx: f64,
     yield_over_rho_g: f64,
-    (ga, ha, ca): (f64, f64, f64),
-    (gb, hb, cb): (f64, f64, f64),
+    (ga, ha, ma): (f64, f64, f64),
+    (gb, hb, mb): (f64, f64, f64),
 ) -> (f64, f64, f64) {
     let grad = ((gb + hb) - (ga + ha)) / dx;
     let hd = if grad < 0.0 { ha } else { hb };
     if hd <= 0.0 || grad == 0.0 {
         return (0.0, 0.0, 0.0);
     }
-    let mut m = 0.5 * (ca * ha * ha * ha + cb * hb * hb * hb) * slope_factor((gb - ga) / dx);
+    let mut m = 0.5 * (ma + mb) * slope_factor((gb - ga) / dx);
     if yield_over_rho_g > 0.0 {
         m *= bingham_factor(hd, yield_over_rho_g / grad.abs());
     }
@@ -110,83 +108,86 @@ fn face_flux(
 
 /// Advances the lava thickness and temperature of `field` by `dt` seconds with as many
 /// CFL-limited substeps as needed (at most `params.max_substeps`). Volume is conserved to
-/// round-off: only open edges remove lava (booked as outflow).
+/// round-off: only open edges remove lava (booked as outflow). The velocity field is the
+/// depth-averaged velocity of the last substep.
 pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> FlowReport {
     let mut report = FlowReport::default();
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
-    field.scratch.acc_x.iter_mut().for_each(|v| *v = 0.0);
-    field.scratch.acc_y.iter_mut().for_each(|v| *v = 0.0);
     let yield_rg = params.yield_strength / (params.density * GRAVITY);
+    let rg3 = params.density * GRAVITY / 3.0;
     let mut t_left = dt;
     while t_left > 0.0 && report.substeps < params.max_substeps {
         report.substeps += 1;
         let s = &mut field.scratch;
-        // 1. per-cell mobility coefficient ρg/(3η(T)).
-        let rg3 = params.density * GRAVITY / 3.0;
+        let (g, h, t) = (field.ground.data(), field.h.data(), field.temp.data());
+        // 1. cell mobility ρ g h³/(3η(T)).
         match params.viscosity {
-            ViscosityModel::Constant(eta) => s.coef.iter_mut().for_each(|c| *c = rg3 / eta),
+            ViscosityModel::Constant(eta) => {
+                let c = rg3 / eta;
+                for (m, &hk) in s.mob.iter_mut().zip(h) {
+                    *m = c * hk * hk * hk;
+                }
+            }
             model => {
-                for (c, &t) in s.coef.iter_mut().zip(field.temp.data()) {
-                    *c = rg3 / model.viscosity(t);
+                for ((m, &hk), &tk) in s.mob.iter_mut().zip(h).zip(t) {
+                    *m = if hk > 0.0 { rg3 / model.viscosity(tk) * hk * hk * hk } else { 0.0 };
                 }
             }
         }
         // 2. face fluxes and stability limits.
-        let (g, h) = (field.ground.data(), field.h.data());
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         let nfx = nx + 1;
+        let mob = &s.mob;
+        let cell = |k: usize| (g[k], h[k], mob[k]);
         for j in 0..ny {
             let row = j * nx;
-            for i in 1..nx {
-                let (a, b) = (row + i - 1, row + i);
-                let (q, m, c) = face_flux(dx, yield_rg, (g[a], h[a], s.coef[a]), (g[b], h[b], s.coef[b]));
-                s.fx[j * nfx + i] = q;
+            let frow = &mut s.fx[j * nfx..(j + 1) * nfx];
+            for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
+                let (q, m, c) = face_flux(dx, yield_rg, cell(row + i - 1), cell(row + i));
+                *f = q;
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
             }
             let (w, e) = (row, row + nx - 1);
-            let (q0, qn) = match (field.edges.west, field.edges.east) {
-                (Edge::Periodic, _) => {
-                    let (q, m, c) = face_flux(dx, yield_rg, (g[e], h[e], s.coef[e]), (g[w], h[w], s.coef[w]));
-                    m_max = m_max.max(m);
-                    c_max = c_max.max(c);
-                    (q, q)
-                }
-                (we, ee) => {
-                    let qw = open_flux(we, dx, yield_rg, row, 1, nx, g, h, &s.coef, &mut m_max, &mut c_max);
-                    let qe = open_flux(ee, dx, yield_rg, e, -1, nx, g, h, &s.coef, &mut m_max, &mut c_max);
-                    (-qw, qe)
-                }
+            let (q0, qn) = if field.edges.west == Edge::Periodic {
+                let (q, m, c) = face_flux(dx, yield_rg, cell(e), cell(w));
+                m_max = m_max.max(m);
+                c_max = c_max.max(c);
+                (q, q)
+            } else {
+                let qw =
+                    open_flux(field.edges.west, dx, yield_rg, w, w + 1, g, h, mob, &mut m_max, &mut c_max);
+                let inner = if nx > 1 { e - 1 } else { e };
+                let qe =
+                    open_flux(field.edges.east, dx, yield_rg, e, inner, g, h, mob, &mut m_max, &mut c_max);
+                (-qw, qe)
             };
-            s.fx[j * nfx] = q0;
-            s.fx[j * nfx + nx] = qn;
+            frow[0] = q0;
+            frow[nx] = qn;
         }
         for j in 1..ny {
-            for i in 0..nx {
-                let (a, b) = ((j - 1) * nx + i, j * nx + i);
-                let (q, m, c) = face_flux(dx, yield_rg, (g[a], h[a], s.coef[a]), (g[b], h[b], s.coef[b]));
-                s.fy[j * nx + i] = q;
+            let frow = &mut s.fy[j * nx..(j + 1) * nx];
+            for (i, f) in frow.iter_mut().enumerate() {
+                let (q, m, c) = face_flux(dx, yield_rg, cell((j - 1) * nx + i), cell(j * nx + i));
+                *f = q;
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
             }
         }
         for i in 0..nx {
             let (so, no) = (i, (ny - 1) * nx + i);
-            let (q0, qn) = match (field.edges.south, field.edges.north) {
-                (Edge::Periodic, _) => {
-                    let (q, m, c) =
-                        face_flux(dx, yield_rg, (g[no], h[no], s.coef[no]), (g[so], h[so], s.coef[so]));
-                    m_max = m_max.max(m);
-                    c_max = c_max.max(c);
-                    (q, q)
-                }
-                (se, ne) => {
-                    let step = nx as isize;
-                    let qs = open_flux(se, dx, yield_rg, so, step, ny, g, h, &s.coef, &mut m_max, &mut c_max);
-                    let qn =
-                        open_flux(ne, dx, yield_rg, no, -step, ny, g, h, &s.coef, &mut m_max, &mut c_max);
-                    (-qs, qn)
-                }
+            let (q0, qn) = if field.edges.south == Edge::Periodic {
+                let (q, m, c) = face_flux(dx, yield_rg, cell(no), cell(so));
+                m_max = m_max.max(m);
+                c_max = c_max.max(c);
+                (q, q)
+            } else {
+                let (si, ni) = if ny > 1 { (so + nx, no - nx) } else { (so, no) };
+                let qs =
+                    open_flux(field.edges.south, dx, yield_rg, so, si, g, h, mob, &mut m_max, &mut c_max);
+                let qn =
+                    open_flux(field.edges.north, dx, yield_rg, no, ni, g, h, mob, &mut m_max, &mut c_max);
+                (-qs, qn)
             };
             s.fy[i] = q0;
             s.fy[ny * nx + i] = qn;
@@ -207,33 +208,12 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             dt_s = t_left;
             report.mobility_capped = true;
         }
-        let vol = scale * dt_s;
-        s.fx.iter_mut().for_each(|q| *q *= vol);
-        s.fy.iter_mut().for_each(|q| *q *= vol);
         t_left -= dt_s;
         if t_left < 1e-12 * dt {
             t_left = 0.0;
         }
-        report.outflow += transfer(field, dx);
-    }
-    // Depth-averaged velocity: mean of the two face fluxes over the step, divided by h.
-    let s = &field.scratch;
-    let (h, [u, v]) = (field.h.data(), &mut field.vel);
-    let (u, v) = (u.data_mut(), v.data_mut());
-    let nfx = nx + 1;
-    for j in 0..ny {
-        for i in 0..nx {
-            let k = j * nx + i;
-            if h[k] < params.min_thickness {
-                u[k] = 0.0;
-                v[k] = 0.0;
-                continue;
-            }
-            let qx = 0.5 * (s.acc_x[j * nfx + i] + s.acc_x[j * nfx + i + 1]) / (dx * dt);
-            let qy = 0.5 * (s.acc_y[j * nx + i] + s.acc_y[(j + 1) * nx + i]) / (dx * dt);
-            u[k] = qx / h[k];
-            v[k] = qy / h[k];
-        }
+        let last = t_left == 0.0 || report.substeps == params.max_substeps;
+        report.outflow += transfer(field, scale * dt_s, last);
     }
     field.budget.outflow += report.outflow;
     field.time += dt;
@@ -241,8 +221,8 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
 }
 
 /// Flux (m²/s, positive = out of the grid) through an open edge next to cell `e`, whose
-/// inward neighbour is `e + inward` (ground extrapolated linearly outside, same thickness:
-/// the lava leaves at the ground slope, nothing comes in). Zero for walls.
+/// inward neighbour is `inner` (ground extrapolated linearly outside, same thickness: the
+/// lava leaves at the ground slope, nothing comes in). Zero for walls.
 #[allow(clippy::too_many_arguments)]
 #[inline]
 fn open_flux(
@@ -250,181 +230,108 @@ fn open_flux(
     dx: f64,
     yield_rg: f64,
     e: usize,
-    inward: isize,
-    n: usize,
+    inner: usize,
     g: &[f64],
     h: &[f64],
-    coef: &[f64],
+    mob: &[f64],
     m_max: &mut f64,
     c_max: &mut f64,
 ) -> f64 {
     if edge != Edge::Open {
         return 0.0;
     }
-    let inner = if n > 1 { (e as isize + inward) as usize } else { e };
     let ghost = 2.0 * g[e] - g[inner];
-    let (q, m, c) = face_flux(dx, yield_rg, (g[e], h[e], coef[e]), (ghost, h[e], coef[e]));
+    let (q, m, c) = face_flux(dx, yield_rg, (g[e], h[e], mob[e]), (ghost, h[e], mob[e]));
     *m_max = m_max.max(m);
     *c_max = c_max.max(c);
     q.max(0.0)
 }
 
-/// Applies the face volumes (m³) of one substep with the positivity limiter; returns the
-/// volume that left through open edges.
-fn transfer(field: &mut FlowField, dx: f64) -> f64 {
-    let (nx, ny) = (field.nx(), field.ny());
+/// Applies one substep's face fluxes (`vol` = face length × substep, so volume = q · vol) with
+/// the positivity limiter; returns the volume that left through open edges. Each face volume
+/// is `q · vol · lim[donor]`, computed by the same expression on both sides, so what one cell
+/// loses its neighbour gains exactly.
+fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
+    let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let nfx = nx + 1;
     let area = dx * dx;
     let s = &mut field.scratch;
     let (h, t) = (field.h.data(), field.temp.data());
-    // Outgoing volume per cell, then the limiter factor.
-    s.out.iter_mut().for_each(|v| *v = 0.0);
+    let (fx, fy) = (&s.fx, &s.fy);
+    // Limiter: a cell's outgoing volume never exceeds what it holds.
     for j in 0..ny {
-        for i in 0..=nx {
-            let q = s.fx[j * nfx + i];
-            if q > 0.0 {
-                if i > 0 {
-                    s.out[j * nx + i - 1] += q;
-                } else if field.edges.west == Edge::Periodic {
-                    s.out[j * nx + nx - 1] += q;
-                }
-            } else if q < 0.0 {
-                if i < nx {
-                    s.out[j * nx + i] -= q;
-                } else if field.edges.east == Edge::Periodic {
-                    s.out[j * nx] -= q;
-                }
-            }
-        }
-    }
-    // Periodic faces 0 and nx are the same face: count it once.
-    if field.edges.west == Edge::Periodic {
-        for j in 0..ny {
-            let q = s.fx[j * nfx];
-            if q > 0.0 {
-                s.out[j * nx + nx - 1] -= q;
-            } else {
-                s.out[j * nx] += q;
-            }
-        }
-    }
-    for j in 0..=ny {
-        for i in 0..nx {
-            let q = s.fy[j * nx + i];
-            if q > 0.0 && j > 0 {
-                s.out[(j - 1) * nx + i] += q;
-            } else if q < 0.0 && j < ny {
-                s.out[j * nx + i] -= q;
-            }
-        }
-    }
-    // (y: a periodic face's outflow is counted once, at face ny if positive, face 0 if not.)
-    for (f, &hk) in s.out.iter_mut().zip(h) {
-        let avail = hk * area;
-        *f = if *f > avail { avail / *f } else { 1.0 };
-    }
-    // Scale each face by its donor's factor (the same number seen from both sides).
-    let wrap_x = field.edges.west == Edge::Periodic;
-    let wrap_y = field.edges.south == Edge::Periodic;
-    let mut outflow = 0.0;
-    for j in 0..ny {
-        for i in 0..=nx {
-            let k = j * nfx + i;
-            let q = s.fx[k];
-            let donor = if q > 0.0 {
-                if i > 0 {
-                    Some(j * nx + i - 1)
-                } else if wrap_x {
-                    Some(j * nx + nx - 1)
-                } else {
-                    None
-                }
-            } else if i < nx {
-                Some(j * nx + i)
-            } else if wrap_x {
-                Some(j * nx)
-            } else {
-                None
-            };
-            let q = match donor {
-                Some(d) => q * s.out[d],
-                None => 0.0,
-            };
-            s.fx[k] = q;
-            if !wrap_x && ((i == 0 && q < 0.0) || (i == nx && q > 0.0)) {
-                outflow += q.abs();
-            }
-            s.acc_x[k] += q;
-        }
-    }
-    for j in 0..=ny {
         for i in 0..nx {
             let k = j * nx + i;
-            let q = s.fy[k];
-            let donor = if q > 0.0 {
-                if j > 0 {
-                    Some((j - 1) * nx + i)
-                } else if wrap_y {
-                    Some((ny - 1) * nx + i)
-                } else {
-                    None
-                }
-            } else if j < ny {
-                Some(j * nx + i)
-            } else if wrap_y {
-                Some(i)
-            } else {
-                None
-            };
-            let q = match donor {
-                Some(d) => q * s.out[d],
-                None => 0.0,
-            };
-            s.fy[k] = q;
-            if !wrap_y && ((j == 0 && q < 0.0) || (j == ny && q > 0.0)) {
-                outflow += q.abs();
-            }
-            s.acc_y[k] += q;
+            let (w, e) = (fx[j * nfx + i], fx[j * nfx + i + 1]);
+            let (so, no) = (fy[k], fy[k + nx]);
+            let out = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
+            let avail = h[k] * area;
+            s.lim[k] = if out > avail { avail / out } else { 1.0 };
         }
     }
+    let lim = &s.lim;
     // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature.
+    let (hn, tn) = (s.h_new.data_mut(), s.t_new.data_mut());
+    let (u, v) = field.vel.split_at_mut(1);
+    let (u, v) = (u[0].data_mut(), v[0].data_mut());
     let mut rounding = 0.0;
     for j in 0..ny {
         let jm = if j > 0 { j - 1 } else { ny - 1 };
         let jp = if j + 1 < ny { j + 1 } else { 0 };
         for i in 0..nx {
             let k = j * nx + i;
-            let im = if i > 0 { i - 1 } else { nx - 1 };
-            let ip = if i + 1 < nx { i + 1 } else { 0 };
-            // (face volume, +1 if positive means inflow, neighbour cell)
-            let faces = [
-                (s.fx[j * nfx + i], 1.0, j * nx + im),
-                (s.fx[j * nfx + i + 1], -1.0, j * nx + ip),
-                (s.fy[j * nx + i], 1.0, jm * nx + i),
-                (s.fy[(j + 1) * nx + i], -1.0, jp * nx + i),
-            ];
-            let (mut vin, mut ein, mut vout) = (0.0, 0.0, 0.0);
-            for (q, sign, nb) in faces {
-                let v = q * sign;
-                if v > 0.0 {
-                    vin += v;
-                    ein += v * t[nb];
-                } else {
-                    vout -= v;
-                }
-            }
-            let mut hn = h[k] + (vin - vout) / area;
-            if hn < 0.0 {
-                rounding -= hn * area;
-                hn = 0.0;
+            let im = j * nx + if i > 0 { i - 1 } else { nx - 1 };
+            let ip = j * nx + if i + 1 < nx { i + 1 } else { 0 };
+            let (sm, sp) = (jm * nx + i, jp * nx + i);
+            // Signed face volumes, +x / +y positive, each scaled by its donor's factor.
+            let qw = fx[j * nfx + i] * vol;
+            let qe = fx[j * nfx + i + 1] * vol;
+            let qs = fy[k] * vol;
+            let qn = fy[k + nx] * vol;
+            let vw = qw * if qw > 0.0 { lim[im] } else { lim[k] };
+            let ve = qe * if qe > 0.0 { lim[k] } else { lim[ip] };
+            let vs = qs * if qs > 0.0 { lim[sm] } else { lim[k] };
+            let vn = qn * if qn > 0.0 { lim[k] } else { lim[sp] };
+            let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
+            let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
+            let ein = vw.max(0.0) * t[im] - ve.min(0.0) * t[ip] + vs.max(0.0) * t[sm] - vn.min(0.0) * t[sp];
+            let mut hk = h[k] + (vin - vout) / area;
+            if hk < 0.0 {
+                rounding -= hk * area;
+                hk = 0.0;
             }
             let remain = (h[k] - vout / area).max(0.0);
-            s.t_new[k] = if hn > 0.0 { (remain * t[k] + ein / area) / hn } else { t[k] };
-            s.h_new[k] = hn;
+            tn[k] = if hk > 0.0 { (remain * t[k] + ein / area) / hk } else { t[k] };
+            hn[k] = hk;
+            if write_velocity {
+                let ok = hk > 0.0;
+                u[k] = if ok { 0.5 * (vw + ve) / (vol * hk) } else { 0.0 };
+                v[k] = if ok { 0.5 * (vs + vn) / (vol * hk) } else { 0.0 };
+            }
         }
     }
-    field.h.data_mut().copy_from_slice(&s.h_new);
-    field.temp.data_mut().copy_from_slice(&s.t_new);
+    // Volume through open edges (same expressions as above).
+    let mut outflow = 0.0;
+    let e = field.edges;
+    for j in 0..ny {
+        let (w, east) = (j * nx, j * nx + nx - 1);
+        if e.west == Edge::Open {
+            outflow -= (fx[j * nfx] * vol * lim[w]).min(0.0);
+        }
+        if e.east == Edge::Open {
+            outflow += (fx[j * nfx + nx] * vol * lim[east]).max(0.0);
+        }
+    }
+    for i in 0..nx {
+        if e.south == Edge::Open {
+            outflow -= (fy[i] * vol * lim[i]).min(0.0);
+        }
+        if e.north == Edge::Open {
+            outflow += (fy[ny * nx + i] * vol * lim[(ny - 1) * nx + i]).max(0.0);
+        }
+    }
+    std::mem::swap(&mut field.h, &mut s.h_new);
+    std::mem::swap(&mut field.temp, &mut s.t_new);
     field.budget.rounding += rounding;
     outflow
 }

@@ -39,7 +39,6 @@ pub struct SurfaceState {
     pub vsurf: [Vec<f64>; 2],
     /// Divergence of the surface velocity (1/s).
     pub divergence: Vec<f64>,
-    raw: [Vec<f64>; 2],
     old: [Vec<f64>; 2],
 }
 
@@ -54,7 +53,6 @@ impl SurfaceState {
             contact: z.clone(),
             vsurf: [z.clone(), z.clone()],
             divergence: z.clone(),
-            raw: [z.clone(), z.clone()],
             old: [z.clone(), z],
         }
     }
@@ -83,7 +81,8 @@ impl SurfaceState {
 /// 1. Surface velocity: `3/2 ×` the depth-averaged velocity, blended toward its 3×3 wet
 ///    neighbourhood mean with weight `min(1, h_crust/rigid_crust)`: a thick crust moves as a
 ///    block (thesis §5.4.1 "smoothing depending on the crust thickness"; the kernel is ours).
-/// 2. Crust and contact time are advected semi-Lagrangian along the surface velocity.
+/// 2. Crust and contact time are advected along the surface velocity (first-order upwind;
+///    the Courant number is clamped to 1).
 /// 3. Radiation: `dh_c/dt = 2κ/h_c`, integrated exactly as `h_c ← √(h_c² + 4κ dt)`, which is
 ///    eq (5.1) `h_c = 2√(κt)` for crust that is neither stretched nor compressed.
 /// 4. Divergence, eq (5.3) `(1/h_c) ∂h_c/∂t = −∇·v_surf`, integrated as
@@ -98,97 +97,91 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     }
     let h = field.h.data();
     let (u, v) = (field.vel[0].data(), field.vel[1].data());
-    let wet = |k: usize| h[k] >= params.min_thickness;
-    for k in 0..nx * ny {
-        s.raw[0][k] = SURFACE_TO_MEAN * u[k];
-        s.raw[1][k] = SURFACE_TO_MEAN * v[k];
-    }
-    // 1. smoothing by crust thickness.
+    let min_h = params.min_thickness;
+    let inv_rigid = 1.0 / params.rigid_crust;
+    // 1. surface velocity, smoothed by crust thickness.
     for j in 0..ny {
         for i in 0..nx {
             let k = j * nx + i;
-            if !wet(k) {
+            if h[k] < min_h {
                 s.vsurf[0][k] = 0.0;
                 s.vsurf[1][k] = 0.0;
                 continue;
             }
-            let w = (s.crust[k] / params.rigid_crust).min(1.0);
+            let (rx, ry) = (SURFACE_TO_MEAN * u[k], SURFACE_TO_MEAN * v[k]);
+            let w = (s.crust[k] * inv_rigid).min(1.0);
+            if w == 0.0 {
+                s.vsurf[0][k] = rx;
+                s.vsurf[1][k] = ry;
+                continue;
+            }
             let (mut mx, mut my, mut n) = (0.0, 0.0, 0.0);
             for nj in j.saturating_sub(1)..(j + 2).min(ny) {
                 for ni in i.saturating_sub(1)..(i + 2).min(nx) {
                     let q = nj * nx + ni;
-                    if wet(q) {
-                        mx += s.raw[0][q];
-                        my += s.raw[1][q];
+                    if h[q] >= min_h {
+                        mx += u[q];
+                        my += v[q];
                         n += 1.0;
                     }
                 }
             }
-            s.vsurf[0][k] = (1.0 - w) * s.raw[0][k] + w * mx / n;
-            s.vsurf[1][k] = (1.0 - w) * s.raw[1][k] + w * my / n;
+            let f = SURFACE_TO_MEAN / n;
+            s.vsurf[0][k] = (1.0 - w) * rx + w * mx * f;
+            s.vsurf[1][k] = (1.0 - w) * ry + w * my * f;
         }
     }
-    // Divergence by central differences; a dry neighbour counts as this cell's own value.
+    // 2–5. divergence, upwind advection, radiation, eq (5.3), thresholds; new values go to
+    // `old`, then the buffers swap.
+    let kappa = params.kappa();
+    let four_kdt = 4.0 * kappa * dt;
+    let inv_dx = 1.0 / dx;
+    let (vx, vy) = (&s.vsurf[0], &s.vsurf[1]);
+    let (crust, contact) = (&s.crust, &s.contact);
+    let [new_c, new_t] = &mut s.old;
     for j in 0..ny {
         for i in 0..nx {
             let k = j * nx + i;
-            if !wet(k) {
+            let hk = h[k];
+            let speed = vx[k].hypot(vy[k]);
+            if hk < min_h || (hk < NO_CRUST_BELOW && speed > MOVING_SPEED) {
+                new_c[k] = 0.0;
+                new_t[k] = 0.0;
                 s.divergence[k] = 0.0;
                 continue;
             }
-            let pick = |c: usize, comp: usize| if wet(c) { s.vsurf[comp][c] } else { s.vsurf[comp][k] };
             let (im, ip) = (if i > 0 { k - 1 } else { k }, if i + 1 < nx { k + 1 } else { k });
             let (jm, jp) = (if j > 0 { k - nx } else { k }, if j + 1 < ny { k + nx } else { k });
-            let ddx = (pick(ip, 0) - pick(im, 0)) / (dx * (ip - im).max(1) as f64);
-            let ddy = (pick(jp, 1) - pick(jm, 1)) / (dx * ((jp - jm) / nx).max(1) as f64);
-            s.divergence[k] = ddx + ddy;
-        }
-    }
-    // 2. semi-Lagrangian advection of crust and contact time.
-    s.old[0].copy_from_slice(&s.crust);
-    s.old[1].copy_from_slice(&s.contact);
-    for j in 0..ny {
-        for i in 0..nx {
-            let k = j * nx + i;
-            let (vx, vy) = (s.vsurf[0][k], s.vsurf[1][k]);
-            if vx == 0.0 && vy == 0.0 {
-                continue;
+            // Divergence by central differences; a dry neighbour counts as this cell.
+            let pick = |c: usize, a: &[f64]| if h[c] >= min_h { a[c] } else { a[k] };
+            let ddx = (pick(ip, vx) - pick(im, vx)) * inv_dx / ((ip - im).max(1) as f64);
+            let ddy = (pick(jp, vy) - pick(jm, vy)) * inv_dx / (((jp - jm) / nx).max(1) as f64);
+            let div = ddx + ddy;
+            s.divergence[k] = div;
+            // Upwind advection of crust and contact time (dry upwind cells carry none).
+            let cx = (vx[k] * dt * inv_dx).clamp(-1.0, 1.0);
+            let cy = (vy[k] * dt * inv_dx).clamp(-1.0, 1.0);
+            let (ux, uy) = (if cx > 0.0 { im } else { ip }, if cy > 0.0 { jm } else { jp });
+            let (ax, ay) = (cx.abs(), cy.abs());
+            let keep = (1.0 - ax - ay).max(0.0);
+            let norm = keep + ax + ay;
+            let c0 = (keep * crust[k] + ax * crust[ux] + ay * crust[uy]) / norm;
+            let t0 = (keep * contact[k] + ax * contact[ux] + ay * contact[uy]) / norm;
+            // Radiation (eq 5.1, incremental) and divergence (eq 5.3).
+            let mut t_c = t0 + dt;
+            let mut c = (c0 * c0 + four_kdt).sqrt();
+            if c > DIVERGENCE_MIN_CRUST && div != 0.0 {
+                c *= (-div * dt).exp();
+                if div > 0.0 && c < params.crust_reset_ratio * crust_from_contact(kappa, t_c) {
+                    t_c = contact_from_crust(kappa, c);
+                }
             }
-            let gx = (i as f64 - vx * dt / dx).clamp(0.0, (nx - 1) as f64);
-            let gy = (j as f64 - vy * dt / dx).clamp(0.0, (ny - 1) as f64);
-            s.crust[k] = bilinear(&s.old[0], nx, ny, gx, gy);
-            s.contact[k] = bilinear(&s.old[1], nx, ny, gx, gy);
+            new_c[k] = c.min(hk);
+            new_t[k] = t_c;
         }
     }
-    // 3–5. radiation, divergence, thresholds.
-    let kappa = params.kappa();
-    for (k, &hk) in h.iter().enumerate() {
-        let speed = s.vsurf[0][k].hypot(s.vsurf[1][k]);
-        if !wet(k) || (hk < NO_CRUST_BELOW && speed > MOVING_SPEED) {
-            s.crust[k] = 0.0;
-            s.contact[k] = 0.0;
-            continue;
-        }
-        s.contact[k] += dt;
-        let mut c = (s.crust[k] * s.crust[k] + 4.0 * kappa * dt).sqrt();
-        if c > DIVERGENCE_MIN_CRUST {
-            let div = s.divergence[k];
-            c *= (-div * dt).exp();
-            if div > 0.0 && c < params.crust_reset_ratio * crust_from_contact(kappa, s.contact[k]) {
-                s.contact[k] = contact_from_crust(kappa, c);
-            }
-        }
-        s.crust[k] = c.min(hk);
-    }
-}
-
-fn bilinear(a: &[f64], nx: usize, ny: usize, gx: f64, gy: f64) -> f64 {
-    let (i0, j0) = (gx.floor() as usize, gy.floor() as usize);
-    let (i1, j1) = ((i0 + 1).min(nx - 1), (j0 + 1).min(ny - 1));
-    let (tx, ty) = (gx - i0 as f64, gy - j0 as f64);
-    let r0 = a[j0 * nx + i0] * (1.0 - tx) + a[j0 * nx + i1] * tx;
-    let r1 = a[j1 * nx + i0] * (1.0 - tx) + a[j1 * nx + i1] * tx;
-    r0 * (1.0 - ty) + r1 * ty
+    std::mem::swap(&mut s.crust, &mut s.old[0]);
+    std::mem::swap(&mut s.contact, &mut s.old[1]);
 }
 
 #[cfg(test)]
