@@ -1,6 +1,7 @@
 //! Headless scenarios (thesis Fig 5.10 terrains, plus `incline` and `spread` with analytic
 //! references) and the summary the CLI writes as `summary.json`.
 
+pub mod maps;
 pub mod terrains;
 
 use std::str::FromStr;
@@ -89,7 +90,7 @@ impl ScenarioConfig {
         let (seconds, rate, slope) = match kind {
             ScenarioKind::Incline => (400.0, 0.05, 5.0),
             ScenarioKind::Spread => (300.0, 0.0, 0.0),
-            _ => (120.0, 0.5, 5.0),
+            _ => (240.0, 1.0, 3.0),
         };
         Self {
             kind,
