@@ -29,7 +29,12 @@ fn main() {
     eprintln!("wall time {:.2} s", start.elapsed().as_secs_f64());
     println!("{}", serde_json::to_string_pretty(&summary).expect("summary serialises"));
     if let Some(dir) = args.next() {
-        match volcano_lava::scenario::maps::write_maps(&scenario.field, &scenario.surface, dir.as_ref()) {
+        match volcano_lava::scenario::maps::write_maps(
+            &scenario.field,
+            &scenario.surface,
+            &scenario.folds,
+            dir.as_ref(),
+        ) {
             Ok(paths) => eprintln!("wrote {paths:?}"),
             Err(e) => eprintln!("{e}"),
         }

@@ -4,6 +4,7 @@
 pub mod budget;
 pub mod field;
 pub mod flow;
+pub mod folds;
 pub mod params;
 pub mod surface;
 pub mod thermal;

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use volcano_core::ConfigError;
 
 use crate::model::field::FlowField;
+use crate::model::folds::FoldSystem;
 use crate::model::surface::SurfaceState;
 
 /// Crust debug colour (thesis Figs 5.11–5.13): red below 8 mm, green 8 mm–2 cm, blue above
@@ -43,6 +44,7 @@ fn write_rgb(path: &Path, nx: usize, ny: usize, rgb: &[u8]) -> Result<(), Config
 pub fn write_maps(
     field: &FlowField,
     surface: &SurfaceState,
+    folds: &FoldSystem,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, ConfigError> {
     std::fs::create_dir_all(dir)
@@ -62,8 +64,22 @@ pub fn write_maps(
         cr.extend(if wet { crust_colour(surface.crust[k]) } else { bg });
         ve.extend(if wet { ramp(u[k].hypot(v[k]) / smax) } else { bg });
     }
+    let mut fo = cr.clone();
+    for q in &folds.particles {
+        if let Some((i, j)) = field.cell_at(bevy::math::Vec2::new(q.pos.x as f32, q.pos.y as f32)) {
+            let k = 3 * (j * nx + i);
+            let c = if q.roll_height > 1e-6 {
+                [255, 230, 0]
+            } else if q.roll_height < -1e-6 {
+                [0, 0, 0]
+            } else {
+                [255, 255, 255]
+            };
+            fo[k..k + 3].copy_from_slice(&c);
+        }
+    }
     let mut out = Vec::new();
-    for (name, data) in [("thickness.png", th), ("crust.png", cr), ("velocity.png", ve)] {
+    for (name, data) in [("thickness.png", th), ("crust.png", cr), ("velocity.png", ve), ("folds.png", fo)] {
         let p = dir.join(name);
         write_rgb(&p, nx, ny, &data)?;
         out.push(p);

@@ -12,6 +12,7 @@ use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
 
 use crate::model::field::{Edge, Edges, FlowField, Source};
+use crate::model::folds::{FoldParams, FoldSystem, update_folds};
 use crate::model::params::{GRAVITY, LavaParams, ViscosityModel};
 use crate::model::step;
 use crate::model::surface::{SurfaceState, update_surface};
@@ -26,6 +27,8 @@ pub enum ScenarioKind {
     Split,
     /// Fig 5.10 right: slope with a canyon.
     Canyon,
+    /// The same slope and source with nothing on it (reference for the three above).
+    Slope,
     /// Uniform slope fed by a line source across its full width, periodic sides.
     Incline,
     /// A fixed volume released as a cylinder on flat ground.
@@ -34,7 +37,7 @@ pub enum ScenarioKind {
 
 impl ScenarioKind {
     /// Names accepted by [`FromStr`].
-    pub const NAMES: [&'static str; 5] = ["obstacle", "split", "canyon", "incline", "spread"];
+    pub const NAMES: [&'static str; 6] = ["obstacle", "split", "canyon", "slope", "incline", "spread"];
 }
 
 impl FromStr for ScenarioKind {
@@ -44,6 +47,7 @@ impl FromStr for ScenarioKind {
             "obstacle" => Self::Obstacle,
             "split" => Self::Split,
             "canyon" => Self::Canyon,
+            "slope" => Self::Slope,
             "incline" => Self::Incline,
             "spread" => Self::Spread,
             _ => {
@@ -149,8 +153,7 @@ pub struct Analytic {
     pub front_radius_m: Option<f64>,
 }
 
-/// What a scenario run measured (`summary.json`). Layer-3 counts (folds, breakouts) are
-/// `null`: not implemented yet.
+/// What a scenario run measured (`summary.json`). `breakouts` is `null`: not implemented.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LavaSummary {
     /// Scenario name.
@@ -189,9 +192,9 @@ pub struct LavaSummary {
     pub max_crust_m: f64,
     /// Mean crust over the flow (m).
     pub mean_crust_m: f64,
-    /// Folds (layer 3, not implemented: `null`).
+    /// Folds (layer 3).
     pub folds: Option<u64>,
-    /// Fold particles (layer 3, not implemented: `null`).
+    /// Fold particles (layer 3).
     pub fold_particles: Option<u64>,
     /// Breakouts (not implemented: `null`).
     pub breakouts: Option<u64>,
@@ -210,6 +213,10 @@ pub struct Scenario {
     pub field: FlowField,
     /// Surface (crust) state.
     pub surface: SurfaceState,
+    /// Fold parameters.
+    pub fold_params: FoldParams,
+    /// Folds.
+    pub folds: FoldSystem,
     /// Sources.
     pub sources: Vec<Source>,
     /// World position of the source (or release centre).
@@ -253,6 +260,7 @@ impl Scenario {
                 let g = match kind {
                     ScenarioKind::Obstacle => terrains::long_obstacle(n, dx, config.slope_deg)?,
                     ScenarioKind::Split => terrains::small_obstacle(n, dx, config.slope_deg)?,
+                    ScenarioKind::Slope => terrains::incline(n, n, dx, config.slope_deg)?,
                     _ => terrains::canyon(n, dx, config.slope_deg)?,
                 };
                 let field = FlowField::new(g, open, params.air_temperature)?;
@@ -267,6 +275,8 @@ impl Scenario {
             params,
             field,
             surface,
+            fold_params: FoldParams::default(),
+            folds: FoldSystem::new(1),
             sources,
             origin,
             steps: 0,
@@ -281,6 +291,7 @@ impl Scenario {
         let dt = self.config.dt;
         let r = step(&mut self.field, &self.params, &self.sources, dt);
         update_surface(&mut self.surface, &self.field, &self.params, dt);
+        update_folds(&mut self.folds, &self.field, &self.surface, &self.params, &self.fold_params, dt);
         self.steps += 1;
         self.substeps += r.substeps as u64;
         self.max_substeps = self.max_substeps.max(r.substeps);
@@ -368,8 +379,8 @@ impl Scenario {
             thickness_m: thickness,
             max_crust_m: max_crust,
             mean_crust_m: mean_crust,
-            folds: None,
-            fold_particles: None,
+            folds: Some(self.folds.fold_count() as u64),
+            fold_particles: Some(self.folds.particle_count() as u64),
             breakouts: None,
             analytic,
         }
