@@ -5,10 +5,12 @@
 use std::hint::black_box;
 use std::time::Duration;
 
+use bevy::math::DVec2;
 use bevy::math::Vec2;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_core::Grid2;
 use volcano_lava::model::flow::advance_flow;
+use volcano_lava::model::folds::{Fold, FoldParams, FoldParticle, FoldSystem, update_folds};
 use volcano_lava::model::surface::{SurfaceState, update_surface};
 use volcano_lava::{Edges, FlowField, LavaParams};
 
@@ -48,6 +50,34 @@ fn benches(c: &mut Criterion) {
     let mut s = SurfaceState::new(N, N);
     g.bench_function("crust_update", |b| {
         b.iter(|| update_surface(black_box(&mut s), &f, &p, 0.02));
+    });
+    // 2,000 fold particles: 20 parallel folds of 100 particles, 0.3 m apart (ℓ = 0.35 m, so
+    // neighbouring folds collide), motion + springs + collisions (detection off).
+    s.crust.iter_mut().for_each(|c| *c = 0.02);
+    let mut folds = FoldSystem::new(1);
+    for f in 0..20u32 {
+        let mut chain = Vec::new();
+        for i in 0..100 {
+            folds.particles.push(FoldParticle {
+                pos: DVec2::new(103.0 + 0.5 * i as f64, 120.0 + 0.3 * f as f64),
+                spring_vel: DVec2::ZERO,
+                vel: DVec2::ZERO,
+                tangent: DVec2::X,
+                thickness: 0.35,
+                age: 0.0,
+                offset: -0.175,
+                roll_height: 0.0,
+                roll_angle: 0.0,
+                fold: f,
+                blocked_by: None,
+            });
+            chain.push(folds.particles.len() as u32 - 1);
+        }
+        folds.folds.push(Fold { chain, follower: None, first: f == 0 });
+    }
+    let fp = FoldParams { detect_every: u32::MAX, ..Default::default() };
+    g.bench_function("folds_2000_particles", |b| {
+        b.iter(|| black_box(update_folds(&mut folds, &f, &s, &p, &fp, 0.02)));
     });
     // Bandwidth reference: read ground, h, T and write h, T (the bytes a substep must touch).
     let n = N * N;

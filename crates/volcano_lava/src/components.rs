@@ -8,6 +8,7 @@ use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
 
 use crate::model::field::{Edges, FlowField, Placement};
+use crate::model::folds::{FoldParams, FoldSystem};
 use crate::model::params::LavaParams;
 use crate::model::surface::SurfaceState;
 use crate::model::thermal::surface_temperature;
@@ -24,6 +25,10 @@ pub struct LavaField {
     pub edges: Edges,
     /// Lava parameters.
     pub params: LavaParams,
+    /// Fold parameters (layer 3).
+    pub folds: FoldParams,
+    /// Seed of the fold layer's random choices (rolling over/under).
+    pub seed: u64,
 }
 
 impl LavaField {
@@ -32,7 +37,8 @@ impl LavaField {
         placement.validate()?;
         params.validate()?;
         let open = crate::model::field::Edge::Open;
-        Ok(Self { placement, edges: Edges { west: open, east: open, south: open, north: open }, params })
+        let edges = Edges { west: open, east: open, south: open, north: open };
+        Ok(Self { placement, edges, params, folds: FoldParams::default(), seed: 0 })
     }
 }
 
@@ -43,6 +49,8 @@ pub struct LavaState {
     pub flow: FlowField,
     /// Surface layer.
     pub surface: SurfaceState,
+    /// Fold layer (particles in one `Vec`; render them instanced).
+    pub folds: FoldSystem,
     /// Substeps of the last step.
     pub last_substeps: u32,
     /// Whether the last step hit the substep cap (the flow was slowed to stay stable).

@@ -7,6 +7,7 @@ use volcano_core::prelude::*;
 
 use crate::components::*;
 use crate::model::field::{FlowField, Source};
+use crate::model::folds::{FoldSystem, update_folds};
 use crate::model::surface::{SurfaceState, update_surface};
 
 /// Schedule of the lava domain.
@@ -59,7 +60,13 @@ fn build_fields(
             Ok(flow) => {
                 let surface = SurfaceState::new(flow.nx(), flow.ny());
                 e.insert((
-                    LavaState { flow, surface, last_substeps: 0, mobility_capped: false },
+                    LavaState {
+                        flow,
+                        surface,
+                        folds: FoldSystem::new(field.seed),
+                        last_substeps: 0,
+                        mobility_capped: false,
+                    },
                     LavaFieldStatus::Ok,
                     key,
                 ));
@@ -106,13 +113,14 @@ fn step_fields(
     }
     // Call the model.
     for (entity, field, mut state) in &mut fields {
-        if field.params.validate().is_err() {
+        if field.params.validate().is_err() || field.folds.validate().is_err() {
             continue; // an invalid live edit freezes the field until fixed
         }
         let srcs: Vec<Source> = feeds.iter().filter(|(f, _)| *f == entity).map(|(_, s)| s.clone()).collect();
         let state = &mut *state;
         let report = crate::model::step(&mut state.flow, &field.params, &srcs, dt);
         update_surface(&mut state.surface, &state.flow, &field.params, dt);
+        update_folds(&mut state.folds, &state.flow, &state.surface, &field.params, &field.folds, dt);
         state.last_substeps = report.substeps;
         state.mobility_capped = report.mobility_capped;
     }
