@@ -87,17 +87,17 @@ pub fn bingham_factor(h: f64, plug: f64) -> f64 {
 /// carries no lava: the limiter of [`transfer`] scales it to zero.
 #[inline]
 fn face_flux(
-    dx: f64,
+    inv_dx: f64,
     yield_over_rho_g: f64,
     (ga, ha, ma): (f64, f64, f64),
     (gb, hb, mb): (f64, f64, f64),
 ) -> (f64, f64, f64) {
-    let grad = ((gb + hb) - (ga + ha)) / dx;
+    let grad = ((gb + hb) - (ga + ha)) * inv_dx;
     let hd = if grad < 0.0 { ha } else { hb };
     if hd <= 0.0 || grad == 0.0 {
         return (0.0, 0.0, 0.0);
     }
-    let mut m = 0.5 * (ma + mb) * slope_factor((gb - ga) / dx);
+    let mut m = 0.5 * (ma + mb) * slope_factor((gb - ga) * inv_dx);
     if yield_over_rho_g > 0.0 {
         m *= bingham_factor(hd, yield_over_rho_g / grad.abs());
     }
@@ -136,6 +136,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         }
         // 2. face fluxes and stability limits.
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+        let inv_dx = 1.0 / dx;
         let nfx = nx + 1;
         let mob = &s.mob;
         let cell = |k: usize| (g[k], h[k], mob[k]);
@@ -143,23 +144,43 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             let row = j * nx;
             let frow = &mut s.fx[j * nfx..(j + 1) * nfx];
             for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
-                let (q, m, c) = face_flux(dx, yield_rg, cell(row + i - 1), cell(row + i));
+                let (q, m, c) = face_flux(inv_dx, yield_rg, cell(row + i - 1), cell(row + i));
                 *f = q;
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
             }
             let (w, e) = (row, row + nx - 1);
             let (q0, qn) = if field.edges.west == Edge::Periodic {
-                let (q, m, c) = face_flux(dx, yield_rg, cell(e), cell(w));
+                let (q, m, c) = face_flux(inv_dx, yield_rg, cell(e), cell(w));
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
                 (q, q)
             } else {
-                let qw =
-                    open_flux(field.edges.west, dx, yield_rg, w, w + 1, g, h, mob, &mut m_max, &mut c_max);
+                let qw = open_flux(
+                    field.edges.west,
+                    inv_dx,
+                    yield_rg,
+                    w,
+                    w + 1,
+                    g,
+                    h,
+                    mob,
+                    &mut m_max,
+                    &mut c_max,
+                );
                 let inner = if nx > 1 { e - 1 } else { e };
-                let qe =
-                    open_flux(field.edges.east, dx, yield_rg, e, inner, g, h, mob, &mut m_max, &mut c_max);
+                let qe = open_flux(
+                    field.edges.east,
+                    inv_dx,
+                    yield_rg,
+                    e,
+                    inner,
+                    g,
+                    h,
+                    mob,
+                    &mut m_max,
+                    &mut c_max,
+                );
                 (-qw, qe)
             };
             frow[0] = q0;
@@ -168,7 +189,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         for j in 1..ny {
             let frow = &mut s.fy[j * nx..(j + 1) * nx];
             for (i, f) in frow.iter_mut().enumerate() {
-                let (q, m, c) = face_flux(dx, yield_rg, cell((j - 1) * nx + i), cell(j * nx + i));
+                let (q, m, c) = face_flux(inv_dx, yield_rg, cell((j - 1) * nx + i), cell(j * nx + i));
                 *f = q;
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
@@ -177,16 +198,16 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         for i in 0..nx {
             let (so, no) = (i, (ny - 1) * nx + i);
             let (q0, qn) = if field.edges.south == Edge::Periodic {
-                let (q, m, c) = face_flux(dx, yield_rg, cell(no), cell(so));
+                let (q, m, c) = face_flux(inv_dx, yield_rg, cell(no), cell(so));
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
                 (q, q)
             } else {
                 let (si, ni) = if ny > 1 { (so + nx, no - nx) } else { (so, no) };
                 let qs =
-                    open_flux(field.edges.south, dx, yield_rg, so, si, g, h, mob, &mut m_max, &mut c_max);
+                    open_flux(field.edges.south, inv_dx, yield_rg, so, si, g, h, mob, &mut m_max, &mut c_max);
                 let qn =
-                    open_flux(field.edges.north, dx, yield_rg, no, ni, g, h, mob, &mut m_max, &mut c_max);
+                    open_flux(field.edges.north, inv_dx, yield_rg, no, ni, g, h, mob, &mut m_max, &mut c_max);
                 (-qs, qn)
             };
             s.fy[i] = q0;
@@ -227,7 +248,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
 #[inline]
 fn open_flux(
     edge: Edge,
-    dx: f64,
+    inv_dx: f64,
     yield_rg: f64,
     e: usize,
     inner: usize,
@@ -241,7 +262,7 @@ fn open_flux(
         return 0.0;
     }
     let ghost = 2.0 * g[e] - g[inner];
-    let (q, m, c) = face_flux(dx, yield_rg, (g[e], h[e], mob[e]), (ghost, h[e], mob[e]));
+    let (q, m, c) = face_flux(inv_dx, yield_rg, (g[e], h[e], mob[e]), (ghost, h[e], mob[e]));
     *m_max = m_max.max(m);
     *c_max = c_max.max(c);
     q.max(0.0)
@@ -255,6 +276,7 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let nfx = nx + 1;
     let area = dx * dx;
+    let inv_area = 1.0 / area;
     let s = &mut field.scratch;
     let (h, t) = (field.h.data(), field.temp.data());
     let (fx, fy) = (&s.fx, &s.fy);
@@ -295,13 +317,13 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
             let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
             let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
             let ein = vw.max(0.0) * t[im] - ve.min(0.0) * t[ip] + vs.max(0.0) * t[sm] - vn.min(0.0) * t[sp];
-            let mut hk = h[k] + (vin - vout) / area;
+            let mut hk = h[k] + (vin - vout) * inv_area;
             if hk < 0.0 {
                 rounding -= hk * area;
                 hk = 0.0;
             }
-            let remain = (h[k] - vout / area).max(0.0);
-            tn[k] = if hk > 0.0 { (remain * t[k] + ein / area) / hk } else { t[k] };
+            let remain = (h[k] - vout * inv_area).max(0.0);
+            tn[k] = if hk > 0.0 { (remain * t[k] + ein * inv_area) / hk } else { t[k] };
             hn[k] = hk;
             if write_velocity {
                 let ok = hk > 0.0;
