@@ -7,6 +7,7 @@ use bevy::reflect::Reflect;
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
 
+use crate::model::breakout::BreakoutState;
 use crate::model::field::{Edges, FlowField, Placement};
 use crate::model::folds::{FoldParams, FoldSystem};
 use crate::model::params::LavaParams;
@@ -51,6 +52,8 @@ pub struct LavaState {
     pub surface: SurfaceState,
     /// Fold layer (particles in one `Vec`; render them instanced).
     pub folds: FoldSystem,
+    /// Crust drag and breakouts.
+    pub breakouts: BreakoutState,
     /// Substeps of the last step.
     pub last_substeps: u32,
     /// Whether the last step hit the substep cap (the flow was slowed to stay stable).
@@ -150,8 +153,7 @@ pub struct LavaReached {
     pub field: Entity,
 }
 
-/// The crust tore and a new lobe started (registered for games; breakouts are not simulated
-/// yet, so it is never written).
+/// The crust tore over inflated lava and a new lobe starts there.
 #[derive(Message, Debug, Clone, PartialEq)]
 pub struct LavaBreakout {
     /// The field.

@@ -6,6 +6,7 @@ use bevy::prelude::*;
 use volcano_core::prelude::*;
 
 use crate::components::*;
+use crate::model::breakout::{BreakoutState, update_breakouts};
 use crate::model::field::{FlowField, Source};
 use crate::model::folds::{FoldSystem, update_folds};
 use crate::model::surface::{SurfaceState, update_surface};
@@ -61,9 +62,10 @@ fn build_fields(
                 let surface = SurfaceState::new(flow.nx(), flow.ny());
                 e.insert((
                     LavaState {
-                        flow,
                         surface,
                         folds: FoldSystem::new(field.seed),
+                        breakouts: BreakoutState::new(flow.nx() * flow.ny()),
+                        flow,
                         last_substeps: 0,
                         mobility_capped: false,
                     },
@@ -83,6 +85,7 @@ fn step_fields(
     mut commands: Commands,
     mut fields: Query<(Entity, &LavaField, &mut LavaState)>,
     sources: Query<(Entity, &LavaSource, Option<&LavaSourceStatus>)>,
+    mut breakouts: MessageWriter<LavaBreakout>,
 ) {
     let dt = time.delta_secs_f64();
     // Gather: each source feeds the first field whose grid contains it.
@@ -120,6 +123,14 @@ fn step_fields(
         let state = &mut *state;
         let report = crate::model::step(&mut state.flow, &field.params, &srcs, dt);
         update_surface(&mut state.surface, &state.flow, &field.params, dt);
+        for tear in update_breakouts(&mut state.breakouts, &mut state.flow, &mut state.surface, &field.params)
+        {
+            let ground = state.flow.ground().data()[tear.cell] + state.flow.thickness().data()[tear.cell];
+            breakouts.write(LavaBreakout {
+                field: entity,
+                position: Vec3::new(tear.position.x, ground as f32, tear.position.y),
+            });
+        }
         update_folds(&mut state.folds, &state.flow, &state.surface, &field.params, &field.folds, dt);
         state.last_substeps = report.substeps;
         state.mobility_capped = report.mobility_capped;

@@ -35,3 +35,25 @@ fn folds_pile_up_in_front_of_the_obstacle_not_on_a_free_slope() {
     assert_eq!(fsum.folds, Some(0));
     assert!(sum.max_crust_m > fsum.max_crust_m);
 }
+
+#[test]
+fn breakouts_tear_the_crust_where_lava_inflates_in_front_of_the_obstacle() {
+    let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);
+    c.seconds = 240.0;
+    let mut s = Scenario::build(&c).unwrap();
+    s.fold_params.enabled = false;
+    s.run_until(c.seconds);
+    let with_drag = s.summary();
+    let mut s2 = Scenario::build(&c).unwrap();
+    s2.fold_params.enabled = false;
+    s2.params.crust_drag = false;
+    s2.run_until(c.seconds);
+    let without = s2.summary();
+    println!(
+        "breakouts with crust drag: {:?} (front {:.1} m), without: {:?} (front {:.1} m)",
+        with_drag.breakouts, with_drag.front_distance_m, without.breakouts, without.front_distance_m
+    );
+    assert!(with_drag.breakouts.unwrap() > 0);
+    assert_eq!(without.breakouts, Some(0));
+    assert!(with_drag.volume_error_rel < 1e-12 && without.volume_error_rel < 1e-12);
+}

@@ -140,6 +140,8 @@ pub struct FlowField {
     /// Simulated time (s).
     pub(crate) time: f64,
     pub(crate) scratch: super::flow::Scratch,
+    /// Per-cell mobility multiplier from the crust (1 = free surface, 1/4 = rigid crust).
+    pub(crate) mob_factor: Vec<f64>,
 }
 
 impl FlowField {
@@ -168,6 +170,7 @@ impl FlowField {
             budget: VolumeBudget::default(),
             time: 0.0,
             scratch,
+            mob_factor: vec![1.0; nx * ny],
         })
     }
 
@@ -231,6 +234,10 @@ impl FlowField {
     /// Depth-averaged velocity components (m/s) over the last step.
     pub fn velocity(&self) -> (&Grid2<f64>, &Grid2<f64>) {
         (&self.vel[0], &self.vel[1])
+    }
+    /// Per-cell mobility multiplier set by the crust (1 where free, 1/4 under rigid crust).
+    pub fn mobility_factor(&self) -> &[f64] {
+        &self.mob_factor
     }
     /// Edge behaviour.
     pub fn edges(&self) -> Edges {

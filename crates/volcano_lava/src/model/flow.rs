@@ -120,17 +120,17 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         report.substeps += 1;
         let s = &mut field.scratch;
         let (g, h, t) = (field.ground.data(), field.h.data(), field.temp.data());
-        // 1. cell mobility ρ g h³/(3η(T)).
+        // 1. cell mobility ρ g h³/(3η(T)), times the crust factor.
         match params.viscosity {
             ViscosityModel::Constant(eta) => {
                 let c = rg3 / eta;
-                for (m, &hk) in s.mob.iter_mut().zip(h) {
-                    *m = c * hk * hk * hk;
+                for ((m, &hk), &fk) in s.mob.iter_mut().zip(h).zip(&field.mob_factor) {
+                    *m = c * fk * hk * hk * hk;
                 }
             }
             model => {
-                for ((m, &hk), &tk) in s.mob.iter_mut().zip(h).zip(t) {
-                    *m = if hk > 0.0 { rg3 / model.viscosity(tk) * hk * hk * hk } else { 0.0 };
+                for (((m, &hk), &tk), &fk) in s.mob.iter_mut().zip(h).zip(t).zip(&field.mob_factor) {
+                    *m = if hk > 0.0 { rg3 * fk / model.viscosity(tk) * hk * hk * hk } else { 0.0 };
                 }
             }
         }

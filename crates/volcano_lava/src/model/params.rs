@@ -102,6 +102,15 @@ pub struct LavaParams {
     /// Stretching that leaves the crust thinner than this fraction of `2√(κt)` resets the
     /// contact time to `t = h²/(4κ)` (thesis §5.4.2).
     pub crust_reset_ratio: f64,
+    /// Whether the crust slows the flow under it: a rigid crust turns the free-surface
+    /// (half-Poiseuille) flux `h³/3` into the no-slip-top flux `h³/12` (factor 1/4, blended by
+    /// `crust/rigid_crust`). Off for isothermal analytic runs.
+    pub crust_drag: bool,
+    /// Inflation (m) of lava under a rigid crust, since the crust became rigid, that tears the
+    /// crust (a breakout).
+    pub breakout_inflation: f64,
+    /// Radius (m) of the crust torn by a breakout.
+    pub breakout_radius: f64,
 }
 
 impl Default for LavaParams {
@@ -125,14 +134,22 @@ impl Default for LavaParams {
             crust_viscosity_ratio: 1e3,
             rigid_crust: 0.03,
             crust_reset_ratio: 0.9,
+            crust_drag: true,
+            breakout_inflation: 0.3,
+            breakout_radius: 1.0,
         }
     }
 }
 
 impl LavaParams {
-    /// Isothermal lava of constant viscosity `eta` (Pa·s), no cooling.
+    /// Isothermal lava of constant viscosity `eta` (Pa·s), no cooling, no crust drag.
     pub fn isothermal(eta: f64) -> Result<Self, ConfigError> {
-        let p = Self { viscosity: ViscosityModel::Constant(eta), cooling: false, ..Self::default() };
+        let p = Self {
+            viscosity: ViscosityModel::Constant(eta),
+            cooling: false,
+            crust_drag: false,
+            ..Self::default()
+        };
         p.validate()?;
         Ok(p)
     }
@@ -167,6 +184,8 @@ impl LavaParams {
         in_range("crust_viscosity_ratio", self.crust_viscosity_ratio, 1.0, 1e12)?;
         positive("rigid_crust", self.rigid_crust)?;
         in_range("crust_reset_ratio", self.crust_reset_ratio, 0.0, 1.0)?;
+        in_range("breakout_inflation", self.breakout_inflation, 0.01, 100.0)?;
+        in_range("breakout_radius", self.breakout_radius, 0.0, 100.0)?;
         Ok(())
     }
 

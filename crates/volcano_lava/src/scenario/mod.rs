@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
 
+use crate::model::breakout::{BreakoutState, update_breakouts};
 use crate::model::field::{Edge, Edges, FlowField, Source};
 use crate::model::folds::{FoldParams, FoldSystem, update_folds};
 use crate::model::params::{GRAVITY, LavaParams, ViscosityModel};
@@ -153,7 +154,7 @@ pub struct Analytic {
     pub front_radius_m: Option<f64>,
 }
 
-/// What a scenario run measured (`summary.json`). `breakouts` is `null`: not implemented.
+/// What a scenario run measured (`summary.json`).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LavaSummary {
     /// Scenario name.
@@ -196,7 +197,7 @@ pub struct LavaSummary {
     pub folds: Option<u64>,
     /// Fold particles (layer 3).
     pub fold_particles: Option<u64>,
-    /// Breakouts (not implemented: `null`).
+    /// Crust tears (breakouts) so far.
     pub breakouts: Option<u64>,
     /// Analytic references where they exist.
     pub analytic: Analytic,
@@ -217,6 +218,8 @@ pub struct Scenario {
     pub fold_params: FoldParams,
     /// Folds.
     pub folds: FoldSystem,
+    /// Crust drag and breakouts.
+    pub breakouts: BreakoutState,
     /// Sources.
     pub sources: Vec<Source>,
     /// World position of the source (or release centre).
@@ -270,6 +273,7 @@ impl Scenario {
             }
         };
         let surface = SurfaceState::new(field.nx(), field.ny());
+        let n_cells = field.nx() * field.ny();
         Ok(Self {
             config: config.clone(),
             params,
@@ -277,6 +281,7 @@ impl Scenario {
             surface,
             fold_params: FoldParams::default(),
             folds: FoldSystem::new(1),
+            breakouts: BreakoutState::new(n_cells),
             sources,
             origin,
             steps: 0,
@@ -291,6 +296,7 @@ impl Scenario {
         let dt = self.config.dt;
         let r = step(&mut self.field, &self.params, &self.sources, dt);
         update_surface(&mut self.surface, &self.field, &self.params, dt);
+        update_breakouts(&mut self.breakouts, &mut self.field, &mut self.surface, &self.params);
         update_folds(&mut self.folds, &self.field, &self.surface, &self.params, &self.fold_params, dt);
         self.steps += 1;
         self.substeps += r.substeps as u64;
@@ -381,7 +387,7 @@ impl Scenario {
             mean_crust_m: mean_crust,
             folds: Some(self.folds.fold_count() as u64),
             fold_particles: Some(self.folds.particle_count() as u64),
-            breakouts: None,
+            breakouts: Some(self.breakouts.count),
             analytic,
         }
     }
