@@ -30,6 +30,8 @@ impl Plugin for LavaPlugin {
             .register_type::<LavaSourceStatus>()
             .register_type::<LavaZone>()
             .add_systems(LavaStep, (build_fields, step_fields, check_zones).chain());
+        #[cfg(debug_assertions)]
+        app.add_systems(PostUpdate, assert_finite_fields);
     }
 }
 
@@ -175,4 +177,17 @@ fn covered(flow: &FlowField, centre: Vec2, radius: f32, min_h: f64) -> bool {
         }
     }
     false
+}
+
+/// Debug builds: every lava state stays finite with non-negative thickness.
+#[cfg(debug_assertions)]
+fn assert_finite_fields(fields: Query<(Entity, &LavaState)>) {
+    for (entity, state) in &fields {
+        assert!(state.flow.is_valid(), "lava field {entity} has a non-finite or negative value");
+        assert!(
+            state.surface.crust.iter().all(|c| c.is_finite() && *c >= 0.0),
+            "lava field {entity} has a bad crust value"
+        );
+        assert!(state.folds.particles.iter().all(|p| p.pos.is_finite()), "lava field {entity}: fold NaN");
+    }
 }

@@ -115,3 +115,30 @@ fn bad_sources_and_fields_are_rejected_not_panicking() {
     // The edited source emitted only while valid: 5 steps.
     assert!((state.flow.budget().sources - 1.0 * 0.02 * 5.0).abs() < 1e-12, "{:?}", state.flow.budget());
 }
+
+fn run_with_frame(ms: u64, ticks: u64) -> (Vec<f64>, usize) {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(ms)));
+    let mut terrain = Terrain::flat(65, 1.0, 10.0).unwrap();
+    for (k, h) in terrain.heights_mut().data_mut().iter_mut().enumerate() {
+        *h = 10.0 - (k / 65) as f32 * 0.05;
+    }
+    app.world_mut().spawn(terrain);
+    let placement = Placement { centre: Vec2::ZERO, nx: 48, ny: 48, cell: 0.5 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.5, 1473.0).unwrap());
+    run(&mut app, ticks);
+    let state = app.world().get::<LavaState>(field).unwrap();
+    (state.flow.thickness().data().to_vec(), state.folds.particle_count())
+}
+
+#[test]
+fn same_ticks_same_state_at_any_frame_rate() {
+    let ticks = 50 * 20;
+    let (a, fa) = run_with_frame(20, ticks);
+    let (b, fb) = run_with_frame(100, ticks);
+    assert!(a.iter().any(|&h| h > 0.1));
+    assert_eq!(a, b, "bitwise identical thickness after {ticks} ticks");
+    assert_eq!(fa, fb);
+}
