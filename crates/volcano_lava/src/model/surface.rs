@@ -143,8 +143,8 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
         for i in 0..nx {
             let k = j * nx + i;
             let hk = h[k];
-            let speed = vx[k].hypot(vy[k]);
-            if hk < min_h || (hk < NO_CRUST_BELOW && speed > MOVING_SPEED) {
+            let speed2 = vx[k] * vx[k] + vy[k] * vy[k];
+            if hk < min_h || (hk < NO_CRUST_BELOW && speed2 > MOVING_SPEED * MOVING_SPEED) {
                 new_c[k] = 0.0;
                 new_t[k] = 0.0;
                 s.divergence[k] = 0.0;
