@@ -35,9 +35,11 @@ impl Plugin for LavaPlugin {
     }
 }
 
-/// Grid placement a [`LavaState`] was built for; a change rebuilds the field (its lava is lost).
+/// Grid placement a [`LavaState`] was built for, and whether a terrain existed then; a
+/// change (or a terrain appearing under a field built on flat ground) rebuilds the field
+/// (its lava is lost).
 #[derive(Component, Debug, Clone, PartialEq)]
-struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges);
+struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges, bool);
 
 fn build_fields(
     mut commands: Commands,
@@ -46,7 +48,7 @@ fn build_fields(
 ) {
     for (entity, field, built) in &fields {
         // Built (or rejected) for this placement already: nothing to do.
-        let key = BuiltFor(field.placement, field.edges);
+        let key = BuiltFor(field.placement, field.edges, !terrains.is_empty());
         if built == Some(&key) {
             continue;
         }

@@ -220,6 +220,12 @@ mod tests {
     }
 
     #[test]
+    fn shipped_preset_is_the_default() {
+        let p = LavaParams::from_ron(include_str!("../../presets/pahoehoe.ron")).unwrap();
+        assert_eq!(p, LavaParams::default());
+    }
+
+    #[test]
     fn bad_params_rejected() {
         let p = LavaParams { emissivity: f64::NAN, ..Default::default() };
         assert!(p.validate().is_err());
