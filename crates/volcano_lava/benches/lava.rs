@@ -1,0 +1,99 @@
+//! Criterion benches (issue 5 performance targets): one flow substep on a 512² grid
+//! (η = 1000 Pa·s, lava up to 1 m thick), one crust update, and a same-run memory sweep over
+//! the same field bytes (the bandwidth limit) for the ratio.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use bevy::math::DVec2;
+use bevy::math::Vec2;
+use criterion::{Criterion, criterion_group, criterion_main};
+use volcano_core::Grid2;
+use volcano_lava::model::flow::advance_flow;
+use volcano_lava::model::folds::{Fold, FoldParams, FoldParticle, FoldSystem, update_folds};
+use volcano_lava::model::surface::{SurfaceState, update_surface};
+use volcano_lava::{Edges, FlowField, LavaParams};
+
+const N: usize = 512;
+
+/// A 512² × 0.5 m gentle slope with bumps, covered by a lava mound up to 1 m thick.
+fn field() -> FlowField {
+    let mut g = Grid2::new(N, N, 0.5, Vec2::ZERO, 0.0).unwrap();
+    for j in 0..N {
+        for i in 0..N {
+            let (x, y) = (i as f64 * 0.5, j as f64 * 0.5);
+            g.set(i, j, -0.05 * y + 0.3 * (0.2 * x).sin() * (0.15 * y).cos());
+        }
+    }
+    let mut f = FlowField::new(g, Edges::default(), 300.0).unwrap();
+    // Mound: 1 m at the centre, radius 110 m → most of the grid is wet.
+    let c = Vec2::new(128.0, 128.0);
+    let r: f64 = 110.0;
+    let vol = std::f64::consts::PI * r * r * 0.5; // paraboloid volume with h0 = 1 m
+    f.place_volume(c, r, vol, 1400.0).unwrap();
+    f
+}
+
+fn benches(c: &mut Criterion) {
+    let mut g = c.benchmark_group("lava_512");
+    g.sample_size(20).measurement_time(Duration::from_secs(6)).warm_up_time(Duration::from_secs(2));
+    let one_substep = LavaParams { max_substeps: 1, ..LavaParams::isothermal(1000.0).unwrap() };
+    let mut f = field();
+    g.bench_function("flow_substep", |b| {
+        b.iter(|| black_box(advance_flow(&mut f, &one_substep, 0.002)));
+    });
+    let p = LavaParams::isothermal(1000.0).unwrap();
+    let mut f = field();
+    for _ in 0..20 {
+        advance_flow(&mut f, &p, 0.02);
+    }
+    let mut s = SurfaceState::new(N, N);
+    g.bench_function("crust_update", |b| {
+        b.iter(|| update_surface(black_box(&mut s), &f, &p, 0.02));
+    });
+    // 2,000 fold particles: 20 parallel folds of 100 particles, 0.3 m apart (ℓ = 0.35 m, so
+    // neighbouring folds collide), motion + springs + collisions (detection off).
+    s.crust.iter_mut().for_each(|c| *c = 0.02);
+    let mut folds = FoldSystem::new(1);
+    for f in 0..20u32 {
+        let mut chain = Vec::new();
+        for i in 0..100 {
+            folds.particles.push(FoldParticle {
+                pos: DVec2::new(103.0 + 0.5 * i as f64, 120.0 + 0.3 * f as f64),
+                spring_vel: DVec2::ZERO,
+                vel: DVec2::ZERO,
+                tangent: DVec2::X,
+                thickness: 0.35,
+                age: 0.0,
+                offset: -0.175,
+                roll_height: 0.0,
+                roll_angle: 0.0,
+                fold: f,
+                blocked_by: None,
+            });
+            chain.push(folds.particles.len() as u32 - 1);
+        }
+        folds.folds.push(Fold { chain, follower: None, first: f == 0 });
+    }
+    let fp = FoldParams { detect_every: u32::MAX, ..Default::default() };
+    g.bench_function("folds_2000_particles", |b| {
+        b.iter(|| black_box(update_folds(&mut folds, &f, &s, &p, &fp, 0.02)));
+    });
+    // Bandwidth reference: read ground, h, T and write h, T (the bytes a substep must touch).
+    let n = N * N;
+    let (ground, mut h, mut t) = (vec![0.1f64; n], vec![0.5f64; n], vec![1400.0f64; n]);
+    g.bench_function("memory_sweep_same_bytes", |b| {
+        b.iter(|| {
+            for k in 0..n {
+                let v = h[k] + 1e-12 * ground[k];
+                h[k] = v;
+                t[k] = t[k] * 0.999_999 + 1e-9 * v;
+            }
+            black_box((&h, &t));
+        });
+    });
+    g.finish();
+}
+
+criterion_group!(lava, benches);
+criterion_main!(lava);

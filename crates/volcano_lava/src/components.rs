@@ -1,0 +1,222 @@
+//! Components, messages and the gameplay query of the lava plugin.
+
+use bevy::ecs::entity::Entity;
+use bevy::ecs::system::SystemParam;
+use bevy::prelude::{Component, Message, Query, Vec2, Vec3};
+use bevy::reflect::Reflect;
+use volcano_core::ConfigError;
+use volcano_core::error::{in_range, positive};
+
+use crate::model::breakout::BreakoutState;
+use crate::model::field::{Edges, FlowField, Placement};
+use crate::model::folds::{FoldParams, FoldSystem};
+use crate::model::params::LavaParams;
+use crate::model::surface::SurfaceState;
+use crate::model::thermal::surface_temperature;
+
+/// A lava field: a local grid placed on the terrain (world x, z), with its edges and lava
+/// parameters. The plugin builds its [`LavaState`] at the next lava step by resampling the
+/// first `Terrain` entity (flat ground at altitude 0 if there is none). Parameter edits apply
+/// live (re-validated each step; an invalid edit freezes the field until fixed).
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub struct LavaField {
+    /// Grid placement and size.
+    pub placement: Placement,
+    /// Edge behaviour.
+    pub edges: Edges,
+    /// Lava parameters.
+    pub params: LavaParams,
+    /// Fold parameters (layer 3).
+    pub folds: FoldParams,
+    /// Seed of the fold layer's random choices (rolling over/under).
+    pub seed: u64,
+}
+
+impl LavaField {
+    /// A validated field with open edges (lava leaving the grid is booked as outflow).
+    pub fn new(placement: Placement, params: LavaParams) -> Result<Self, ConfigError> {
+        placement.validate()?;
+        params.validate()?;
+        let open = crate::model::field::Edge::Open;
+        let edges = Edges { west: open, east: open, south: open, north: open };
+        Ok(Self { placement, edges, params, folds: FoldParams::default(), seed: 0 })
+    }
+}
+
+/// Built state of a [`LavaField`] (flow and surface layers). Not reflected (large grids).
+#[derive(Component, Debug, Clone)]
+pub struct LavaState {
+    /// Flow layer.
+    pub flow: FlowField,
+    /// Surface layer.
+    pub surface: SurfaceState,
+    /// Fold layer (particles in one `Vec`; render them instanced).
+    pub folds: FoldSystem,
+    /// Crust drag and breakouts.
+    pub breakouts: BreakoutState,
+    /// Substeps of the last step.
+    pub last_substeps: u32,
+    /// Whether the last step hit the substep cap (the flow was slowed to stay stable).
+    pub mobility_capped: bool,
+}
+
+/// Why a field could not be built, or `Ok`.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub enum LavaFieldStatus {
+    /// Built and stepping.
+    Ok,
+    /// Rejected (placement off the terrain, invalid parameters); the message says why.
+    Rejected(String),
+}
+
+/// A lava source at a world position emitting `rate` m³/s at `temperature` K over the
+/// cells within `radius` m. Add and remove it live. A source whose position is on no lava
+/// field, or whose values were edited out of range, gets [`LavaSourceStatus::Rejected`].
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub struct LavaSource {
+    /// World position (only x and z are used).
+    pub position: Vec3,
+    /// Volume rate (m³/s), ≥ 0.
+    pub rate: f64,
+    /// Lava temperature (K), in [300, 2500].
+    pub temperature: f64,
+    /// Radius of the fed disc (m), ≥ 0 (0 = one cell).
+    pub radius: f64,
+}
+
+impl LavaSource {
+    /// A validated source over one cell.
+    pub fn new(position: Vec3, rate: f64, temperature: f64) -> Result<Self, ConfigError> {
+        let s = Self { position, rate, temperature, radius: 0.0 };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Checks the values (position is checked against the fields at each step).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        if !self.position.is_finite() {
+            return Err(ConfigError::InvalidParameter {
+                name: "source position",
+                value: f64::NAN,
+                reason: "must be finite".into(),
+            });
+        }
+        in_range("source rate", self.rate, 0.0, 1e6)?;
+        in_range("source temperature", self.temperature, 300.0, 2500.0)?;
+        in_range("source radius", self.radius, 0.0, 1e4)?;
+        Ok(())
+    }
+}
+
+/// Whether a [`LavaSource`] is feeding a field.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub enum LavaSourceStatus {
+    /// Feeding this field entity.
+    Active(Entity),
+    /// Not feeding; why.
+    Rejected(String),
+}
+
+/// A marked area: when lava (thicker than the field's `min_thickness`) covers any cell within
+/// `radius` of `centre` (world x, z), a [`LavaReached`] message is written once.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+pub struct LavaZone {
+    /// World (x, z) centre.
+    pub centre: Vec2,
+    /// Radius (m), > 0.
+    pub radius: f32,
+    /// Set when the lava arrived.
+    pub reached: bool,
+}
+
+impl LavaZone {
+    /// A validated zone.
+    pub fn new(centre: Vec2, radius: f32) -> Result<Self, ConfigError> {
+        positive("zone radius", radius as f64)?;
+        if !centre.is_finite() {
+            return Err(ConfigError::InvalidParameter {
+                name: "zone centre",
+                value: f64::NAN,
+                reason: "must be finite".into(),
+            });
+        }
+        Ok(Self { centre, radius, reached: false })
+    }
+}
+
+/// Lava reached a [`LavaZone`].
+#[derive(Message, Debug, Clone, PartialEq)]
+pub struct LavaReached {
+    /// The zone entity.
+    pub entity: Entity,
+    /// The field whose lava reached it.
+    pub field: Entity,
+}
+
+/// The crust tore over inflated lava and a new lobe starts there.
+#[derive(Message, Debug, Clone, PartialEq)]
+pub struct LavaBreakout {
+    /// The field.
+    pub field: Entity,
+    /// World position of the tear.
+    pub position: Vec3,
+}
+
+/// What the lava is like at a point, for gameplay.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct LavaProbe {
+    /// The field sampled.
+    pub field: Entity,
+    /// Liquid lava thickness (m).
+    pub thickness: f64,
+    /// Depth-averaged lava temperature (K).
+    pub temperature: f64,
+    /// Temperature at the top of the crust (K), see
+    /// [`surface_temperature`](crate::model::thermal::surface_temperature).
+    pub surface_temperature: f64,
+    /// Crust thickness (m).
+    pub crust: f64,
+    /// Surface speed (m/s).
+    pub surface_speed: f64,
+    /// Lava surface altitude (ground + frozen lava + liquid lava, m).
+    pub surface_altitude: f64,
+}
+
+impl LavaState {
+    /// Lava at world (x, z), or `None` off this field.
+    pub fn probe(&self, field: Entity, params: &LavaParams, xz: Vec2) -> Option<LavaProbe> {
+        let (i, j) = self.flow.cell_at(xz)?;
+        let p = self.flow.probe(xz)?;
+        let k = j * self.flow.nx() + i;
+        let crust = self.surface.crust[k];
+        Some(LavaProbe {
+            field,
+            thickness: p.thickness,
+            temperature: p.temperature,
+            surface_temperature: if p.thickness > 0.0 {
+                surface_temperature(params, p.temperature, crust)
+            } else {
+                params.air_temperature
+            },
+            crust,
+            surface_speed: self.surface.vsurf[0][k].hypot(self.surface.vsurf[1][k]),
+            surface_altitude: p.ground + p.thickness,
+        })
+    }
+}
+
+/// Gameplay query: "lava thickness / surface temperature / crust at this point".
+#[derive(SystemParam)]
+pub struct LavaQuery<'w, 's> {
+    fields: Query<'w, 's, (Entity, &'static LavaField, &'static LavaState)>,
+}
+
+impl LavaQuery<'_, '_> {
+    /// The lava at world (x, z) on the first field covering it (the thickest if several do).
+    pub fn at(&self, xz: Vec2) -> Option<LavaProbe> {
+        self.fields
+            .iter()
+            .filter_map(|(e, f, s)| s.probe(e, &f.params, xz))
+            .max_by(|a, b| a.thickness.total_cmp(&b.thickness))
+    }
+}

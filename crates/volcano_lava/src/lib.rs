@@ -1,0 +1,26 @@
+//! Pahoehoe lava (thesis chapter 5, DESIGN.md §5): a mass-exact viscous heightfield flow with
+//! temperature-dependent viscosity, cooling and solidification (layer 1), the crust (layer 2)
+//! and folds of oriented particles that collide and roll (layer 3).
+//!
+//! [`model`] holds plain data and functions, testable without ECS; [`plugin`] runs them in
+//! the `LavaStep` domain: spawn a [`LavaField`] (a grid placed on the terrain) and
+//! [`LavaSource`]s; query the lava with [`LavaQuery`]; [`scenario`] runs headless test cases.
+
+pub mod components;
+pub mod model;
+pub mod plugin;
+
+pub use model::budget::VolumeBudget;
+pub use model::field::{CellProbe, Edge, Edges, FlowField, Placement, Source};
+pub use model::params::{LavaParams, ViscosityModel};
+pub use model::{StepReport, step};
+pub mod scenario;
+
+pub use components::{
+    LavaBreakout, LavaField, LavaFieldStatus, LavaProbe, LavaQuery, LavaReached, LavaSource,
+    LavaSourceStatus, LavaState, LavaZone,
+};
+pub use model::folds::{FoldParams, FoldSystem};
+pub use model::surface::SurfaceState;
+pub use plugin::{LavaPlugin, LavaStep};
+pub use scenario::{LavaSummary, Scenario, ScenarioConfig, ScenarioKind, run_scenario};

@@ -1,0 +1,239 @@
+//! Physical and numerical parameters of the lava model, with thesis Table 5.2 defaults and
+//! validation where they enter (constructor, RON).
+
+use bevy::reflect::Reflect;
+use serde::{Deserialize, Serialize};
+use volcano_core::ConfigError;
+use volcano_core::error::{finite, in_range, positive};
+
+/// Gravity (m/s²).
+pub const GRAVITY: f64 = 9.81;
+/// Stefan–Boltzmann constant (W/m²/K⁴), thesis Table 5.2.
+pub const STEFAN_BOLTZMANN: f64 = 5.67e-8;
+
+/// How the lava viscosity depends on temperature.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
+pub enum ViscosityModel {
+    /// Isothermal: the same viscosity (Pa·s) everywhere.
+    Constant(f64),
+    /// Vogel–Fulcher–Tammann: `log10 η = a + b / (T − c)` (η in Pa·s, T in K). FLOWGO's basalt
+    /// template is `a = −4.52, b = 5558, c = 582.9`.
+    Vft {
+        /// Additive constant.
+        a: f64,
+        /// Numerator (K).
+        b: f64,
+        /// Vogel temperature (K).
+        c: f64,
+    },
+}
+
+impl ViscosityModel {
+    /// FLOWGO basalt: `log10 η = −4.52 + 5558/(T − 582.9)`.
+    pub const FLOWGO_BASALT: Self = Self::Vft { a: -4.52, b: 5558.0, c: 582.9 };
+
+    /// Viscosity (Pa·s) at temperature `t` (K). For VFT the temperature is floored at `c + 1 K`
+    /// and the result clamped to [1e-2, 1e12] so the flux never sees NaN or infinity.
+    pub fn viscosity(&self, t: f64) -> f64 {
+        match *self {
+            Self::Constant(eta) => eta,
+            Self::Vft { a, b, c } => {
+                let dt = (t - c).max(1.0);
+                10f64.powf(a + b / dt).clamp(1e-2, 1e12)
+            }
+        }
+    }
+
+    fn validate(&self) -> Result<(), ConfigError> {
+        match *self {
+            Self::Constant(eta) => {
+                in_range("viscosity", eta, 1e-2, 1e12)?;
+            }
+            Self::Vft { a, b, c } => {
+                finite("vft_a", a)?;
+                positive("vft_b", b)?;
+                in_range("vft_c", c, 0.0, 2000.0)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Parameters of the flow, thermal and surface layers. Defaults are thesis Table 5.2 plus
+/// DESIGN.md §5 choices (emissivity 0.95, convection 60 W/m²/K, FLOWGO viscosity).
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(default)]
+pub struct LavaParams {
+    /// Lava density ρ (kg/m³).
+    pub density: f64,
+    /// Thermal conductivity k (W/m/K).
+    pub conductivity: f64,
+    /// Heat capacity C_p (J/kg/K).
+    pub heat_capacity: f64,
+    /// Air temperature T_e (K).
+    pub air_temperature: f64,
+    /// Liquidus, the default eruption temperature T_l (K).
+    pub liquidus: f64,
+    /// Solidus T_s (K): lava colder than this freezes into the ground.
+    pub solidus: f64,
+    /// Surface emissivity for radiative cooling.
+    pub emissivity: f64,
+    /// Convective heat-transfer coefficient at the top (W/m²/K).
+    pub convection: f64,
+    /// Heat-transfer coefficient through the base into the ground (W/m²/K); 0 = insulated.
+    pub base_heat_transfer: f64,
+    /// Whether the lava cools at all (false = isothermal run).
+    pub cooling: bool,
+    /// Viscosity law.
+    pub viscosity: ViscosityModel,
+    /// Bingham yield strength (Pa); 0 = Newtonian.
+    pub yield_strength: f64,
+    /// Fraction of the explicit stability limit used for each substep, in (0, 1].
+    pub cfl: f64,
+    /// Most substeps per step; beyond this the mobility is capped (the flow is slowed, never
+    /// made unstable) and the step report says so.
+    pub max_substeps: u32,
+    /// Lava thinner than this (m) is treated as absent by the surface layer and the summaries.
+    pub min_thickness: f64,
+    /// Ratio of crust to lava viscosity in eq (5.4) (used by folds).
+    pub crust_viscosity_ratio: f64,
+    /// Crust thickness (m) at which the surface velocity is fully smoothed (crust rigid).
+    pub rigid_crust: f64,
+    /// Stretching that leaves the crust thinner than this fraction of `2√(κt)` resets the
+    /// contact time to `t = h²/(4κ)` (thesis §5.4.2).
+    pub crust_reset_ratio: f64,
+    /// Whether the crust slows the flow under it: a rigid crust turns the free-surface
+    /// (half-Poiseuille) flux `h³/3` into the no-slip-top flux `h³/12` (factor 1/4, blended by
+    /// `crust/rigid_crust`). Off for isothermal analytic runs.
+    pub crust_drag: bool,
+    /// Inflation (m) of lava under a rigid crust, since the crust became rigid, that tears the
+    /// crust (a breakout).
+    pub breakout_inflation: f64,
+    /// Radius (m) of the crust torn by a breakout.
+    pub breakout_radius: f64,
+}
+
+impl Default for LavaParams {
+    fn default() -> Self {
+        Self {
+            density: 2700.0,
+            conductivity: 2.7,
+            heat_capacity: 1000.0,
+            air_temperature: 300.0,
+            liquidus: 1473.0,
+            solidus: 1273.0,
+            emissivity: 0.95,
+            convection: 60.0,
+            base_heat_transfer: 0.0,
+            cooling: true,
+            viscosity: ViscosityModel::FLOWGO_BASALT,
+            yield_strength: 0.0,
+            cfl: 0.8,
+            max_substeps: 256,
+            min_thickness: 1e-3,
+            crust_viscosity_ratio: 1e3,
+            rigid_crust: 0.03,
+            crust_reset_ratio: 0.9,
+            crust_drag: true,
+            breakout_inflation: 0.3,
+            breakout_radius: 1.0,
+        }
+    }
+}
+
+impl LavaParams {
+    /// Isothermal lava of constant viscosity `eta` (Pa·s), no cooling, no crust drag.
+    pub fn isothermal(eta: f64) -> Result<Self, ConfigError> {
+        let p = Self {
+            viscosity: ViscosityModel::Constant(eta),
+            cooling: false,
+            crust_drag: false,
+            ..Self::default()
+        };
+        p.validate()?;
+        Ok(p)
+    }
+
+    /// Thermal diffusivity κ = k/(ρ C_p) (m²/s); 1e-6 with Table 5.2 values.
+    pub fn kappa(&self) -> f64 {
+        self.conductivity / (self.density * self.heat_capacity)
+    }
+
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        in_range("density", self.density, 100.0, 10_000.0)?;
+        positive("conductivity", self.conductivity)?;
+        positive("heat_capacity", self.heat_capacity)?;
+        in_range("air_temperature", self.air_temperature, 150.0, 1000.0)?;
+        in_range("liquidus", self.liquidus, 500.0, 2500.0)?;
+        in_range("solidus", self.solidus, self.air_temperature, self.liquidus)?;
+        in_range("emissivity", self.emissivity, 0.0, 1.0)?;
+        in_range("convection", self.convection, 0.0, 1e4)?;
+        in_range("base_heat_transfer", self.base_heat_transfer, 0.0, 1e4)?;
+        self.viscosity.validate()?;
+        in_range("yield_strength", self.yield_strength, 0.0, 1e6)?;
+        if !(self.cfl > 0.0 && self.cfl <= 1.0) {
+            return Err(ConfigError::InvalidParameter {
+                name: "cfl",
+                value: self.cfl,
+                reason: "must be in (0, 1]".into(),
+            });
+        }
+        in_range("max_substeps", self.max_substeps as f64, 1.0, 100_000.0)?;
+        in_range("min_thickness", self.min_thickness, 1e-9, 0.1)?;
+        in_range("crust_viscosity_ratio", self.crust_viscosity_ratio, 1.0, 1e12)?;
+        positive("rigid_crust", self.rigid_crust)?;
+        in_range("crust_reset_ratio", self.crust_reset_ratio, 0.0, 1.0)?;
+        in_range("breakout_inflation", self.breakout_inflation, 0.01, 100.0)?;
+        in_range("breakout_radius", self.breakout_radius, 0.0, 100.0)?;
+        Ok(())
+    }
+
+    /// Parses and validates a RON text (missing fields take their defaults).
+    pub fn from_ron(text: &str) -> Result<Self, ConfigError> {
+        let p: Self = ron::from_str(text)?;
+        p.validate()?;
+        Ok(p)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn flowgo_viscosity_at_liquidus_and_solidus() {
+        let v = ViscosityModel::FLOWGO_BASALT;
+        // log10 η(1473) = −4.52 + 5558/890.1 = 1.7243 → 53.0 Pa·s
+        assert!((v.viscosity(1473.0) - 10f64.powf(-4.52 + 5558.0 / 890.1)).abs() < 1e-9);
+        assert!((v.viscosity(1473.0) - 53.0).abs() < 0.5);
+        // colder is stiffer
+        assert!(v.viscosity(1273.0) > 10.0 * v.viscosity(1473.0));
+        assert!(v.viscosity(f64::NAN).is_finite());
+    }
+
+    #[test]
+    fn defaults_valid_and_kappa_is_table_5_2() {
+        let p = LavaParams::default();
+        p.validate().unwrap();
+        assert!((p.kappa() - 1e-6).abs() < 1e-15);
+    }
+
+    #[test]
+    fn shipped_preset_is_the_default() {
+        let p = LavaParams::from_ron(include_str!("../../presets/pahoehoe.ron")).unwrap();
+        assert_eq!(p, LavaParams::default());
+    }
+
+    #[test]
+    fn bad_params_rejected() {
+        let p = LavaParams { emissivity: f64::NAN, ..Default::default() };
+        assert!(p.validate().is_err());
+        assert!(LavaParams::isothermal(-5.0).is_err());
+        let p = LavaParams { solidus: 1600.0, ..Default::default() };
+        assert!(p.validate().is_err());
+        assert!(LavaParams::from_ron("(cfl: 2.0)").is_err());
+        let p = LavaParams::from_ron("(yield_strength: 100.0, viscosity: Constant(1000.0))").unwrap();
+        assert_eq!(p.viscosity, ViscosityModel::Constant(1000.0));
+    }
+}

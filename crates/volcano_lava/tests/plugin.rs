@@ -1,0 +1,144 @@
+//! The lava plugin on a headless app: live sources, budget, zones, queries, rejections.
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano_core::prelude::*;
+use volcano_lava::*;
+
+#[derive(Resource, Default, Debug)]
+struct Reached(Vec<(Entity, u64)>);
+
+fn record(mut seen: ResMut<Reached>, tick: Res<SimTick>, mut r: MessageReader<LavaReached>) {
+    for m in r.read() {
+        seen.0.push((m.entity, tick.0));
+    }
+}
+
+#[derive(Resource, Default, Debug)]
+struct Probe(Option<LavaProbe>);
+
+fn probe(mut out: ResMut<Probe>, lava: LavaQuery) {
+    out.0 = lava.at(Vec2::new(0.0, 0.0));
+}
+
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
+        .init_resource::<Reached>()
+        .init_resource::<Probe>()
+        .add_systems(FixedUpdate, (record, probe).in_set(SimSystems::End));
+    // 64 m of terrain tilted 2° toward +z.
+    let mut terrain = Terrain::flat(65, 1.0, 10.0).unwrap();
+    let origin = terrain.heights().origin();
+    for (k, h) in terrain.heights_mut().data_mut().iter_mut().enumerate() {
+        let z = origin.y + (k / 65) as f32;
+        *h = 10.0 - z * 2f32.to_radians().tan();
+    }
+    app.world_mut().spawn(terrain);
+    app
+}
+
+fn run(app: &mut App, ticks: u64) {
+    let target = app.world().resource::<SimTick>().0 + ticks;
+    while app.world().resource::<SimTick>().0 < target {
+        app.update();
+    }
+}
+
+#[test]
+fn live_source_fills_the_field_and_reaches_a_zone() {
+    let mut app = app();
+    let placement = Placement { centre: Vec2::ZERO, nx: 64, ny: 64, cell: 0.5 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    let source =
+        app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.3, 1473.0).unwrap()).id();
+    let zone = app.world_mut().spawn(LavaZone::new(Vec2::new(0.0, 2.0), 1.0).unwrap()).id();
+    let far = app.world_mut().spawn(LavaZone::new(Vec2::new(-14.0, -14.0), 0.5).unwrap()).id();
+    run(&mut app, 50 * 40);
+    let w = app.world();
+    assert_eq!(w.get::<LavaSourceStatus>(source), Some(&LavaSourceStatus::Active(field)));
+    assert_eq!(w.get::<LavaFieldStatus>(field), Some(&LavaFieldStatus::Ok));
+    let state = w.get::<LavaState>(field).unwrap();
+    let b = *state.flow.budget();
+    // 40 s at 0.3 m³/s (the field is built and stepped in the first tick).
+    assert!((b.sources - 0.3 * 40.0).abs() < 1e-9, "{b:?}");
+    assert!(b.error_rel(state.flow.lava_volume()) < 1e-12);
+    // The lava runs downhill (+z) and reaches the zone 8 m below the vent, not the far one.
+    let reached = &w.resource::<Reached>().0;
+    assert!(reached.iter().any(|(e, _)| *e == zone), "{reached:?}");
+    assert!(!reached.iter().any(|(e, _)| *e == far));
+    assert!(w.get::<LavaZone>(zone).unwrap().reached);
+    let p = w.resource::<Probe>().0.expect("the query sees the lava at (0, 0)");
+    assert!(p.thickness > 0.01 && p.temperature > 1273.0, "{p:?}");
+    assert!(p.surface_temperature <= p.temperature);
+    assert!(p.surface_altitude > 10.0 - 0.1 && p.surface_altitude < 11.5, "{p:?}");
+    // Removing the source stops the supply; the budget still closes.
+    let before = b.sources;
+    app.world_mut().entity_mut(source).despawn();
+    run(&mut app, 50);
+    let state = app.world().get::<LavaState>(field).unwrap();
+    assert_eq!(state.flow.budget().sources, before);
+    assert!(state.flow.budget().error_rel(state.flow.lava_volume()) < 1e-12);
+}
+
+#[test]
+fn bad_sources_and_fields_are_rejected_not_panicking() {
+    assert!(LavaSource::new(Vec3::ZERO, -1.0, 1400.0).is_err());
+    assert!(LavaSource::new(Vec3::ZERO, 1.0, f64::NAN).is_err());
+    assert!(LavaSource::new(Vec3::new(f32::NAN, 0.0, 0.0), 1.0, 1400.0).is_err());
+    let bad_params = LavaParams { emissivity: 2.0, ..Default::default() };
+    assert!(LavaField::new(Placement::default(), bad_params).is_err());
+
+    let mut app = app();
+    let placement = Placement { centre: Vec2::ZERO, nx: 32, ny: 32, cell: 0.5 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    // Off the field (and off the terrain).
+    let off = app.world_mut().spawn(LavaSource::new(Vec3::new(100.0, 0.0, 0.0), 1.0, 1400.0).unwrap()).id();
+    // A valid source later edited to a negative rate (as a panel or reflection could do).
+    let edited = app.world_mut().spawn(LavaSource::new(Vec3::ZERO, 1.0, 1400.0).unwrap()).id();
+    // A field placed off the terrain.
+    let outside = Placement { centre: Vec2::new(500.0, 0.0), ..placement };
+    let bad_field = app.world_mut().spawn(LavaField::new(outside, LavaParams::default()).unwrap()).id();
+    run(&mut app, 5);
+    app.world_mut().get_mut::<LavaSource>(edited).unwrap().rate = -3.0;
+    run(&mut app, 5);
+    let w = app.world();
+    assert!(matches!(w.get::<LavaSourceStatus>(off), Some(LavaSourceStatus::Rejected(_))));
+    assert!(matches!(w.get::<LavaSourceStatus>(edited), Some(LavaSourceStatus::Rejected(_))));
+    assert!(matches!(w.get::<LavaFieldStatus>(bad_field), Some(LavaFieldStatus::Rejected(_))));
+    assert!(w.get::<LavaState>(bad_field).is_none());
+    let state = w.get::<LavaState>(field).unwrap();
+    assert!(state.flow.is_valid());
+    // The edited source emitted only while valid: 5 steps.
+    assert!((state.flow.budget().sources - 1.0 * 0.02 * 5.0).abs() < 1e-12, "{:?}", state.flow.budget());
+}
+
+fn run_with_frame(ms: u64, ticks: u64) -> (Vec<f64>, usize) {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(ms)));
+    let mut terrain = Terrain::flat(65, 1.0, 10.0).unwrap();
+    for (k, h) in terrain.heights_mut().data_mut().iter_mut().enumerate() {
+        *h = 10.0 - (k / 65) as f32 * 0.05;
+    }
+    app.world_mut().spawn(terrain);
+    let placement = Placement { centre: Vec2::ZERO, nx: 48, ny: 48, cell: 0.5 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.5, 1473.0).unwrap());
+    run(&mut app, ticks);
+    let state = app.world().get::<LavaState>(field).unwrap();
+    (state.flow.thickness().data().to_vec(), state.folds.particle_count())
+}
+
+#[test]
+fn same_ticks_same_state_at_any_frame_rate() {
+    let ticks = 50 * 20;
+    let (a, fa) = run_with_frame(20, ticks);
+    let (b, fb) = run_with_frame(100, ticks);
+    assert!(a.iter().any(|&h| h > 0.1));
+    assert_eq!(a, b, "bitwise identical thickness after {ticks} ticks");
+    assert_eq!(fa, fb);
+}
