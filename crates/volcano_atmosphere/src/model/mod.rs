@@ -3,8 +3,15 @@
 //! where one applies.
 
 pub mod advection;
+pub mod clouds;
 pub mod fields;
 pub mod multigrid;
 pub mod params;
 pub mod projection;
+pub mod run;
+pub mod scenario;
+pub mod step;
+pub mod sun;
+pub mod terrain;
 pub mod thermo;
+pub mod vertical;

@@ -22,18 +22,24 @@ pub enum AdvectionScheme {
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AtmosphereParams {
-    /// λ, convective coupling (m/s per J/kg): `C_i = λ · ΔMSE` (eq. 4.5). 5e-4.
+    /// λ, convective coupling (m/s per J/kg): `C_i = λ · ΔMSE` (eq. 4.5). 1e-4: 0.1 m/s per
+    /// kelvin of anomaly. The later implementation's 5e-4 (DESIGN.md §4) drove ±5 m/s
+    /// oscillations on our grids (0.5 m/s per K, layer-wide bands of that speed need
+    /// 15 m/s inflow through the continuity target).
     pub convective_coupling: f64,
-    /// ν, non-convective coupling (m/s per unit of dynamic pressure): `U_i = ν ΔP`. 1e-3.
+    /// ν, non-convective coupling (dimensionless): the share of the terrain-following
+    /// vertical wind `V·∇Θ_T` that crosses a layer's top (see `vertical` for why this replaces
+    /// the printed `ν ΔP`). 1.
     pub uplift_coupling: f64,
-    /// μ, pressure coupling of eq. (4.7). 5e-3.
-    pub pressure_coupling: f64,
+    /// H_o, height (m) over which the orographic vertical wind fades above the ground. 1500.
+    pub orographic_decay_m: f64,
     /// γ, evaporation/condensation rate (1/s). 0.1.
     pub phase_rate: f64,
-    /// Rate (1/s) at which the lowest free layer's vapour relaxes toward saturation at the
-    /// ground temperature while ground water lasts (eq. 4.12's transfer). 2e-4.
-    pub ground_evaporation_rate: f64,
-    /// Bound on |D| (m/s), a safety limit on the vertical velocity. 5.
+    /// Bulk water transfer velocity (m/s) between the ground and its lowest free layer,
+    /// eq. (4.12)'s transfer: evaporation = v (H'(T_ground) − H) in g/(m²·s) while ground
+    /// water lasts (dew when negative). 4e-3 (C_E ≈ 1.3e-3 at ≈ 3 m/s wind).
+    pub ground_evaporation_velocity: f64,
+    /// Bound on |D| (m/s), a safety limit on the vertical velocity. 2.
     pub max_vertical_speed: f64,
     /// Condensed water above this content (g/m³) precipitates. 1.0.
     pub precipitation_threshold: f64,
@@ -70,12 +76,12 @@ pub struct AtmosphereParams {
 impl Default for AtmosphereParams {
     fn default() -> Self {
         Self {
-            convective_coupling: 5e-4,
-            uplift_coupling: 1e-3,
-            pressure_coupling: 5e-3,
+            convective_coupling: 1e-4,
+            uplift_coupling: 1.0,
+            orographic_decay_m: 1500.0,
             phase_rate: 0.1,
-            ground_evaporation_rate: 2e-4,
-            max_vertical_speed: 5.0,
+            ground_evaporation_velocity: 4e-3,
+            max_vertical_speed: 2.0,
             precipitation_threshold: 1.0,
             precipitation_rate: 1e-3,
             solar_constant: 1000.0,
@@ -96,10 +102,10 @@ impl AtmosphereParams {
     /// Checks every coefficient; the error names the field and its accepted range.
     pub fn validate(&self) -> Result<(), ConfigError> {
         in_range("convective_coupling", self.convective_coupling, 0.0, 1.0)?;
-        in_range("uplift_coupling", self.uplift_coupling, 0.0, 1.0)?;
-        in_range("pressure_coupling", self.pressure_coupling, 0.0, 1e3)?;
+        in_range("uplift_coupling", self.uplift_coupling, 0.0, 10.0)?;
+        in_range("orographic_decay_m", self.orographic_decay_m, 1.0, 1e5)?;
         in_range("phase_rate", self.phase_rate, 0.0, 100.0)?;
-        in_range("ground_evaporation_rate", self.ground_evaporation_rate, 0.0, 1.0)?;
+        in_range("ground_evaporation_velocity", self.ground_evaporation_velocity, 0.0, 1.0)?;
         in_range("max_vertical_speed", self.max_vertical_speed, 0.0, 100.0)?;
         in_range("precipitation_threshold", self.precipitation_threshold, 0.0, 100.0)?;
         in_range("precipitation_rate", self.precipitation_rate, 0.0, 1.0)?;
