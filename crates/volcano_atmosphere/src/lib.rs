@@ -7,3 +7,11 @@
 //! [`model`] holds plain data and functions; [`plugin`] is the thin Bevy layer.
 
 pub mod model;
+pub mod plugin;
+
+pub use model::fields::{AtmosphereState, GridSpec, LayerFields};
+pub use model::params::AtmosphereParams;
+pub use model::run::{AtmosphereSummary, run_scenario};
+pub use model::scenario::Scenario;
+pub use model::step::{StepReport, Workspace, step};
+pub use plugin::{AirLayer, Atmosphere, AtmospherePlugin, WeatherStep, WeatherStepped, spawn_atmosphere};

@@ -190,6 +190,34 @@ impl LayerFields {
     }
 }
 
+impl Default for LayerFields {
+    /// An empty 1 × 1 layer (a placeholder while fields are moved in and out of components).
+    fn default() -> Self {
+        let g = |v| Grid2::new(1, 1, 1.0, Vec2::ZERO, v).expect("1×1 grid is valid");
+        let g64 = |v| Grid2::new(1, 1, 1.0, Vec2::ZERO, v).expect("1×1 grid is valid");
+        Self {
+            altitude: 0.0,
+            bottom: 0.0,
+            thickness: 1.0,
+            pi: layer_pressure(0.0),
+            t: g(288.0),
+            t_ref: 288.0,
+            h: g64(0.0),
+            w: g64(0.0),
+            ash: g64(0.0),
+            u: g(0.0),
+            v: g(0.0),
+            p: g64(0.0),
+            c: g(0.0),
+            up: g(0.0),
+            d: g(0.0),
+            sigma: g(1.0),
+            wind: Vec2::ZERO,
+            wind_relaxation_s: None,
+        }
+    }
+}
+
 /// Surface properties of a land cover (DESIGN.md §4 numbers; snow and vegetation heat
 /// capacity are estimates: ice 2100, wet soil ≈ soil).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -240,6 +268,21 @@ pub struct Ground {
     pub sunlit_for: Option<[f32; 3]>,
     /// ℓ(p): index of the lowest layer with air at each cell (`u8::MAX` if none).
     pub lowest: Vec<u8>,
+}
+
+impl Default for Ground {
+    /// An empty 1 × 1 ground (a placeholder while moved in and out of components).
+    fn default() -> Self {
+        Self {
+            height: Grid2::new(1, 1, 1.0, Vec2::ZERO, 0.0).expect("1×1 grid is valid"),
+            cover: Grid2::new(1, 1, 1.0, Vec2::ZERO, LandCover::Ground).expect("1×1 grid is valid"),
+            t: Grid2::new(1, 1, 1.0, Vec2::ZERO, 288.0).expect("1×1 grid is valid"),
+            water: Grid2::new(1, 1, 1.0, Vec2::ZERO, 0.0).expect("1×1 grid is valid"),
+            sunlit: Grid2::new(1, 1, 1.0, Vec2::ZERO, 1.0).expect("1×1 grid is valid"),
+            sunlit_for: None,
+            lowest: vec![0],
+        }
+    }
 }
 
 /// The whole simulated atmosphere: layers bottom to top, ground, clock and budgets.
