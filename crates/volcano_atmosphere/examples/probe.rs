@@ -17,12 +17,14 @@ fn main() {
         let r = step(&mut st, &sc.params, &mut w, sc.dt).unwrap();
         if s % every == 0 || s + 1 == steps {
             println!(
-                "step {s} hour {:.2} maxD {:.3} div {:.2e} red {:.1} subs {}",
+                "step {s} hour {:.2} maxD {:.3} div {:.2e} red {:.1} subs {} cycles {} ms {:?}",
                 st.local_hour(),
                 r.max_vertical_speed,
                 r.max_divergence_error,
                 r.residual_reduction,
-                r.flux_substeps
+                r.flux_substeps,
+                r.v_cycles,
+                r.phase_ms
             );
             // x-profile (mean over y) of layer 0/1: T, ground T, u, D, C, U, W.
             let mut line = String::new();

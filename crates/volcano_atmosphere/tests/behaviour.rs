@@ -110,3 +110,14 @@ fn bad_scenario_files_give_clear_errors() {
         Scenario::builtin(name).unwrap();
     }
 }
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let s = Scenario::builtin("mixed").unwrap();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let three = rayon::ThreadPoolBuilder::new().num_threads(3).build().unwrap();
+    let a = one.install(|| run(&s, Some(80), None, Some(32)).unwrap());
+    let b = three.install(|| run(&s, Some(80), None, Some(32)).unwrap());
+    assert_eq!(a.state, b.state, "parallel loops must be deterministic");
+    assert!(a.summary.valid);
+}

@@ -8,6 +8,8 @@
 //!
 //! All grids are `n × n`, `n` a power of two, toroidal. Displacements are in cells.
 
+use rayon::prelude::*;
+
 use super::params::AdvectionScheme;
 
 /// Bilinear periodic sample of `f` at index coordinates `(x, y)`; also returns the min and
@@ -75,19 +77,19 @@ pub fn advect_field(
     s: Staggering,
     scheme: AdvectionScheme,
 ) {
-    // Predictor: backward semi-Lagrangian step.
-    for j in 0..n {
-        for i in 0..n {
+    // Predictor: backward semi-Lagrangian step (rows in parallel; each row reads only `f`).
+    scratch.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+        for (i, x) in row.iter_mut().enumerate() {
             let (vx, vy) = velocity_at(u, v, n, i, j, s);
-            let (val, _, _) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
-            scratch[j * n + i] = val;
+            *x = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c).0;
         }
-    }
+    });
     match scheme {
         AdvectionScheme::SemiLagrangian => out.copy_from_slice(scratch),
         AdvectionScheme::MacCormack => {
-            for j in 0..n {
-                for i in 0..n {
+            let scratch = &*scratch;
+            out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+                for (i, o) in row.iter_mut().enumerate() {
                     let (vx, vy) = velocity_at(u, v, n, i, j, s);
                     // Corrector: advect the prediction forward, halve the round-trip error,
                     // and clamp to the corners of the backward sample (stability).
@@ -95,9 +97,9 @@ pub fn advect_field(
                     let (_, lo, hi) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
                     let k = j * n + i;
                     let corrected = scratch[k] + 0.5 * (f[k] - back);
-                    out[k] = corrected.clamp(lo, hi);
+                    *o = corrected.clamp(lo, hi);
                 }
-            }
+            });
         }
     }
 }
@@ -121,34 +123,39 @@ pub fn apertures(sigma: &[f32], n: usize, ax: &mut [f32], ay: &mut [f32]) {
 /// relative to its free fraction) stays ≤ 0.9.
 pub fn substeps(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: usize, c: f64) -> u32 {
     let mask = n - 1;
-    let mut worst = 0.0f64;
-    for j in 0..n {
-        let jp = (j + 1) & mask;
-        for i in 0..n {
-            let k = j * n + i;
-            if sigma[k] <= 0.0 {
-                continue;
+    // Max is order-independent: the parallel reduction is deterministic.
+    let worst = (0..n)
+        .into_par_iter()
+        .map(|j| {
+            let jp = (j + 1) & mask;
+            let mut worst = 0.0f64;
+            for i in 0..n {
+                let k = j * n + i;
+                if sigma[k] <= 0.0 {
+                    continue;
+                }
+                let ip = j * n + ((i + 1) & mask);
+                let kn = jp * n + i;
+                let out = (-u[k]).max(0.0) * ax[k]
+                    + u[ip].max(0.0) * ax[ip]
+                    + (-v[k]).max(0.0) * ay[k]
+                    + v[kn].max(0.0) * ay[kn];
+                worst = worst.max(out as f64 * c / sigma[k] as f64);
             }
-            let ip = j * n + ((i + 1) & mask);
-            let kn = jp * n + i;
-            let out = (-u[k]).max(0.0) * ax[k]
-                + u[ip].max(0.0) * ax[ip]
-                + (-v[k]).max(0.0) * ay[k]
-                + v[kn].max(0.0) * ay[kn];
-            worst = worst.max(out as f64 * c / sigma[k] as f64);
-        }
-    }
+            worst
+        })
+        .reduce(|| 0.0, f64::max);
     ((worst / 0.9).ceil() as u32).clamp(1, 256)
 }
 
 /// One conservative upwind step of concentration `q` (amount per free volume) over
-/// `c = Δt/Δx`: the flux through each face is computed once from `src` (a copy of `q` at the
-/// start of the substep) and added to one cell and removed from the other, so the sum of
-/// `q σ` is conserved to rounding. Cells with σ = 0 are untouched.
+/// `c = Δt/Δx`. Pass 1 computes every face flux once (into `fluxes`, length 2n²: west faces
+/// then south faces); pass 2 adds each flux to one cell and removes it from the other, so the
+/// sum of `q σ` is conserved to rounding. Cells with σ = 0 are untouched.
 #[allow(clippy::too_many_arguments)]
 pub fn flux_step(
     q: &mut [f64],
-    src: &mut [f64],
+    fluxes: &mut [f64],
     u: &[f32],
     v: &[f32],
     ax: &[f32],
@@ -157,42 +164,50 @@ pub fn flux_step(
     n: usize,
     c: f64,
 ) {
-    src.copy_from_slice(q);
+    assert_eq!(fluxes.len(), 2 * n * n, "flux scratch must hold 2n² values");
     let mask = n - 1;
-    // Flux through the west face of cell k (positive = into k from the west).
-    let fx = |k: usize, kw: usize| -> f64 {
-        let vel = u[k] as f64 * ax[k] as f64;
-        if vel > 0.0 { vel * src[kw] } else { vel * src[k] }
-    };
-    let fy = |k: usize, ks: usize| -> f64 {
-        let vel = v[k] as f64 * ay[k] as f64;
-        if vel > 0.0 { vel * src[ks] } else { vel * src[k] }
-    };
-    for j in 0..n {
+    let (fx, fy) = fluxes.split_at_mut(n * n);
+    {
+        let q = &*q;
+        fx.par_chunks_mut(n).zip(fy.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(
+            |(j, (fxr, fyr))| {
+                let jm = (j + n - 1) & mask;
+                for i in 0..n {
+                    let k = j * n + i;
+                    let kw = j * n + ((i + n - 1) & mask);
+                    let ks = jm * n + i;
+                    let vx = (u[k] * ax[k]) as f64;
+                    let vy = (v[k] * ay[k]) as f64;
+                    fxr[i] = vx * if vx > 0.0 { q[kw] } else { q[k] };
+                    fyr[i] = vy * if vy > 0.0 { q[ks] } else { q[k] };
+                }
+            },
+        );
+    }
+    let (fx, fy) = (&*fx, &*fy);
+    q.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
         let jp = (j + 1) & mask;
-        let jm = (j + n - 1) & mask;
-        for i in 0..n {
+        for (i, qk) in row.iter_mut().enumerate() {
             let k = j * n + i;
             let s = sigma[k];
             if s <= 0.0 {
                 continue;
             }
-            let ip = (i + 1) & mask;
-            let im = (i + n - 1) & mask;
-            let ke = j * n + ip;
+            let ke = j * n + ((i + 1) & mask);
             let kn = jp * n + i;
-            let net = fx(k, j * n + im) - fx(ke, k) + fy(k, jm * n + i) - fy(kn, k);
-            q[k] = (q[k] + c * net / s as f64).max(0.0);
+            let net = fx[k] - fx[ke] + fy[k] - fy[kn];
+            *qk = (*qk + c * net / s as f64).max(0.0);
         }
-    }
+    });
 }
 
 /// Advects several concentration fields conservatively with the same velocities, in
-/// `substeps(…)` substeps. `src` is scratch of the same size.
+/// `substeps(…)` substeps. `fluxes` is scratch of length 2n². Fields that are zero
+/// everywhere (e.g. ash without an eruption) are skipped: their fluxes are zero.
 #[allow(clippy::too_many_arguments)]
 pub fn advect_conservative(
     fields: &mut [&mut [f64]],
-    src: &mut [f64],
+    fluxes: &mut [f64],
     u: &[f32],
     v: &[f32],
     ax: &[f32],
@@ -204,8 +219,11 @@ pub fn advect_conservative(
     let m = substeps(u, v, ax, ay, sigma, n, c);
     let cs = c / m as f64;
     for q in fields.iter_mut() {
+        if q.iter().all(|&x| x == 0.0) {
+            continue;
+        }
         for _ in 0..m {
-            flux_step(q, src, u, v, ax, ay, sigma, n, cs);
+            flux_step(q, fluxes, u, v, ax, ay, sigma, n, cs);
         }
     }
     m
@@ -278,7 +296,7 @@ mod tests {
         apertures(&sigma, n, &mut ax, &mut ay);
         let total = |q: &[f64]| q.iter().zip(&sigma).map(|(a, &s)| a * s as f64).sum::<f64>();
         let before = total(&q);
-        let mut src = vec![0.0; n * n];
+        let mut src = vec![0.0; 2 * n * n];
         let mut subs = 0;
         for _ in 0..200 {
             subs = advect_conservative(&mut [&mut q[..]], &mut src, &u, &v, &ax, &ay, &sigma, n, 0.3);

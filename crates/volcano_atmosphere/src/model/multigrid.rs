@@ -10,6 +10,7 @@
 //! Hand-written: no maintained Rust crate offers a periodic geometric multigrid for a 2D
 //! Poisson problem (the sparse-solver crates are algebraic/Krylov and far slower here).
 
+use rayon::prelude::*;
 use volcano_core::ConfigError;
 
 /// One coarse level's storage.
@@ -157,42 +158,75 @@ fn cycle(
     }
 }
 
-/// One red-black Gauss–Seidel sweep of `∇²φ = rhs` (5-point stencil, toroidal).
+/// Grids at least this wide run their sweeps with rows in parallel.
+const PARALLEL_FROM: usize = 128;
+
+/// A raw pointer that may be shared between the threads of one red-black colour pass.
+#[derive(Clone, Copy)]
+struct SharedRows(*mut f64);
+// SAFETY: used only in `rb_gauss_seidel`, where the threads of one colour pass write disjoint
+// cells and read only cells of the other colour (see there).
+unsafe impl Send for SharedRows {}
+unsafe impl Sync for SharedRows {}
+
+/// One red-black Gauss–Seidel sweep of `∇²φ = rhs` (5-point stencil, toroidal). Rows of one
+/// colour pass are independent, so large grids update them in parallel; the result does not
+/// depend on the thread count.
 fn rb_gauss_seidel(n: usize, h2: f64, phi: &mut [f64], rhs: &[f64]) {
+    assert_eq!(phi.len(), n * n);
     let mask = n - 1;
+    let base = SharedRows(phi.as_mut_ptr());
     for colour in 0..2 {
-        for j in 0..n {
+        let row_pass = |j: usize| {
+            let p = base;
             let row = j * n;
             let up = ((j + 1) & mask) * n;
             let down = ((j + n - 1) & mask) * n;
-            let first = (colour + j) & 1;
-            let mut i = first;
+            let mut i = (colour + j) & 1;
             while i < n {
                 let left = (i + n - 1) & mask;
                 let right = (i + 1) & mask;
-                let s = phi[row + left] + phi[row + right] + phi[up + i] + phi[down + i];
-                phi[row + i] = 0.25 * (s - h2 * rhs[row + i]);
+                // SAFETY: all indices are < n² (masked), so inside `phi`. In this colour pass
+                // a cell (i, j) with (i + j) % 2 == colour is written only by the task of row
+                // j, and the four neighbours read have the other parity (the ±1 changes it
+                // also across the torus seam because n is even), so no cell is read and
+                // written concurrently.
+                unsafe {
+                    let s =
+                        *p.0.add(row + left) + *p.0.add(row + right) + *p.0.add(up + i) + *p.0.add(down + i);
+                    *p.0.add(row + i) = 0.25 * (s - h2 * rhs[row + i]);
+                }
                 i += 2;
             }
+        };
+        if n >= PARALLEL_FROM {
+            (0..n).into_par_iter().with_min_len(8).for_each(row_pass);
+        } else {
+            (0..n).for_each(row_pass);
         }
     }
 }
 
-/// `res = rhs − ∇²φ`.
+/// `res = rhs − ∇²φ` (rows in parallel on large grids).
 fn residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
     let mask = n - 1;
     let inv = 1.0 / h2;
-    for j in 0..n {
+    let row_pass = |(j, out): (usize, &mut [f64])| {
         let row = j * n;
         let up = ((j + 1) & mask) * n;
         let down = ((j + n - 1) & mask) * n;
-        for i in 0..n {
+        for (i, r) in out.iter_mut().enumerate() {
             let left = (i + n - 1) & mask;
             let right = (i + 1) & mask;
             let lap =
                 (phi[row + left] + phi[row + right] + phi[up + i] + phi[down + i] - 4.0 * phi[row + i]) * inv;
-            res[row + i] = rhs[row + i] - lap;
+            *r = rhs[row + i] - lap;
         }
+    };
+    if n >= PARALLEL_FROM {
+        res.par_chunks_mut(n).enumerate().with_min_len(8).for_each(row_pass);
+    } else {
+        res.chunks_mut(n).enumerate().for_each(row_pass);
     }
 }
 
@@ -211,18 +245,23 @@ fn restrict(n: usize, fine: &[f64], coarse: &mut [f64]) {
 fn prolong_add(m: usize, coarse: &[f64], fine: &mut [f64]) {
     let n = 2 * m;
     let mask = m - 1;
-    for jf in 0..n {
+    let row_pass = |(jf, out): (usize, &mut [f64])| {
         let jc = jf / 2;
         let jn = if jf & 1 == 0 { (jc + m - 1) & mask } else { (jc + 1) & mask };
-        for i_f in 0..n {
+        for (i_f, x) in out.iter_mut().enumerate() {
             let ic = i_f / 2;
             let in_ = if i_f & 1 == 0 { (ic + m - 1) & mask } else { (ic + 1) & mask };
             let c = coarse[jc * m + ic];
             let cx = coarse[jc * m + in_];
             let cy = coarse[jn * m + ic];
             let cxy = coarse[jn * m + in_];
-            fine[jf * n + i_f] += 0.5625 * c + 0.1875 * (cx + cy) + 0.0625 * cxy;
+            *x += 0.5625 * c + 0.1875 * (cx + cy) + 0.0625 * cxy;
         }
+    };
+    if n >= PARALLEL_FROM {
+        fine.par_chunks_mut(n).enumerate().with_min_len(8).for_each(row_pass);
+    } else {
+        fine.chunks_mut(n).enumerate().for_each(row_pass);
     }
 }
 

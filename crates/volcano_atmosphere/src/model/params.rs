@@ -67,8 +67,11 @@ pub struct AtmosphereParams {
     /// The solve stops when the RMS residual falls below this fraction of the RMS
     /// divergence target. 1e-4.
     pub multigrid_tolerance: f64,
-    /// Scheme for V and T.
+    /// Scheme for T.
     pub advection: AdvectionScheme,
+    /// Scheme for V (semi-Lagrangian by default: a third of MacCormack's cost, and the wind is
+    /// re-projected and forced every step anyway).
+    pub wind_advection: AdvectionScheme,
     /// Condensed water content (g/m³) above which a cell counts as cloud. 0.05.
     pub cloud_threshold: f64,
 }
@@ -93,6 +96,7 @@ impl Default for AtmosphereParams {
             multigrid_cycles: 3,
             multigrid_tolerance: 1e-4,
             advection: AdvectionScheme::MacCormack,
+            wind_advection: AdvectionScheme::SemiLagrangian,
             cloud_threshold: 0.05,
         }
     }

@@ -6,20 +6,22 @@
 //! the multigrid residual. On a torus a net gain or loss of air in a layer is not
 //! representable: the target's mean is removed (reported as `target_mean`).
 
+use rayon::prelude::*;
+
 use super::multigrid::{Poisson, SolveReport, remove_mean};
 
 /// Discrete divergence (1/s) of the MAC wind into `out`.
 pub fn divergence(u: &[f32], v: &[f32], n: usize, dx: f64, out: &mut [f64]) {
     let mask = n - 1;
     let inv = 1.0 / dx;
-    for j in 0..n {
+    out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
         let jp = (j + 1) & mask;
-        for i in 0..n {
+        for (i, o) in row.iter_mut().enumerate() {
             let ip = (i + 1) & mask;
             let k = j * n + i;
-            out[k] = ((u[j * n + ip] - u[k]) as f64 + (v[jp * n + i] - v[k]) as f64) * inv;
+            *o = ((u[j * n + ip] - u[k]) as f64 + (v[jp * n + i] - v[k]) as f64) * inv;
         }
-    }
+    });
 }
 
 /// Orographic damping of the wind: each face's velocity is multiplied by its aperture
@@ -100,15 +102,16 @@ pub fn project(
     // V ← V − ∇P on the faces.
     let mask = n - 1;
     let inv = 1.0 / dx;
-    for j in 0..n {
+    let p = &*p;
+    u.par_chunks_mut(n).zip(v.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(|(j, (ur, vr))| {
         let jm = (j + n - 1) & mask;
         for i in 0..n {
             let im = (i + n - 1) & mask;
             let k = j * n + i;
-            u[k] -= ((p[k] - p[j * n + im]) * inv) as f32;
-            v[k] -= ((p[k] - p[jm * n + i]) * inv) as f32;
+            ur[i] -= ((p[k] - p[j * n + im]) * inv) as f32;
+            vr[i] -= ((p[k] - p[jm * n + i]) * inv) as f32;
         }
-    }
+    });
     divergence(u, v, n, dx, &mut work.div);
     let final_error =
         work.div.iter().zip(target).map(|(d, t)| (d - (t - target_mean)).abs()).fold(0.0, f64::max);

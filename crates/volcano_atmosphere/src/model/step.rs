@@ -15,7 +15,7 @@ use super::params::AtmosphereParams;
 use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
 use super::sun::sun_position;
 use super::terrain::ground_exchange;
-use super::thermo::phase_change;
+use super::thermo::phase_change_fraction;
 use super::vertical::{divergence_target, precipitate, transfer, vertical_velocity};
 
 /// Scratch buffers of one layer, kept between steps.
@@ -27,6 +27,9 @@ pub struct LayerWork {
     ay: Vec<f32>,
     a: Vec<f32>,
     b: Vec<f32>,
+    scratch: Vec<f32>,
+    t_old: Vec<f32>,
+    /// Face fluxes of the conservative advection (2n²).
     src: Vec<f64>,
 }
 
@@ -50,7 +53,9 @@ impl Workspace {
                     ay: vec![0.0; cells],
                     a: vec![0.0; cells],
                     b: vec![0.0; cells],
-                    src: vec![0.0; cells],
+                    scratch: vec![0.0; cells],
+                    t_old: vec![0.0; cells],
+                    src: vec![0.0; 2 * cells],
                 })
             })
             .collect::<Result<Vec<_>, ConfigError>>()?;
@@ -82,6 +87,8 @@ pub struct StepReport {
     pub ground_evaporation: f64,
     /// Largest number of flux substeps a layer needed.
     pub flux_substeps: u32,
+    /// Wall time (ms) of the phases: ground, phase change, vertical exchange, dynamics.
+    pub phase_ms: [f64; 4],
 }
 
 /// Checks a step length: finite, in (0, 3600] s.
@@ -111,12 +118,16 @@ pub fn step(
     }
     let mut report = StepReport::default();
 
+    let clock = std::time::Instant::now();
+    let lap = |i: usize, r: &mut StepReport| r.phase_ms[i] = clock.elapsed().as_secs_f64() * 1e3;
     // 1. Ground: sun, radiation, sensible heat, evaporation (§4.2.5).
     let sun = sun_position(state.day_now(), state.local_hour(), state.latitude_deg);
     report.ground_evaporation = ground_exchange(state, params, &sun, dt);
+    lap(0, &mut report);
 
     // 2. Phase change in every layer (4.2–4.4), layers in parallel.
     state.layers.par_iter_mut().for_each(|layer| layer_phase_change(layer, params, dt));
+    lap(1, &mut report);
 
     // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
     report.max_vertical_speed =
@@ -132,6 +143,7 @@ pub fn step(
         area,
     );
     state.precipitated += report.precipitated;
+    lap(2, &mut report);
 
     // 4. Dynamics per layer: advection, forcing, damping, projection, conservative transport.
     for i in 0..state.layers.len() {
@@ -153,6 +165,10 @@ pub fn step(
         report.flux_substeps = report.flux_substeps.max(*subs);
     }
     report.residual_reduction = reduction_sum / reports.len().max(1) as f64;
+    lap(3, &mut report);
+    for i in (1..4).rev() {
+        report.phase_ms[i] -= report.phase_ms[i - 1];
+    }
 
     // 5. Relaxation of T.
     let relax = (1.0 - (-dt / params.temperature_relaxation_s).exp()) as f32;
@@ -164,22 +180,32 @@ pub fn step(
     Ok(report)
 }
 
-/// Evaporation/condensation with latent heat in every free cell of a layer.
+/// Evaporation/condensation with latent heat in every free cell of a layer (rows in
+/// parallel; cells are independent).
 fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f64) {
     let pi = layer.pi;
+    let n = layer.t.nx();
+    let rate = 1.0 - (-params.phase_rate * dt).exp();
     let sigma = layer.sigma.data();
-    let t = layer.t.data_mut();
-    let h = layer.h.data_mut();
-    let w = layer.w.data_mut();
-    for k in 0..t.len() {
-        if sigma[k] <= 0.0 {
-            continue;
-        }
-        let pc = phase_change(t[k] as f64, h[k], w[k], pi, params.phase_rate, dt);
-        t[k] = pc.t as f32;
-        h[k] = pc.h;
-        w[k] = pc.w;
-    }
+    (
+        layer.t.data_mut().par_chunks_mut(n),
+        layer.h.data_mut().par_chunks_mut(n),
+        layer.w.data_mut().par_chunks_mut(n),
+    )
+        .into_par_iter()
+        .enumerate()
+        .with_min_len(8)
+        .for_each(|(j, (t, h, w))| {
+            for i in 0..t.len() {
+                if sigma[j * n + i] <= 0.0 {
+                    continue;
+                }
+                let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
+                t[i] = pc.t as f32;
+                h[i] = pc.h;
+                w[i] = pc.w;
+            }
+        });
 }
 
 /// Advection of V and T, wind forcing, orographic damping, projection with the continuity
@@ -197,23 +223,32 @@ fn layer_dynamics(
     // V (both components from the old wind) and T.
     w.a.copy_from_slice(layer.u.data());
     w.b.copy_from_slice(layer.v.data());
+    w.t_old.copy_from_slice(layer.t.data());
     {
-        let (u_old, v_old) = (&w.a, &w.b);
-        let mut scratch = vec![0.0f32; n * n];
-        advect_field(u_old, layer.u.data_mut(), &mut scratch, u_old, v_old, n, c, Staggering::FaceX, scheme);
-        advect_field(v_old, layer.v.data_mut(), &mut scratch, u_old, v_old, n, c, Staggering::FaceY, scheme);
-        let t_old = layer.t.data().to_vec();
+        let (u_old, v_old, t_old, scratch) = (&w.a, &w.b, &w.t_old, &mut w.scratch);
         advect_field(
-            &t_old,
-            layer.t.data_mut(),
-            &mut scratch,
+            u_old,
+            layer.u.data_mut(),
+            scratch,
             u_old,
             v_old,
             n,
             c,
-            Staggering::Centre,
-            scheme,
+            Staggering::FaceX,
+            params.wind_advection,
         );
+        advect_field(
+            v_old,
+            layer.v.data_mut(),
+            scratch,
+            u_old,
+            v_old,
+            n,
+            c,
+            Staggering::FaceY,
+            params.wind_advection,
+        );
+        advect_field(t_old, layer.t.data_mut(), scratch, u_old, v_old, n, c, Staggering::Centre, scheme);
     }
     if let Some(tau) = layer.wind_relaxation_s {
         relax_wind(layer.u.data_mut(), layer.v.data_mut(), layer.wind.x, layer.wind.y, dt, tau);

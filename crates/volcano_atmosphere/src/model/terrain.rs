@@ -139,57 +139,85 @@ pub fn ground_exchange(
     }
     let cos_zenith = sun.direction[2];
     let mask = n - 1;
-    let heights = state.ground.height.data();
+    let ground = &state.ground;
+    let layers = &state.layers;
+    let heights = ground.height.data();
+    // Per-cell updates computed in parallel from the old state, applied in order below.
+    let updates: Vec<Option<CellUpdate>> = (0..n * n)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|k| {
+            let li = ground.lowest[k];
+            if li == u8::MAX {
+                return None;
+            }
+            let layer: &LayerFields = &layers[li as usize];
+            let cover = ground.cover.data()[k];
+            let props = cover_props(cover);
+            let cap = heat_capacity_per_m2(cover, params);
+            let (i, j) = (k % n, k / n);
+            // Surface normal from central differences on the torus.
+            let hx = (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64
+                / (2.0 * dx);
+            let hy = (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64
+                / (2.0 * dx);
+            let norm = (hx * hx + hy * hy + 1.0).sqrt();
+            let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
+            let lit = ground.sunlit.data()[k] as f64;
+            let tg = ground.t.data()[k] as f64;
+            let ta = layer.t.data()[k] as f64;
+            let sigma = layer.sigma.data()[k] as f64;
+            let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
+            let absorbed =
+                lit * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
+            let emitted = grey_body(props.emissivity as f64, tg);
+            let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
+            // Sensible heat, limited so ground and air cannot overshoot their common temperature.
+            let equilibrium_energy = (tg - ta) * cap * air_cap / (cap + air_cap);
+            let mut sensible = params.sensible_heat_coefficient * (tg - ta) * dt;
+            if sensible.abs() > equilibrium_energy.abs() {
+                sensible = equilibrium_energy;
+            }
+            let mut tg_new = tg + ((absorbed - emitted + back) * dt - sensible) / cap;
+            let ta_new = ta + sensible / air_cap;
+            // Water exchange (4.12): toward saturation at the ground temperature.
+            let vol = sigma * layer.thickness;
+            let hum = layer.h.data()[k];
+            let target = saturation_humidity(tg_new, layer.pi);
+            // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
+            let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
+            let grams = (relax * (target - hum) * vol).clamp(-hum * vol, ground.water.data()[k]);
+            // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12).
+            tg_new -= grams * L_V_PER_G / cap;
+            Some(CellUpdate {
+                layer: li,
+                tg: tg_new.clamp(150.0, 400.0) as f32,
+                ta: ta_new as f32,
+                h: (hum + grams / vol).max(0.0),
+                grams,
+            })
+        })
+        .collect();
     let mut moved = 0.0;
-    for k in 0..n * n {
-        let Some(li) = state.ground.lowest.get(k).copied().filter(|&l| l != u8::MAX) else {
-            continue;
-        };
-        let layer: &mut LayerFields = &mut state.layers[li as usize];
-        let cover = state.ground.cover.data()[k];
-        let props = cover_props(cover);
-        let cap = heat_capacity_per_m2(cover, params);
-        let (i, j) = (k % n, k / n);
-        // Surface normal from central differences on the torus.
-        let hx =
-            (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64 / (2.0 * dx);
-        let hy =
-            (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64 / (2.0 * dx);
-        let norm = (hx * hx + hy * hy + 1.0).sqrt();
-        let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
-        let lit = state.ground.sunlit.data()[k] as f64;
-        let tg = state.ground.t.data()[k] as f64;
-        let ta = layer.t.data()[k] as f64;
-        let sigma = layer.sigma.data()[k] as f64;
-        let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
-        let absorbed = lit * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
-        let emitted = grey_body(props.emissivity as f64, tg);
-        let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
-        // Sensible heat, limited so ground and air cannot overshoot their common temperature.
-        let equilibrium_energy = (tg - ta) * cap * air_cap / (cap + air_cap);
-        let mut sensible = params.sensible_heat_coefficient * (tg - ta) * dt;
-        if sensible.abs() > equilibrium_energy.abs() {
-            sensible = equilibrium_energy;
-        }
-        let mut tg_new = tg + ((absorbed - emitted + back) * dt - sensible) / cap;
-        let ta_new = ta + sensible / air_cap;
-        // Water exchange (4.12): toward saturation at the ground temperature.
-        let vol = sigma * layer.thickness;
-        let hum = layer.h.data()[k];
-        let target = saturation_humidity(tg_new, layer.pi);
-        // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
-        let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
-        let mut grams = relax * (target - hum) * vol;
-        grams = grams.clamp(-hum * vol, state.ground.water.data()[k]);
-        layer.h.data_mut()[k] = (hum + grams / vol).max(0.0);
-        state.ground.water.data_mut()[k] -= grams;
-        // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12).
-        tg_new -= grams * L_V_PER_G / cap;
-        state.ground.t.data_mut()[k] = tg_new.clamp(150.0, 400.0) as f32;
-        layer.t.data_mut()[k] = ta_new as f32;
-        moved += grams * dx * dx;
+    for (k, u) in updates.into_iter().enumerate() {
+        let Some(u) = u else { continue };
+        let layer = &mut state.layers[u.layer as usize];
+        layer.t.data_mut()[k] = u.ta;
+        layer.h.data_mut()[k] = u.h;
+        state.ground.t.data_mut()[k] = u.tg;
+        state.ground.water.data_mut()[k] -= u.grams;
+        moved += u.grams * dx * dx;
     }
     moved
+}
+
+/// One cell's ground-exchange result.
+struct CellUpdate {
+    layer: u8,
+    tg: f32,
+    ta: f32,
+    h: f64,
+    grams: f64,
 }
 
 #[cfg(test)]

@@ -95,8 +95,12 @@ pub struct PhaseChange {
 /// and limited by the water available (W when evaporating, H when condensing). Latent heat:
 /// `ΔT = −ΔH · L_v / (ρ c_p)` (condensation warms, evaporation cools).
 pub fn phase_change(t: f64, h: f64, w: f64, pi: f64, gamma: f64, dt: f64) -> PhaseChange {
+    phase_change_fraction(t, h, w, pi, 1.0 - (-gamma * dt).exp())
+}
+
+/// [`phase_change`] with the step's equilibration fraction `1 − e^{−γΔt}` precomputed.
+pub fn phase_change_fraction(t: f64, h: f64, w: f64, pi: f64, rate: f64) -> PhaseChange {
     let sat = saturation_humidity(t, pi);
-    let rate = 1.0 - (-gamma * dt).exp();
     let dh = (rate * (sat - h)).clamp(-h, w);
     let rho = air_density(pi, t);
     let dt_latent = -dh * L_V_PER_G / (rho * CP_AIR);

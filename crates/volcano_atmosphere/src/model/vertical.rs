@@ -111,46 +111,58 @@ pub fn vertical_velocity(
     max_d
 }
 
-/// Transfers of eq. (4.6) across every interface, bottom to top, driven by `D`.
+/// Transfers of eq. (4.6) across every interface, bottom to top, driven by `D`. Columns are
+/// independent, so rows run in parallel.
 pub fn transfer(layers: &mut [LayerFields], dt: f64) {
     let nl = layers.len();
     for i in 0..nl.saturating_sub(1) {
         let (lo, hi) = layers.split_at_mut(i + 1);
         let (a, b) = (&mut lo[i], &mut hi[0]);
+        let n = a.t.nx();
         let (ex_a, ex_b) = (exner(a.pi), exner(b.pi));
-        let cells = a.t.data().len();
-        for k in 0..cells {
-            let d = a.d.data()[k] as f64;
-            if d == 0.0 {
-                continue;
-            }
-            let (sa, sb) = (a.sigma.data()[k] as f64, b.sigma.data()[k] as f64);
-            if sa <= 0.0 || sb <= 0.0 {
-                continue;
-            }
-            let (va, vb) = (sa * a.thickness, sb * b.thickness);
-            let vs = if d > 0.0 { va } else { vb };
-            let moved = vs * (1.0 - (-d.abs() * dt / vs).exp());
-            // Source and destination, with their free volumes and Exner factors.
-            let (src, dst, vs, vd, exs, exd) = if d > 0.0 {
-                (&mut *a, &mut *b, va, vb, ex_a, ex_b)
-            } else {
-                (&mut *b, &mut *a, vb, va, ex_b, ex_a)
-            };
-            for (qs, qd) in [
-                (src.h.data_mut(), dst.h.data_mut()),
-                (src.w.data_mut(), dst.w.data_mut()),
-                (src.ash.data_mut(), dst.ash.data_mut()),
-            ] {
-                let m = qs[k] * moved;
-                qs[k] = (qs[k] - m / vs).max(0.0);
-                qd[k] += m / vd;
-            }
-            let th_s = src.t.data()[k] as f64 / exs;
-            let th_d = dst.t.data()[k] as f64 / exd;
-            let th = th_d + (th_s - th_d) * (moved / vd).min(1.0);
-            dst.t.data_mut()[k] = (th * exd) as f32;
-        }
+        let (ha, hb) = (a.thickness, b.thickness);
+        let (d, sa, sb) = (a.d.data(), a.sigma.data(), b.sigma.data());
+        (
+            a.t.data_mut().par_chunks_mut(n),
+            a.h.data_mut().par_chunks_mut(n),
+            a.w.data_mut().par_chunks_mut(n),
+            a.ash.data_mut().par_chunks_mut(n),
+            b.t.data_mut().par_chunks_mut(n),
+            b.h.data_mut().par_chunks_mut(n),
+            b.w.data_mut().par_chunks_mut(n),
+            b.ash.data_mut().par_chunks_mut(n),
+        )
+            .into_par_iter()
+            .enumerate()
+            .with_min_len(8)
+            .for_each(|(j, (at, ah, aw, aa, bt, bh, bw, ba))| {
+                for x in 0..n {
+                    let k = j * n + x;
+                    let dk = d[k] as f64;
+                    let (sak, sbk) = (sa[k] as f64, sb[k] as f64);
+                    if dk == 0.0 || sak <= 0.0 || sbk <= 0.0 {
+                        continue;
+                    }
+                    let (va, vb) = (sak * ha, sbk * hb);
+                    let up = dk > 0.0;
+                    let (vs, vd, exs, exd) = if up { (va, vb, ex_a, ex_b) } else { (vb, va, ex_b, ex_a) };
+                    let moved = vs * (1.0 - (-dk.abs() * dt / vs).exp());
+                    let carry = |qa: &mut f64, qb: &mut f64| {
+                        let (qs, qd) = if up { (qa, qb) } else { (qb, qa) };
+                        let m = *qs * moved;
+                        *qs = (*qs - m / vs).max(0.0);
+                        *qd += m / vd;
+                    };
+                    carry(&mut ah[x], &mut bh[x]);
+                    carry(&mut aw[x], &mut bw[x]);
+                    carry(&mut aa[x], &mut ba[x]);
+                    let (ts, td) = if up { (at[x], &mut bt[x]) } else { (bt[x], &mut at[x]) };
+                    let th_s = ts as f64 / exs;
+                    let th_d = *td as f64 / exd;
+                    let th = th_d + (th_s - th_d) * (moved / vd).min(1.0);
+                    *td = (th * exd) as f32;
+                }
+            });
     }
 }
 
