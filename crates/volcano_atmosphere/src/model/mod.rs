@@ -15,3 +15,4 @@ pub mod sun;
 pub mod terrain;
 pub mod thermo;
 pub mod vertical;
+pub mod volume;

@@ -62,10 +62,10 @@ pub struct AtmosphereParams {
     /// Newtonian relaxation time (s) of each layer's temperature toward its initial
     /// profile value, standing for the free atmosphere's own radiation. 2 days.
     pub temperature_relaxation_s: f64,
-    /// Maximum V-cycles per pressure solve. 3.
+    /// Maximum V-cycles per pressure solve. 6.
     pub multigrid_cycles: u32,
     /// The solve stops when the RMS residual falls below this fraction of the RMS
-    /// divergence target. 1e-4.
+    /// divergence target. 1e-6 (keeps the worst cell within ≈ 1e-4 of the divergence removed).
     pub multigrid_tolerance: f64,
     /// Scheme for T.
     pub advection: AdvectionScheme,
@@ -93,8 +93,8 @@ impl Default for AtmosphereParams {
             soil_depth: 0.3,
             water_depth: 5.0,
             temperature_relaxation_s: 172_800.0,
-            multigrid_cycles: 3,
-            multigrid_tolerance: 1e-4,
+            multigrid_cycles: 6,
+            multigrid_tolerance: 1e-6,
             advection: AdvectionScheme::MacCormack,
             wind_advection: AdvectionScheme::SemiLagrangian,
             cloud_threshold: 0.05,
