@@ -24,7 +24,7 @@ proptest! {
         seed in 0u64..1000, speed in 0.0f32..40.0, dt_dx in 0.01f64..1.0,
     ) {
         let n = 16;
-        let r = |k: usize, m: u64| (((k as u64 + 1) * 2_654_435_761 ^ (seed * 97 + m)) % 1000) as f32 / 1000.0;
+        let r = |k: usize, m: u64| ((((k as u64 + 1) * 2_654_435_761) ^ (seed * 97 + m)) % 1000) as f32 / 1000.0;
         let sigma: Vec<f32> = (0..n * n).map(|k| if r(k, 1) < 0.2 { 0.0 } else { r(k, 2).max(0.1) }).collect();
         let u: Vec<f32> = (0..n * n).map(|k| speed * (2.0 * r(k, 3) - 1.0)).collect();
         let v: Vec<f32> = (0..n * n).map(|k| speed * (2.0 * r(k, 4) - 1.0)).collect();
