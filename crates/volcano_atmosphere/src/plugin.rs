@@ -157,6 +157,8 @@ fn step_weather(
             precipitated: atmo.precipitated,
         };
         let result = step(&mut state, &atmo.params, &mut work.0, dt);
+        // DESIGN.md §6: debug builds check that the state stays finite and non-negative.
+        debug_assert!(state.is_valid(), "atmosphere {entity} produced a non-finite or negative field");
         for (layer, fields) in mine.iter_mut().zip(state.layers) {
             layer.fields = fields;
         }
