@@ -11,7 +11,7 @@ fn main() {
     let u: Vec<f32> = (0..n * n).map(|k| 5.0 + (k % 13) as f32 * 0.1).collect();
     let v: Vec<f32> = (0..n * n).map(|k| -3.0 + (k % 7) as f32 * 0.1).collect();
     let mut out = vec![0.0f32; n * n];
-    let mut scratch = vec![0.0f32; n * n];
+    let mut scratch = vec![0.0f32; 3 * n * n];
     for scheme in [AdvectionScheme::SemiLagrangian, AdvectionScheme::MacCormack] {
         let t = Instant::now();
         for _ in 0..10 {

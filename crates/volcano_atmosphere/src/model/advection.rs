@@ -64,7 +64,7 @@ fn velocity_at(u: &[f32], v: &[f32], n: usize, i: usize, j: usize, s: Staggering
 }
 
 /// Advects `f` (staggering `s`) by the MAC velocity `(u, v)` over `c = Δt/Δx` into `out`,
-/// using `scratch` (same size) for the MacCormack predictor.
+/// using `scratch` (3n²: predictor and the limiter's bounds).
 #[allow(clippy::too_many_arguments)]
 pub fn advect_field(
     f: &[f32],
@@ -77,31 +77,42 @@ pub fn advect_field(
     s: Staggering,
     scheme: AdvectionScheme,
 ) {
-    // Predictor: backward semi-Lagrangian step (rows in parallel; each row reads only `f`).
-    scratch.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
-        for (i, x) in row.iter_mut().enumerate() {
+    if scheme == AdvectionScheme::SemiLagrangian {
+        out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+            for (i, o) in row.iter_mut().enumerate() {
+                let (vx, vy) = velocity_at(u, v, n, i, j, s);
+                *o = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c).0;
+            }
+        });
+        return;
+    }
+    assert!(scratch.len() >= 3 * n * n, "advection scratch must hold 3n² values");
+    let (pred, rest) = scratch.split_at_mut(n * n);
+    let (lo, hi) = rest.split_at_mut(n * n);
+    let hi = &mut hi[..n * n];
+    // Predictor: backward semi-Lagrangian step (rows in parallel; each row reads only `f`),
+    // keeping the corners' min and max of each backward sample for the limiter.
+    (pred.par_chunks_mut(n), lo.par_chunks_mut(n), hi.par_chunks_mut(n))
+        .into_par_iter()
+        .enumerate()
+        .with_min_len(8)
+        .for_each(|(j, (pr, lr, hr))| {
+            for i in 0..n {
+                let (vx, vy) = velocity_at(u, v, n, i, j, s);
+                (pr[i], lr[i], hr[i]) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
+            }
+        });
+    let (pred, lo, hi) = (&*pred, &*lo, &*hi);
+    out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+        for (i, o) in row.iter_mut().enumerate() {
             let (vx, vy) = velocity_at(u, v, n, i, j, s);
-            *x = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c).0;
+            // Corrector: advect the prediction forward, halve the round-trip error, and clamp
+            // to the corners of the backward sample (stability).
+            let (back, _, _) = bilerp(pred, n, i as f32 + vx * c, j as f32 + vy * c);
+            let k = j * n + i;
+            *o = (pred[k] + 0.5 * (f[k] - back)).clamp(lo[k], hi[k]);
         }
     });
-    match scheme {
-        AdvectionScheme::SemiLagrangian => out.copy_from_slice(scratch),
-        AdvectionScheme::MacCormack => {
-            let scratch = &*scratch;
-            out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
-                for (i, o) in row.iter_mut().enumerate() {
-                    let (vx, vy) = velocity_at(u, v, n, i, j, s);
-                    // Corrector: advect the prediction forward, halve the round-trip error,
-                    // and clamp to the corners of the backward sample (stability).
-                    let (back, _, _) = bilerp(scratch, n, i as f32 + vx * c, j as f32 + vy * c);
-                    let (_, lo, hi) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
-                    let k = j * n + i;
-                    let corrected = scratch[k] + 0.5 * (f[k] - back);
-                    *o = corrected.clamp(lo, hi);
-                }
-            });
-        }
-    }
 }
 
 /// Face apertures from the free fractions σ of the cells: `ax[i, j] = min(σ(i−1, j), σ(i, j))`
@@ -241,7 +252,7 @@ mod tests {
         let u = vec![2.0f32; n * n];
         let v = vec![-1.0f32; n * n];
         let mut out = vec![0.0; n * n];
-        let mut scratch = vec![0.0; n * n];
+        let mut scratch = vec![0.0; 3 * n * n];
         for scheme in [AdvectionScheme::SemiLagrangian, AdvectionScheme::MacCormack] {
             advect_field(&f, &mut out, &mut scratch, &u, &v, n, 1.0, Staggering::Centre, scheme);
             // Moves by (+2, −1) cells.
@@ -258,7 +269,7 @@ mod tests {
             .collect();
         let u = vec![0.37f32; n * n];
         let v = vec![0.21f32; n * n];
-        let mut scratch = vec![0.0; n * n];
+        let mut scratch = vec![0.0; 3 * n * n];
         let run = |scheme| {
             let mut a = f.clone();
             let mut b = vec![0.0; n * n];

@@ -53,7 +53,7 @@ impl Workspace {
                     ay: vec![0.0; cells],
                     a: vec![0.0; cells],
                     b: vec![0.0; cells],
-                    scratch: vec![0.0; cells],
+                    scratch: vec![0.0; 3 * cells],
                     t_old: vec![0.0; cells],
                     src: vec![0.0; 2 * cells],
                 })

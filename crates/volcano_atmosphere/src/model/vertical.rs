@@ -51,6 +51,8 @@ pub fn vertical_velocity(
     // Terrain gradient (central differences, toroidal).
     let mask = n.wrapping_sub(1);
     let grad: Vec<(f64, f64)> = (0..cells)
+        .into_par_iter()
+        .with_min_len(4096)
         .map(|k| {
             let (i, j) = (k % n, k / n);
             let gx = (terrain[j * n + ((i + 1) & mask)] - terrain[j * n + ((i + n - 1) & mask)]) as f64;
@@ -86,27 +88,41 @@ pub fn vertical_velocity(
         let mean = if count > 0 { sum / count as f64 } else { 0.0 };
         let dmax = params.max_vertical_speed;
         let top = a.bottom + a.thickness;
-        for k in 0..cells {
-            if !open(k) {
-                a.c.data_mut()[k] = 0.0;
-                a.up.data_mut()[k] = 0.0;
-                a.d.data_mut()[k] = 0.0;
-                continue;
-            }
-            let c = params.convective_coupling * (diff[k] - mean);
-            let (ii, jj) = (k % n, k / n);
-            let uc = 0.5 * (a.u.data()[k] + a.u.data()[jj * n + ((ii + 1) & mask)]) as f64;
-            let vc = 0.5 * (a.v.data()[k] + a.v.data()[((jj + 1) & mask) * n + ii]) as f64;
-            let above = (top - terrain[k] as f64).max(0.0);
-            let u = params.uplift_coupling
-                * (uc * grad[k].0 + vc * grad[k].1)
-                * (-above / params.orographic_decay_m).exp();
-            let d = (c + u).clamp(-dmax, dmax);
-            a.c.data_mut()[k] = c as f32;
-            a.up.data_mut()[k] = u as f32;
-            a.d.data_mut()[k] = d as f32;
-            max_d = max_d.max(d.abs());
-        }
+        let (bs, coupling, decay) = (b.sigma.data(), params.convective_coupling, params.orographic_decay_m);
+        let LayerFields { c, up, d, u, v, sigma, .. } = a;
+        let (u, v, sa) = (u.data(), v.data(), sigma.data());
+        // Rows in parallel; the max is order-independent.
+        let row_max =
+            (c.data_mut().par_chunks_mut(n), up.data_mut().par_chunks_mut(n), d.data_mut().par_chunks_mut(n))
+                .into_par_iter()
+                .enumerate()
+                .with_min_len(8)
+                .map(|(jj, (cr, ur, dr))| {
+                    let mut m = 0.0f64;
+                    for ii in 0..n {
+                        let k = jj * n + ii;
+                        if !(sa[k] > 0.0 && bs[k] > 0.0) {
+                            (cr[ii], ur[ii], dr[ii]) = (0.0, 0.0, 0.0);
+                            continue;
+                        }
+                        let conv = coupling * (diff[k] - mean);
+                        let (gx, gy) = grad[k];
+                        let lift = if gx == 0.0 && gy == 0.0 {
+                            0.0
+                        } else {
+                            let uc = 0.5 * (u[k] + u[jj * n + ((ii + 1) & mask)]) as f64;
+                            let vc = 0.5 * (v[k] + v[((jj + 1) & mask) * n + ii]) as f64;
+                            let above = (top - terrain[k] as f64).max(0.0);
+                            params.uplift_coupling * (uc * gx + vc * gy) * (-above / decay).exp()
+                        };
+                        let dk = (conv + lift).clamp(-dmax, dmax);
+                        (cr[ii], ur[ii], dr[ii]) = (conv as f32, lift as f32, dk as f32);
+                        m = m.max(dk.abs());
+                    }
+                    m
+                })
+                .reduce(|| 0.0, f64::max);
+        max_d = max_d.max(row_max);
     }
     max_d
 }
