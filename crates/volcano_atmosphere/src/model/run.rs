@@ -8,11 +8,12 @@ use bevy::math::Vec2;
 use serde::Serialize;
 use volcano_core::{ConfigError, LandCover};
 
-use super::clouds::{cloud_cover, cloud_forms};
+use super::clouds::{CloudForm, cloud_cover};
 use super::fields::AtmosphereState;
 use super::params::AtmosphereParams;
 use super::scenario::{Diagnostic, Event, EventAction, FieldKind, Scenario, add_noise, add_spot};
 use super::step::{Workspace, check_dt, step};
+use super::volume::coherent_forms;
 
 /// What a scenario run measured. Keys follow the CLI section.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -41,7 +42,7 @@ pub struct AtmosphereSummary {
     pub multigrid_residual_reduction: f64,
     /// Fraction of cloudy free cells per layer at the end.
     pub cloud_cover: Vec<f64>,
-    /// Cloudy cells per cloud form at the end.
+    /// Cloudy cells per cloud form at the end, after the k-means++ coherence pass.
     pub cloud_forms: BTreeMap<String, usize>,
     /// Mean wall time per step (ms).
     pub step_ms: f64,
@@ -223,10 +224,7 @@ pub fn run(
         divergence_error_ratio: div_ratio,
         multigrid_residual_reduction: if steps > 0 { red_sum / steps as f64 } else { 0.0 },
         cloud_cover: cloud_cover(&state, params.cloud_threshold),
-        cloud_forms: cloud_forms(&state, params.cloud_threshold)
-            .into_iter()
-            .map(|(f, c)| (format!("{f:?}"), c))
-            .collect(),
+        cloud_forms: count_forms(&coherent_forms(&state, params.cloud_threshold, 8, 0.3, 0)),
         step_ms: if steps > 0 { 1e3 * elapsed / steps as f64 } else { 0.0 },
         precipitated_g: state.precipitated,
         valid,
@@ -238,6 +236,15 @@ pub fn run(
         lee_cloud_cover: lc.get(),
     };
     Ok(ScenarioRun { state, summary })
+}
+
+/// Cells per form, keyed by the form's name.
+fn count_forms(forms: &[Vec<Option<CloudForm>>]) -> BTreeMap<String, usize> {
+    let mut counts = BTreeMap::new();
+    for f in forms.iter().flatten().flatten() {
+        *counts.entry(format!("{f:?}")).or_insert(0) += 1;
+    }
+    counts
 }
 
 #[derive(Debug, Default)]
