@@ -278,8 +278,8 @@ impl Scenario {
 
     /// Checks every value; the error names the field.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        GridSpec::new(self.grid, self.extent_m / self.grid.max(1) as f64)?;
         in_range("extent_m", self.extent_m, 100.0, 1e7)?;
+        GridSpec::new(self.grid, self.extent_m / self.grid.max(1) as f64)?;
         super::step::check_dt(self.dt)?;
         in_range("start_hour", self.start_hour, 0.0, 24.0)?;
         in_range("day_of_year", self.day_of_year, 1.0, 366.0)?;
