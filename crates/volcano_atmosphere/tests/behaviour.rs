@@ -105,6 +105,8 @@ fn bad_scenario_files_give_clear_errors() {
     assert!(e.contains("power of two"), "{e}");
     let e = Scenario::builtin("tornado").unwrap_err().to_string();
     assert!(e.contains("sea-breeze"), "{e}");
+    let e = Scenario::load(std::path::Path::new("/nonexistent/storm.ron")).unwrap_err().to_string();
+    assert!(e.contains("storm.ron"), "{e}");
     // Every shipped scenario parses.
     for (name, _) in volcano_atmosphere::model::scenario::BUILTIN {
         Scenario::builtin(name).unwrap();

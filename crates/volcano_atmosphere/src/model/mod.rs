@@ -5,6 +5,7 @@
 pub mod advection;
 pub mod clouds;
 pub mod fields;
+pub mod maps;
 pub mod multigrid;
 pub mod params;
 pub mod projection;

@@ -264,6 +264,13 @@ impl Scenario {
         Ok(s)
     }
 
+    /// Reads, parses and validates a RON scenario file.
+    pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| ConfigError::Io { path: path.display().to_string(), message: e.to_string() })?;
+        Self::from_ron(&text)
+    }
+
     /// A built-in scenario by name.
     pub fn builtin(name: &str) -> Result<Self, ConfigError> {
         let text = BUILTIN.iter().find(|(n, _)| *n == name).map(|(_, t)| *t).ok_or_else(|| {
