@@ -24,7 +24,7 @@ fn main() {
     let mut ay = vec![0.0; n * n];
     apertures(&sigma, n, &mut ax, &mut ay);
     let mut q: Vec<f64> = (0..n * n).map(|k| (k % 11) as f64).collect();
-    let mut src = vec![0.0; 2 * n * n];
+    let mut src = vec![0.0; 3 * n * n];
     let t = Instant::now();
     for _ in 0..10 {
         advect_conservative(&mut [&mut q[..]], &mut src, &u, &v, &ax, &ay, &sigma, n, 0.1);

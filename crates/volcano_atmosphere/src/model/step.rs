@@ -29,7 +29,7 @@ pub struct LayerWork {
     b: Vec<f32>,
     scratch: Vec<f32>,
     t_old: Vec<f32>,
-    /// Face fluxes of the conservative advection (2n²).
+    /// Face fluxes and donor limits of the conservative advection (3n²).
     src: Vec<f64>,
 }
 
@@ -55,7 +55,7 @@ impl Workspace {
                     b: vec![0.0; cells],
                     scratch: vec![0.0; 3 * cells],
                     t_old: vec![0.0; cells],
-                    src: vec![0.0; 2 * cells],
+                    src: vec![0.0; 3 * cells],
                 })
             })
             .collect::<Result<Vec<_>, ConfigError>>()?;
