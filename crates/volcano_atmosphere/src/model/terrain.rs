@@ -1,5 +1,5 @@
 //! Terrain–atmosphere interaction (thesis §4.2.5): orographic damping (4.8), terrain
-//! self-shadowing, irradiation (4.9), grey-body emission (4.10, T⁴ per the erratum), heat
+//! self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴ per the erratum), heat
 //! (4.11) and water (4.12) exchange with the lowest free layer, all with a ground heat
 //! capacity per m² (DESIGN.md §4 erratum: C_p × density × active depth).
 
@@ -110,6 +110,16 @@ pub fn absorbed_flux(solar_constant: f64, albedo: f64, cos_incidence: f64, cos_z
     solar_constant * (1.0 - albedo) * cos_incidence / air_mass(cos_zenith)
 }
 
+/// Fraction of sunlight a cloud column of liquid water path `lwp` (g/m²) lets through to the
+/// ground (the thesis' cloud shadowing): optical depth `τ = 0.15 · LWP` (effective droplet
+/// radius 10 µm, `τ = 3 LWP / (2 ρ_w r_e)`) and the two-stream transmission of a
+/// non-absorbing cloud, `1 / (1 + 0.75 τ (1 − g))` with asymmetry g = 0.85. Vertical column
+/// (the slant path is ignored).
+pub fn cloud_transmission(lwp: f64) -> f64 {
+    let tau = 0.15 * lwp.max(0.0);
+    1.0 / (1.0 + 0.75 * tau * (1.0 - 0.85))
+}
+
 /// Grey-body emission (W/m²), eq. (4.10) with the DESIGN erratum (T⁴, not T⁸): `ε σ_B T⁴`.
 pub fn grey_body(emissivity: f64, t: f64) -> f64 {
     emissivity * STEFAN_BOLTZMANN * t.powi(4)
@@ -168,8 +178,12 @@ pub fn ground_exchange(
             let ta = layer.t.data()[k] as f64;
             let sigma = layer.sigma.data()[k] as f64;
             let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
-            let absorbed =
-                lit * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
+            // Cloud shading: the column's condensed water above the ground.
+            let lwp: f64 =
+                layers.iter().map(|l| l.w.data()[k] * l.sigma.data()[k] as f64 * l.thickness).sum();
+            let absorbed = lit
+                * cloud_transmission(lwp)
+                * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
             let emitted = grey_body(props.emissivity as f64, tg);
             let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
             // Sensible heat, limited so ground and air cannot overshoot their common temperature.
@@ -242,6 +256,27 @@ mod tests {
         assert!((noon - 800.0).abs() < 1e-9);
         assert!(absorbed_flux(1000.0, 0.2, 0.5, 0.5) < 0.26 * noon);
         assert_eq!(absorbed_flux(1000.0, 0.2, 0.5, -0.1), 0.0);
+    }
+
+    #[test]
+    fn clouds_shade_the_ground() {
+        assert_eq!(cloud_transmission(0.0), 1.0);
+        // A 1 km stratocumulus with 0.2 g/m³ (LWP 200 g/m², τ 30) lets ≈ 23 % through.
+        let t = cloud_transmission(200.0);
+        assert!((t - 1.0 / (1.0 + 0.75 * 30.0 * 0.15)).abs() < 1e-12 && t < 0.25 && t > 0.2);
+        assert!(cloud_transmission(1000.0) < cloud_transmission(100.0));
+    }
+
+    #[test]
+    fn a_cloud_column_heats_its_ground_less_at_noon() {
+        let sc = crate::model::scenario::Scenario::builtin("convection").unwrap();
+        let mut st = sc.build(Some(16)).unwrap();
+        st.layers[1].w.data_mut()[5] = 0.5;
+        let t0 = st.ground.t.data().to_vec();
+        let sun = sun_position(172.0, 12.0, 43.0);
+        ground_exchange(&mut st, &AtmosphereParams::default(), &sun, 600.0);
+        let (under, clear) = (st.ground.t.data()[5] - t0[5], st.ground.t.data()[6] - t0[6]);
+        assert!(clear > 0.5 && under < 0.3 * clear, "cloudy {under} K vs clear {clear} K");
     }
 
     #[test]
