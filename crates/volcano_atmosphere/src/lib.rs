@@ -14,4 +14,7 @@ pub use model::params::AtmosphereParams;
 pub use model::run::{AtmosphereSummary, run_scenario};
 pub use model::scenario::Scenario;
 pub use model::step::{StepReport, Workspace, step};
-pub use plugin::{AirLayer, Atmosphere, AtmospherePlugin, WeatherStep, WeatherStepped, spawn_atmosphere};
+pub use plugin::{
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherStep, WeatherStepped,
+    spawn_atmosphere, spawn_scenario,
+};

@@ -9,6 +9,8 @@ use volcano_core::prelude::*;
 
 use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
+use crate::model::run::apply_event;
+use crate::model::scenario::{Event, Scenario};
 use crate::model::step::{StepReport, Workspace, step};
 
 /// Schedule of the weather domain.
@@ -75,6 +77,10 @@ pub struct AirLayer {
 #[derive(Component, Debug, Clone)]
 pub struct AtmosphereGround(pub Ground);
 
+/// Timeline events still to fire (sorted by time), from a scenario.
+#[derive(Component, Debug, Clone, Default)]
+pub struct AtmosphereTimeline(pub Vec<Event>);
+
 /// Scratch buffers, reused between steps.
 #[derive(Component, Debug, Clone)]
 pub struct AtmosphereWork(Workspace);
@@ -126,10 +132,32 @@ pub fn spawn_atmosphere(
     Ok(atmosphere)
 }
 
-/// Gathers each atmosphere's layers, steps the model, writes the fields back.
+/// Spawns a scenario (its state on an `n × n` grid, or its own, its coefficients and its
+/// timeline) as in [`spawn_atmosphere`]. Returns the atmosphere entity.
+pub fn spawn_scenario(
+    commands: &mut Commands,
+    scenario: &Scenario,
+    grid: Option<usize>,
+) -> Result<Entity, ConfigError> {
+    let state = scenario.build(grid)?;
+    let entity = spawn_atmosphere(commands, state, scenario.params.clone())?;
+    let mut events = scenario.events.clone();
+    events.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+    commands.entity(entity).insert(AtmosphereTimeline(events));
+    Ok(entity)
+}
+
+/// Gathers each atmosphere's layers, fires due timeline events, steps the model, writes the
+/// fields back.
 fn step_weather(
     time: Res<Time>,
-    mut atmospheres: Query<(Entity, &mut Atmosphere, &mut AtmosphereGround, &mut AtmosphereWork)>,
+    mut atmospheres: Query<(
+        Entity,
+        &mut Atmosphere,
+        &mut AtmosphereGround,
+        &mut AtmosphereWork,
+        Option<&mut AtmosphereTimeline>,
+    )>,
     mut layers: Query<&mut AirLayer>,
     mut stepped: MessageWriter<WeatherStepped>,
 ) {
@@ -137,7 +165,7 @@ fn step_weather(
     if dt <= 0.0 {
         return;
     }
-    for (entity, mut atmo, mut ground, mut work) in &mut atmospheres {
+    for (entity, mut atmo, mut ground, mut work, timeline) in &mut atmospheres {
         let Ok(grid) = GridSpec::new(atmo.n, atmo.dx) else {
             continue;
         };
@@ -156,6 +184,12 @@ fn step_weather(
             latitude_deg: atmo.latitude_deg,
             precipitated: atmo.precipitated,
         };
+        if let Some(mut timeline) = timeline {
+            let due = timeline.0.iter().take_while(|e| e.at_s <= state.time_s).count();
+            for event in timeline.0.drain(..due) {
+                apply_event(&mut state, &event);
+            }
+        }
         let result = step(&mut state, &atmo.params, &mut work.0, dt);
         // DESIGN.md §6: debug builds check that the state stays finite and non-negative.
         debug_assert!(state.is_valid(), "atmosphere {entity} produced a non-finite or negative field");

@@ -60,3 +60,37 @@ fn plugin_steps_layers_like_the_model() {
     let atmo = qa.single(world).unwrap();
     assert!((atmo.time_s - steps as f64 * 0.1).abs() < 1e-9);
 }
+
+#[test]
+fn plugin_fires_timeline_events() {
+    // The mixed scenario turns layer 2's wind to (−4, 6) m/s at 1800 s: run the weather with
+    // 300 s steps (time scale) and check the event fired.
+    let scenario = Scenario::builtin("mixed").unwrap();
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        VolcanoCorePlugin,
+        AtmospherePlugin { cadence: Cadence::EveryNthTick(1) },
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+    app.world_mut()
+        .resource_mut::<Time<DomainClock<volcano_atmosphere::WeatherStep>>>()
+        .context_mut()
+        .set_time_scale(15_000.0)
+        .unwrap();
+    let sc = scenario.clone();
+    app.add_systems(Startup, move |mut commands: Commands| {
+        volcano_atmosphere::spawn_scenario(&mut commands, &sc, Some(16)).unwrap();
+    });
+    for _ in 0..12 {
+        app.update();
+    }
+    let world = app.world_mut();
+    let t = world.query::<&Atmosphere>().single(world).unwrap().time_s;
+    assert!(t > 1800.0, "weather time {t}");
+    let mut q = world.query::<&AirLayer>();
+    let layer2 = q.iter(world).find(|l| l.index == 2).unwrap();
+    assert_eq!(layer2.fields.wind, Vec2::new(-4.0, 6.0));
+    let timeline = world.query::<&volcano_atmosphere::AtmosphereTimeline>().single(world).unwrap();
+    assert!(timeline.0.is_empty(), "both events fired");
+}
