@@ -17,10 +17,15 @@ use super::params::AdvectionScheme;
 #[inline]
 fn bilerp(f: &[f32], n: usize, x: f32, y: f32) -> (f32, f32, f32) {
     let mask = n - 1;
-    let (fx, fy) = (x.floor(), y.floor());
-    let (tx, ty) = (x - fx, y - fy);
-    let i0 = (fx as i64 as usize) & mask;
-    let j0 = (fy as i64 as usize) & mask;
+    // floor() is a libm call on baseline x86-64 (no SSE4.1 round): truncate and correct.
+    let floor = |v: f32| {
+        let t = v as i64;
+        t - ((v < t as f32) as i64)
+    };
+    let (fx, fy) = (floor(x), floor(y));
+    let (tx, ty) = (x - fx as f32, y - fy as f32);
+    let i0 = (fx as usize) & mask;
+    let j0 = (fy as usize) & mask;
     let i1 = (i0 + 1) & mask;
     let j1 = (j0 + 1) & mask;
     let (a, b) = (f[j0 * n + i0], f[j0 * n + i1]);
