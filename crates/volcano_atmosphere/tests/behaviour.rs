@@ -123,3 +123,25 @@ fn results_do_not_depend_on_the_thread_count() {
     assert_eq!(a.state, b.state, "parallel loops must be deterministic");
     assert!(a.summary.valid);
 }
+
+#[test]
+fn a_stratovolcano_from_the_foundation_cuts_through_the_low_layers() {
+    let text = include_str!("../scenarios/convection.ron").replace(
+        "terrain: Flat(height_m: 0.0, cover: Ground),",
+        "terrain: Stratovolcano((resolution: 257, cell: 100.0, summit_height: 2500.0)),",
+    );
+    let s = Scenario::from_ron(&text).unwrap();
+    let st = s.build(Some(32)).unwrap();
+    // The cone (2.5 km) closes the 500 m layer near the summit and leaves it open far away.
+    assert!(st.layers[0].sigma.data().iter().any(|&x| x == 0.0));
+    assert!(st.layers[0].sigma.data().iter().any(|&x| x == 1.0));
+    assert!(st.ground.lowest.iter().any(|&l| l >= 1));
+    let r = run(&s, Some(30), None, Some(32)).unwrap();
+    assert!(r.summary.valid);
+    assert!(r.summary.water_total_rel_error < 1e-12);
+    // A bad generator parameter is reported by name.
+    let bad = include_str!("../scenarios/convection.ron")
+        .replace("terrain: Flat(height_m: 0.0, cover: Ground),", "terrain: Stratovolcano((cell: -1.0)),");
+    let e = Scenario::from_ron(&bad).unwrap_err().to_string();
+    assert!(e.contains("cell"), "{e}");
+}

@@ -7,11 +7,11 @@ use noise::{NoiseFn, OpenSimplex};
 use serde::{Deserialize, Serialize};
 use volcano_core::atmosphere::AtmosphereModel;
 use volcano_core::error::{finite, in_range, positive};
-use volcano_core::{ConfigError, LandCover};
+use volcano_core::{ConfigError, LandCover, StratovolcanoParams, Terrain};
 
 use super::fields::{AtmosphereState, GridSpec, Ground, LayerFields, layer_geometry};
 use super::params::AtmosphereParams;
-use super::terrain::update_masks;
+use super::terrain::{sample_terrain, update_masks};
 use super::thermo::saturation_humidity;
 
 /// Toroidal simplex noise: amplitude × OpenSimplex sampled on a 4D torus so it tiles.
@@ -105,6 +105,8 @@ pub enum TerrainSpec {
         /// Land height (m).
         height_m: f64,
     },
+    /// The foundation's procedural stratovolcano (`volcano_core`), sampled at the cell centres.
+    Stratovolcano(StratovolcanoParams),
     /// Round islands in the sea.
     Archipelago {
         /// Island count.
@@ -307,11 +309,15 @@ impl Scenario {
                 positive("terrain width_m", *width_m)?;
                 in_range("terrain height_m", *height_m, 0.0, 9000.0)?;
             }
+            TerrainSpec::Stratovolcano(_) => {}
             TerrainSpec::Archipelago { count, radius_m, height_m, .. } => {
                 in_range("terrain count", *count as f64, 1.0, 1000.0)?;
                 positive("terrain radius_m", *radius_m)?;
                 in_range("terrain height_m", *height_m, 0.0, 9000.0)?;
             }
+        }
+        if let TerrainSpec::Stratovolcano(p) = &self.terrain {
+            p.validate()?;
         }
         let alts: Vec<f64> = self.layers.iter().map(|l| l.altitude_m).collect();
         layer_geometry(&alts)?;
@@ -367,10 +373,36 @@ impl Scenario {
         self.validate()?;
         let n = grid.unwrap_or(self.grid);
         let g = GridSpec::new(n, self.extent_m / n as f64)?;
+        let (height, cover) = match &self.terrain {
+            TerrainSpec::Stratovolcano(p) => sample_terrain(&p.generate()?, g),
+            _ => self.terrain_fields(g),
+        };
+        self.build_on(g, height, cover)
+    }
+
+    /// Builds the initial state over a game's own foundation [`Terrain`] (sampled at the cell
+    /// centres) instead of the scenario's terrain.
+    pub fn build_with_terrain(
+        &self,
+        grid: Option<usize>,
+        terrain: &Terrain,
+    ) -> Result<AtmosphereState, ConfigError> {
+        self.validate()?;
+        let n = grid.unwrap_or(self.grid);
+        let g = GridSpec::new(n, self.extent_m / n as f64)?;
+        let (height, cover) = sample_terrain(terrain, g);
+        self.build_on(g, height, cover)
+    }
+
+    fn build_on(
+        &self,
+        g: GridSpec,
+        height: Vec<f32>,
+        cover: Vec<LandCover>,
+    ) -> Result<AtmosphereState, ConfigError> {
         let alts: Vec<f64> = self.layers.iter().map(|l| l.altitude_m).collect();
         let geometry = layer_geometry(&alts)?;
         let profile = self.profile.profile();
-        let (height, cover) = self.terrain_fields(g);
         let mut layers = Vec::new();
         for (spec, &(bottom, thickness)) in self.layers.iter().zip(&geometry) {
             let t0 = profile.temperature(spec.altitude_m) as f32;
@@ -459,6 +491,7 @@ impl Scenario {
                     let s = 0.5 * (1.0 + (inland / 500.0).tanh());
                     (height_m * s, if inland > 0.0 { LandCover::Ground } else { LandCover::Water })
                 }
+                TerrainSpec::Stratovolcano(_) => (0.0, LandCover::Water), // sampled in `build`
                 TerrainSpec::Archipelago { count, radius_m, height_m, seed } => {
                     let mut best = 0.0f64;
                     for c in 0..*count as u64 {

@@ -4,9 +4,9 @@
 //! capacity per m² (DESIGN.md §4 erratum: C_p × density × active depth).
 
 use rayon::prelude::*;
-use volcano_core::LandCover;
+use volcano_core::{LandCover, Terrain};
 
-use super::fields::{AtmosphereState, LayerFields, cover_props};
+use super::fields::{AtmosphereState, GridSpec, LayerFields, cover_props};
 use super::params::AtmosphereParams;
 use super::sun::{SunPosition, air_mass};
 use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
@@ -43,6 +43,20 @@ pub fn update_masks(state: &mut AtmosphereState) {
             .position(|layer| layer.sigma.data()[k] >= MIN_FREE_FRACTION)
             .map_or(u8::MAX, |i| i as u8);
     }
+}
+
+/// Samples a foundation [`Terrain`] at the atmosphere's cell centres: heights bilinear, land
+/// cover nearest, both clamped at the terrain's edges (the atmosphere may be larger than the
+/// terrain). Cells below the terrain's sea level are water at sea level.
+pub fn sample_terrain(terrain: &Terrain, grid: GridSpec) -> (Vec<f32>, Vec<LandCover>) {
+    let sea = terrain.sea_level();
+    (0..grid.cells())
+        .map(|k| {
+            let (x, y) = grid.centre(k);
+            let h = terrain.height_at(x as f32, y as f32);
+            if h < sea { (sea, LandCover::Water) } else { (h, terrain.cover_at(x as f32, y as f32)) }
+        })
+        .unzip()
 }
 
 /// Heat capacity of the ground per m² (J/(m²·K)): specific heat × density × active depth.
@@ -295,6 +309,20 @@ mod tests {
         assert_eq!(lit[5 * n + 18], 0.0);
         assert_eq!(lit[5 * n + 14], 1.0, "west of the ridge faces the sun");
         assert_eq!(lit[5 * n + 16], 1.0, "the ridge top is lit");
+    }
+
+    #[test]
+    fn foundation_terrain_is_sampled_at_cell_centres() {
+        let t = volcano_core::StratovolcanoParams { resolution: 129, cell: 100.0, ..Default::default() }
+            .generate()
+            .unwrap();
+        let g = GridSpec::new(64, 400.0).unwrap();
+        let (h, c) = sample_terrain(&t, g);
+        let centre = 32 * 64 + 32; // cell centre at (200, 200) m, on the cone
+        assert!((h[centre] - t.height_at(200.0, 200.0)).abs() < 1e-3);
+        assert!(h[centre] > 1500.0, "summit region {}", h[centre]);
+        assert_eq!(c.len(), 64 * 64);
+        assert!(h.iter().all(|x| x.is_finite() && *x >= t.sea_level()));
     }
 
     #[test]
