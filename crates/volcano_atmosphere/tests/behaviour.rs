@@ -133,8 +133,8 @@ fn a_stratovolcano_from_the_foundation_cuts_through_the_low_layers() {
     let s = Scenario::from_ron(&text).unwrap();
     let st = s.build(Some(32)).unwrap();
     // The cone (2.5 km) closes the 500 m layer near the summit and leaves it open far away.
-    assert!(st.layers[0].sigma.data().iter().any(|&x| x == 0.0));
-    assert!(st.layers[0].sigma.data().iter().any(|&x| x == 1.0));
+    assert!(st.layers[0].sigma.data().contains(&0.0));
+    assert!(st.layers[0].sigma.data().contains(&1.0));
     assert!(st.ground.lowest.iter().any(|&l| l >= 1));
     let r = run(&s, Some(30), None, Some(32)).unwrap();
     assert!(r.summary.valid);
