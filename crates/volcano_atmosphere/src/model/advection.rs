@@ -161,14 +161,17 @@ pub fn substeps(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: 
             worst
         })
         .reduce(|| 0.0, f64::max);
-    ((worst / 0.9).ceil() as u32).clamp(1, 256)
+    ((worst / 0.9).ceil().min(1e6) as u32).max(1)
 }
+
+/// Most substeps a conservative advection runs; beyond, the donor limiter keeps it exact.
+pub const MAX_SUBSTEPS: u32 = 256;
 
 /// One conservative upwind step of concentration `q` (amount per free volume) over
 /// `c = Δt/Δx`. Pass 1 computes every face flux once (into `fluxes`, length 3n²: west faces,
-/// south faces, donor limits); pass 2 computes for each cell the factor that keeps its total
-/// outflow within its content (1 whenever the CFL substepping holds; it only acts when the
-/// substep count hit its cap); pass 3 adds each limited flux to one cell and removes it from
+/// south faces, donor limits); when `limited` (the substep count hit [`MAX_SUBSTEPS`]) pass 2
+/// computes for each cell the factor that keeps its total outflow within its content (else all
+/// factors are 1: within the CFL limit no cell gives more than it holds); pass 3 adds each limited flux to one cell and removes it from
 /// the other, so the sum of `q σ` is conserved to rounding and nothing goes negative. Cells
 /// with σ = 0 are untouched.
 #[allow(clippy::too_many_arguments)]
@@ -182,6 +185,7 @@ pub fn flux_step(
     sigma: &[f32],
     n: usize,
     c: f64,
+    limited: bool,
 ) {
     assert_eq!(fluxes.len(), 3 * n * n, "flux scratch must hold 3n² values");
     let mask = n - 1;
@@ -205,7 +209,8 @@ pub fn flux_step(
         );
     }
     let (fx, fy) = (&*fx, &*fy);
-    {
+    // Within the CFL limit no cell can give more than it holds: no factors needed.
+    if limited {
         let q = &*q;
         limit.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
             let jp = (j + 1) & mask;
@@ -221,7 +226,15 @@ pub fn flux_step(
     }
     let limit = &*limit;
     // A face flux limited by its donor cell's factor.
-    let lim = |f: f64, into: usize, from: usize| if f > 0.0 { f * limit[from] } else { f * limit[into] };
+    let lim = |f: f64, into: usize, from: usize| {
+        if !limited {
+            f
+        } else if f > 0.0 {
+            f * limit[from]
+        } else {
+            f * limit[into]
+        }
+    };
     q.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
         let jp = (j + 1) & mask;
         let jm = (j + n - 1) & mask;
@@ -256,14 +269,16 @@ pub fn advect_conservative(
     n: usize,
     c: f64,
 ) -> u32 {
-    let m = substeps(u, v, ax, ay, sigma, n, c);
+    let need = substeps(u, v, ax, ay, sigma, n, c);
+    let m = need.min(MAX_SUBSTEPS);
+    let limited = need > MAX_SUBSTEPS;
     let cs = c / m as f64;
     for q in fields.iter_mut() {
         if q.iter().all(|&x| x == 0.0) {
             continue;
         }
         for _ in 0..m {
-            flux_step(q, fluxes, u, v, ax, ay, sigma, n, cs);
+            flux_step(q, fluxes, u, v, ax, ay, sigma, n, cs, limited);
         }
     }
     m
@@ -350,7 +365,7 @@ mod tests {
         // limiter still conserves and keeps every cell non-negative.
         let before = total(&q);
         for _ in 0..20 {
-            flux_step(&mut q, &mut src, &u, &v, &ax, &ay, &sigma, n, 5.0);
+            flux_step(&mut q, &mut src, &u, &v, &ax, &ay, &sigma, n, 5.0, true);
         }
         assert!(((total(&q) - before) / before).abs() < 1e-12);
         assert!(q.iter().all(|&x| x >= 0.0));
