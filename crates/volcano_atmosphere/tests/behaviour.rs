@@ -105,6 +105,14 @@ fn bad_scenario_files_give_clear_errors() {
     assert!(e.contains("power of two"), "{e}");
     let e = Scenario::builtin("tornado").unwrap_err().to_string();
     assert!(e.contains("sea-breeze"), "{e}");
+    // Unknown field inside a terrain variant.
+    let e = Scenario::from_ron(&good.replace(
+        "terrain: Flat(height_m: 0.0, cover: Ground)",
+        "terrain: Flat(height_m: 0.0, cover: Ground, slope: 1.0)",
+    ))
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("slope"), "{e}");
     let e = Scenario::load(std::path::Path::new("/nonexistent/storm.ron")).unwrap_err().to_string();
     assert!(e.contains("storm.ron"), "{e}");
     // Every shipped scenario parses.

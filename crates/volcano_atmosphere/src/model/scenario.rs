@@ -80,6 +80,7 @@ pub struct LayerSpec {
 
 /// Terrain generators, sampled at the atmosphere's cell centres (sea level 0).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum TerrainSpec {
     /// Flat land at a height.
     Flat {
@@ -122,6 +123,7 @@ pub enum TerrainSpec {
 
 /// What a timeline event does.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum EventAction {
     /// Sets the layer's prevailing wind (and its current wind) to `(u, v)` m/s.
     SetWind(f32, f32),
