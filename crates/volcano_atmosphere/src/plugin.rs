@@ -36,6 +36,8 @@ impl Plugin for AtmospherePlugin {
             .add_message::<WeatherStepped>()
             .register_type::<Atmosphere>()
             .register_type::<AirLayer>()
+            .register_type::<AtmosphereGround>()
+            .register_type::<AtmosphereTimeline>()
             .add_systems(WeatherStep, step_weather);
     }
 }
@@ -74,11 +76,13 @@ pub struct AirLayer {
 }
 
 /// The ground under an atmosphere (terrain heights, cover, temperature, water).
-#[derive(Component, Debug, Clone)]
+#[derive(Component, Debug, Clone, Reflect)]
+#[reflect(opaque)]
 pub struct AtmosphereGround(pub Ground);
 
 /// Timeline events still to fire (sorted by time), from a scenario.
-#[derive(Component, Debug, Clone, Default)]
+#[derive(Component, Debug, Clone, Default, Reflect)]
+#[reflect(opaque)]
 pub struct AtmosphereTimeline(pub Vec<Event>);
 
 /// Scratch buffers, reused between steps.
