@@ -27,12 +27,10 @@ struct Level {
 pub struct Poisson {
     n: usize,
     h2: f64,
-    /// Residual buffer of the finest level.
+    /// Residual buffer of the finest level (for the convergence check).
     res: Vec<f64>,
     /// Coarse levels, finest first (level 1 is n/2).
     coarse: Vec<Level>,
-    /// Residual buffers of the coarse levels (same order).
-    coarse_res: Vec<Vec<f64>>,
 }
 
 /// Outcome of [`Poisson::solve`].
@@ -68,16 +66,14 @@ impl Poisson {
         check_grid_size(n)?;
         volcano_core::error::positive("cell size", dx)?;
         let mut coarse = Vec::new();
-        let mut coarse_res = Vec::new();
         let mut m = n / 2;
         let mut h = 2.0 * dx;
         while m >= 4 {
             coarse.push(Level { n: m, h2: h * h, phi: vec![0.0; m * m], rhs: vec![0.0; m * m] });
-            coarse_res.push(vec![0.0; m * m]);
             m /= 2;
             h *= 2.0;
         }
-        Ok(Self { n, h2: dx * dx, res: vec![0.0; n * n], coarse, coarse_res })
+        Ok(Self { n, h2: dx * dx, res: vec![0.0; n * n], coarse })
     }
 
     /// Grid size.
@@ -96,7 +92,7 @@ impl Poisson {
         let n = self.n;
         assert_eq!(phi.len(), n * n, "phi has the wrong size");
         assert_eq!(rhs.len(), n * n, "rhs has the wrong size");
-        cycle(n, self.h2, phi, rhs, &mut self.res, &mut self.coarse, &mut self.coarse_res);
+        cycle(n, self.h2, phi, rhs, &mut self.coarse);
         remove_mean(phi);
     }
 
@@ -125,15 +121,7 @@ impl Poisson {
     }
 }
 
-fn cycle(
-    n: usize,
-    h2: f64,
-    phi: &mut [f64],
-    rhs: &[f64],
-    res: &mut [f64],
-    coarse: &mut [Level],
-    coarse_res: &mut [Vec<f64>],
-) {
+fn cycle(n: usize, h2: f64, phi: &mut [f64], rhs: &[f64], coarse: &mut [Level]) {
     if coarse.is_empty() {
         // Coarsest grid (4 × 4): smooth to convergence.
         for _ in 0..60 {
@@ -145,13 +133,12 @@ fn cycle(
     for _ in 0..2 {
         rb_gauss_seidel(n, h2, phi, rhs);
     }
-    residual(n, h2, phi, rhs, res);
+    // The residual is restricted on the fly, never stored.
     let (level, rest) = coarse.split_first_mut().expect("checked non-empty");
-    let (cres, rest_res) = coarse_res.split_first_mut().expect("same length as coarse");
-    restrict(n, res, &mut level.rhs);
+    restrict_residual(n, h2, phi, rhs, &mut level.rhs);
     remove_mean(&mut level.rhs);
     level.phi.iter_mut().for_each(|p| *p = 0.0);
-    cycle(level.n, level.h2, &mut level.phi, &level.rhs, cres, rest, rest_res);
+    cycle(level.n, level.h2, &mut level.phi, &level.rhs, rest);
     prolong_add(level.n, &level.phi, phi);
     for _ in 0..2 {
         rb_gauss_seidel(n, h2, phi, rhs);
@@ -230,14 +217,32 @@ fn residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
     }
 }
 
-/// Fine (n × n) to coarse (n/2 × n/2): mean of the four children.
-fn restrict(n: usize, fine: &[f64], coarse: &mut [f64]) {
+/// Residual `rhs − ∇²φ` of the fine (n × n) grid restricted to the coarse one (mean of the
+/// four children), computed on the fly (coarse rows in parallel on large grids).
+fn restrict_residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
     let m = n / 2;
-    for jc in 0..m {
-        for ic in 0..m {
-            let k = 2 * jc * n + 2 * ic;
-            coarse[jc * m + ic] = 0.25 * (fine[k] + fine[k + 1] + fine[k + n] + fine[k + n + 1]);
+    let mask = n - 1;
+    let inv = 1.0 / h2;
+    let r = |i: usize, j: usize| {
+        let row = j * n;
+        let up = ((j + 1) & mask) * n;
+        let down = ((j + n - 1) & mask) * n;
+        let left = (i + n - 1) & mask;
+        let right = (i + 1) & mask;
+        let lap =
+            (phi[row + left] + phi[row + right] + phi[up + i] + phi[down + i] - 4.0 * phi[row + i]) * inv;
+        rhs[row + i] - lap
+    };
+    let row_pass = |(jc, out): (usize, &mut [f64])| {
+        for (ic, c) in out.iter_mut().enumerate() {
+            let (i, j) = (2 * ic, 2 * jc);
+            *c = 0.25 * (r(i, j) + r(i + 1, j) + r(i, j + 1) + r(i + 1, j + 1));
         }
+    };
+    if n >= PARALLEL_FROM {
+        coarse.par_chunks_mut(m).enumerate().with_min_len(8).for_each(row_pass);
+    } else {
+        coarse.chunks_mut(m).enumerate().for_each(row_pass);
     }
 }
 
