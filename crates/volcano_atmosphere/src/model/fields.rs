@@ -330,6 +330,59 @@ impl AtmosphereState {
         self.day_of_year + ((self.start_hour + self.time_s / 3600.0) / 24.0).floor()
     }
 
+    /// Checks that every layer and ground grid has the state's `n × n` shape and that there
+    /// are 2–255 layers (a state assembled by hand could otherwise make a step index out of
+    /// range).
+    pub fn check_shape(&self) -> Result<(), ConfigError> {
+        let n = self.grid.n;
+        let bad = |what: &'static str, got: usize| ConfigError::InvalidParameter {
+            name: what,
+            value: got as f64,
+            reason: format!("must have the state's {n}×{n} cells"),
+        };
+        if !(2..=255).contains(&self.layers.len()) {
+            return Err(ConfigError::InvalidParameter {
+                name: "layers",
+                value: self.layers.len() as f64,
+                reason: "need 2 to 255 layers".into(),
+            });
+        }
+        for l in &self.layers {
+            let sizes = [
+                l.t.data().len(),
+                l.h.data().len(),
+                l.w.data().len(),
+                l.ash.data().len(),
+                l.u.data().len(),
+                l.v.data().len(),
+                l.p.data().len(),
+                l.c.data().len(),
+                l.up.data().len(),
+                l.d.data().len(),
+                l.sigma.data().len(),
+            ];
+            if let Some(&s) = sizes.iter().find(|&&s| s != n * n) {
+                return Err(bad("layer field size", s));
+            }
+            if l.t.nx() != n {
+                return Err(bad("layer grid width", l.t.nx()));
+            }
+            if !(l.thickness.is_finite() && l.thickness > 0.0 && l.pi.is_finite() && l.pi > 0.0) {
+                return Err(bad("layer geometry", 0));
+            }
+        }
+        let g = &self.ground;
+        for s in [g.height.data().len(), g.cover.data().len(), g.t.data().len(), g.water.data().len()] {
+            if s != n * n {
+                return Err(bad("ground field size", s));
+            }
+        }
+        if g.sunlit.data().len() != n * n || g.lowest.len() != n * n {
+            return Err(bad("ground field size", g.lowest.len()));
+        }
+        Ok(())
+    }
+
     /// Whether every field is finite and every amount non-negative.
     pub fn is_valid(&self) -> bool {
         self.layers.iter().all(|l| l.is_valid())
@@ -361,6 +414,12 @@ mod tests {
         assert!(GridSpec::new(64, f64::INFINITY).is_err());
         let g = GridSpec::new(16, 10.0).unwrap();
         assert_eq!(g.centre(0), (-75.0, -75.0));
+        // A hand-assembled state with a mismatched layer is rejected, not indexed out of range.
+        let mut st =
+            crate::model::scenario::Scenario::builtin("convection").unwrap().build(Some(16)).unwrap();
+        st.check_shape().unwrap();
+        st.layers[1] = LayerFields::default();
+        assert!(st.check_shape().is_err());
         assert_eq!(g.centre(17), (-65.0, -65.0));
     }
 }

@@ -113,6 +113,7 @@ pub fn step(
 ) -> Result<StepReport, ConfigError> {
     check_dt(dt)?;
     params.validate()?;
+    state.check_shape()?;
     if !work.matches(state) {
         *work = Workspace::new(state)?;
     }
