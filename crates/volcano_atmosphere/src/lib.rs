@@ -1,0 +1,20 @@
+//! Layered meso-scale atmosphere (thesis §4.2, "Interactive meso-scale simulation of
+//! skyscapes"): air layers at irregular altitudes, each a 2D grid of temperature, humidity,
+//! condensed water, wind, pressure and vertical exchange fields; stable fluids with a
+//! multigrid pressure solve; phase changes with latent heat; convection and uplift between
+//! layers; terrain damping, sun, radiation and ground exchange.
+//!
+//! [`model`] holds plain data and functions; [`plugin`] is the thin Bevy layer.
+
+pub mod model;
+pub mod plugin;
+
+pub use model::fields::{AtmosphereState, GridSpec, LayerFields};
+pub use model::params::AtmosphereParams;
+pub use model::run::{AtmosphereSummary, run_scenario};
+pub use model::scenario::Scenario;
+pub use model::step::{StepReport, Workspace, step};
+pub use plugin::{
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherStep, WeatherStepped,
+    spawn_atmosphere, spawn_scenario,
+};

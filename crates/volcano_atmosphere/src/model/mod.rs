@@ -1,0 +1,19 @@
+//! Model layer: plain data and functions, no ECS types. Each physical law is a function with
+//! a doc comment naming its thesis equation (Lastic 2023, §4.2) and the DESIGN.md erratum
+//! where one applies.
+
+pub mod advection;
+pub mod clouds;
+pub mod fields;
+pub mod maps;
+pub mod multigrid;
+pub mod params;
+pub mod projection;
+pub mod run;
+pub mod scenario;
+pub mod step;
+pub mod sun;
+pub mod terrain;
+pub mod thermo;
+pub mod vertical;
+pub mod volume;

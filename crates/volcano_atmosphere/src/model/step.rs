@@ -1,0 +1,286 @@
+//! One weather step: ground exchange, phase change, vertical exchange, advection and
+//! projection per layer, temperature relaxation.
+//!
+//! Layers run in parallel (rayon) where they are independent (phase change, dynamics); each
+//! layer's work is sequential and the same whatever the thread count, so results are
+//! deterministic. Reductions over layers are summed in layer order.
+
+use rayon::prelude::*;
+use serde::Serialize;
+use volcano_core::ConfigError;
+
+use super::advection::{Staggering, advect_conservative, advect_field, apertures};
+use super::fields::{AtmosphereState, LayerFields};
+use super::params::AtmosphereParams;
+use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
+use super::sun::sun_position;
+use super::terrain::ground_exchange;
+use super::thermo::phase_change_fraction;
+use super::vertical::{divergence_target, precipitate, transfer, vertical_velocity};
+
+/// Scratch buffers of one layer, kept between steps.
+#[derive(Debug, Clone)]
+pub struct LayerWork {
+    projection: ProjectionWork,
+    target: Vec<f64>,
+    ax: Vec<f32>,
+    ay: Vec<f32>,
+    a: Vec<f32>,
+    b: Vec<f32>,
+    scratch: Vec<f32>,
+    t_old: Vec<f32>,
+    /// Face fluxes and donor limits of the conservative advection (3n²).
+    src: Vec<f64>,
+}
+
+/// Scratch buffers of a whole atmosphere.
+#[derive(Debug, Clone)]
+pub struct Workspace {
+    layers: Vec<LayerWork>,
+}
+
+impl Workspace {
+    /// Buffers matching `state`'s grid and layer count.
+    pub fn new(state: &AtmosphereState) -> Result<Self, ConfigError> {
+        let (n, dx) = (state.grid.n, state.grid.dx);
+        let cells = n * n;
+        let layers = (0..state.layers.len())
+            .map(|_| {
+                Ok(LayerWork {
+                    projection: ProjectionWork::new(n, dx)?,
+                    target: vec![0.0; cells],
+                    ax: vec![0.0; cells],
+                    ay: vec![0.0; cells],
+                    a: vec![0.0; cells],
+                    b: vec![0.0; cells],
+                    scratch: vec![0.0; 3 * cells],
+                    t_old: vec![0.0; cells],
+                    src: vec![0.0; 3 * cells],
+                })
+            })
+            .collect::<Result<Vec<_>, ConfigError>>()?;
+        Ok(Self { layers })
+    }
+
+    fn matches(&self, state: &AtmosphereState) -> bool {
+        self.layers.len() == state.layers.len()
+            && self.layers.iter().all(|l| l.projection.poisson.n() == state.grid.n)
+    }
+}
+
+/// What one step did (diagnostics for summaries and tests).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct StepReport {
+    /// Largest |∇·V − target| after projection over all layers (1/s).
+    pub max_divergence_error: f64,
+    /// Largest |∇·V − target| before projection (1/s).
+    pub max_initial_divergence_error: f64,
+    /// Mean multigrid residual reduction per V-cycle over the layers' solves.
+    pub residual_reduction: f64,
+    /// V-cycles run, summed over layers.
+    pub v_cycles: u32,
+    /// max |D| (m/s).
+    pub max_vertical_speed: f64,
+    /// Grams precipitated this step.
+    pub precipitated: f64,
+    /// Grams evaporated from the ground this step (negative: dew).
+    pub ground_evaporation: f64,
+    /// Largest number of flux substeps a layer needed.
+    pub flux_substeps: u32,
+    /// Wall time (ms) of the phases: ground, phase change, vertical exchange, dynamics.
+    pub phase_ms: [f64; 4],
+}
+
+/// Checks a step length: finite, in (0, 3600] s.
+pub fn check_dt(dt: f64) -> Result<f64, ConfigError> {
+    if dt.is_finite() && dt > 0.0 && dt <= 3600.0 {
+        Ok(dt)
+    } else {
+        Err(ConfigError::InvalidParameter {
+            name: "dt",
+            value: dt,
+            reason: "must be a finite time step in (0, 3600] s".into(),
+        })
+    }
+}
+
+/// Advances the atmosphere by `dt` seconds.
+pub fn step(
+    state: &mut AtmosphereState,
+    params: &AtmosphereParams,
+    work: &mut Workspace,
+    dt: f64,
+) -> Result<StepReport, ConfigError> {
+    check_dt(dt)?;
+    params.validate()?;
+    state.check_shape()?;
+    if !work.matches(state) {
+        *work = Workspace::new(state)?;
+    }
+    let mut report = StepReport::default();
+
+    let clock = std::time::Instant::now();
+    let lap = |i: usize, r: &mut StepReport| r.phase_ms[i] = clock.elapsed().as_secs_f64() * 1e3;
+    // 1. Ground: sun, radiation, sensible heat, evaporation (§4.2.5).
+    let sun = sun_position(state.day_now(), state.local_hour(), state.latitude_deg);
+    report.ground_evaporation = ground_exchange(state, params, &sun, dt);
+    lap(0, &mut report);
+
+    // 2. Phase change in every layer (4.2–4.4), layers in parallel.
+    state.layers.par_iter_mut().for_each(|layer| layer_phase_change(layer, params, dt));
+    lap(1, &mut report);
+
+    // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
+    report.max_vertical_speed =
+        vertical_velocity(&mut state.layers, state.ground.height.data(), state.grid.dx, params);
+    transfer(&mut state.layers, dt);
+    let area = state.grid.dx * state.grid.dx;
+    report.precipitated = precipitate(
+        &mut state.layers,
+        state.ground.water.data_mut(),
+        params.precipitation_threshold,
+        params.precipitation_rate,
+        dt,
+        area,
+    );
+    state.precipitated += report.precipitated;
+    lap(2, &mut report);
+
+    // 4. Dynamics per layer: advection, forcing, damping, projection, conservative transport.
+    for i in 0..state.layers.len() {
+        divergence_target(&state.layers, i, &mut work.layers[i].target);
+    }
+    let (n, dx) = (state.grid.n, state.grid.dx);
+    let reports: Vec<(ProjectionReport, u32)> = state
+        .layers
+        .par_iter_mut()
+        .zip(work.layers.par_iter_mut())
+        .map(|(layer, w)| layer_dynamics(layer, w, params, n, dx, dt))
+        .collect();
+    let mut reduction_sum = 0.0;
+    for (r, subs) in &reports {
+        report.max_divergence_error = report.max_divergence_error.max(r.final_error);
+        report.max_initial_divergence_error = report.max_initial_divergence_error.max(r.initial_error);
+        reduction_sum += r.solve.reduction_per_cycle.min(1e6);
+        report.v_cycles += r.solve.cycles;
+        report.flux_substeps = report.flux_substeps.max(*subs);
+    }
+    report.residual_reduction = reduction_sum / reports.len().max(1) as f64;
+    lap(3, &mut report);
+    for i in (1..4).rev() {
+        report.phase_ms[i] -= report.phase_ms[i - 1];
+    }
+
+    // 5. Relaxation of T.
+    let relax = (1.0 - (-dt / params.temperature_relaxation_s).exp()) as f32;
+    for layer in state.layers.iter_mut() {
+        let t_ref = layer.t_ref;
+        layer.t.data_mut().iter_mut().for_each(|t| *t += (t_ref - *t) * relax);
+    }
+    state.time_s += dt;
+    Ok(report)
+}
+
+/// Evaporation/condensation with latent heat in every free cell of a layer (rows in
+/// parallel; cells are independent).
+fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f64) {
+    let pi = layer.pi;
+    let n = layer.t.nx();
+    let rate = 1.0 - (-params.phase_rate * dt).exp();
+    let sigma = layer.sigma.data();
+    (
+        layer.t.data_mut().par_chunks_mut(n),
+        layer.h.data_mut().par_chunks_mut(n),
+        layer.w.data_mut().par_chunks_mut(n),
+    )
+        .into_par_iter()
+        .enumerate()
+        .with_min_len(8)
+        .for_each(|(j, (t, h, w))| {
+            for i in 0..t.len() {
+                if sigma[j * n + i] <= 0.0 {
+                    continue;
+                }
+                let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
+                t[i] = pc.t as f32;
+                h[i] = pc.h;
+                w[i] = pc.w;
+            }
+        });
+}
+
+/// Advection of V and T, wind forcing, orographic damping, projection with the continuity
+/// target, then conservative advection of H, W and ash by the projected wind.
+fn layer_dynamics(
+    layer: &mut LayerFields,
+    w: &mut LayerWork,
+    params: &AtmosphereParams,
+    n: usize,
+    dx: f64,
+    dt: f64,
+) -> (ProjectionReport, u32) {
+    let c = (dt / dx) as f32;
+    let scheme = params.advection;
+    // V (both components from the old wind) and T.
+    w.a.copy_from_slice(layer.u.data());
+    w.b.copy_from_slice(layer.v.data());
+    w.t_old.copy_from_slice(layer.t.data());
+    {
+        let (u_old, v_old, t_old, scratch) = (&w.a, &w.b, &w.t_old, &mut w.scratch);
+        advect_field(
+            u_old,
+            layer.u.data_mut(),
+            scratch,
+            u_old,
+            v_old,
+            n,
+            c,
+            Staggering::FaceX,
+            params.wind_advection,
+        );
+        advect_field(
+            v_old,
+            layer.v.data_mut(),
+            scratch,
+            u_old,
+            v_old,
+            n,
+            c,
+            Staggering::FaceY,
+            params.wind_advection,
+        );
+        advect_field(t_old, layer.t.data_mut(), scratch, u_old, v_old, n, c, Staggering::Centre, scheme);
+    }
+    if let Some(tau) = layer.wind_relaxation_s {
+        relax_wind(layer.u.data_mut(), layer.v.data_mut(), layer.wind.x, layer.wind.y, dt, tau);
+    }
+    apertures(layer.sigma.data(), n, &mut w.ax, &mut w.ay);
+    // Orographic damping, eq. (4.8).
+    damp(layer.u.data_mut(), layer.v.data_mut(), &w.ax, &w.ay);
+    let rep = project(
+        layer.u.data_mut(),
+        layer.v.data_mut(),
+        layer.p.data_mut(),
+        &w.target,
+        &mut w.projection,
+        dx,
+        params.multigrid_cycles,
+        params.multigrid_tolerance,
+    );
+    let subs = {
+        let LayerFields { h, w: water, ash, u, v, sigma, .. } = layer;
+        let mut fields: [&mut [f64]; 3] = [h.data_mut(), water.data_mut(), ash.data_mut()];
+        advect_conservative(
+            &mut fields,
+            &mut w.src,
+            u.data(),
+            v.data(),
+            &w.ax,
+            &w.ay,
+            sigma.data(),
+            n,
+            dt / dx,
+        )
+    };
+    (rep, subs)
+}

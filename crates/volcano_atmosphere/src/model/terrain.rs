@@ -1,0 +1,336 @@
+//! Terrain–atmosphere interaction (thesis §4.2.5): orographic damping (4.8), terrain
+//! self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴ per the erratum), heat
+//! (4.11) and water (4.12) exchange with the lowest free layer, all with a ground heat
+//! capacity per m² (DESIGN.md §4 erratum: C_p × density × active depth).
+
+use rayon::prelude::*;
+use volcano_core::{LandCover, Terrain};
+
+use super::fields::{AtmosphereState, GridSpec, LayerFields, cover_props};
+use super::params::AtmosphereParams;
+use super::sun::{SunPosition, air_mass};
+use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
+
+/// Stefan–Boltzmann constant (W/(m²·K⁴)).
+pub const STEFAN_BOLTZMANN: f64 = 5.670_374e-8;
+/// A layer takes part in ground exchange when at least this fraction of its slab is air.
+pub const MIN_FREE_FRACTION: f32 = 0.1;
+
+/// Orographic damping σ_i(p), thesis eq. (4.8) as printed:
+/// `σ_i = 1 − min(1, max(0, (Θ_T − Θ_i) / ΔΘ_i))`, with `ΔΘ_i` the layer's thickness: a layer
+/// is untouched while the terrain stays below its altitude and closed once the terrain rises a
+/// thickness above it. σ also scales the layer's air volume for the water budget and the face
+/// apertures for transport.
+pub fn orographic_damping(terrain: f64, altitude: f64, thickness: f64) -> f32 {
+    (1.0 - ((terrain - altitude) / thickness).clamp(0.0, 1.0)) as f32
+}
+
+/// Fills every layer's σ from the terrain and the ground's `lowest` index ℓ(p) (the lowest
+/// layer with at least [`MIN_FREE_FRACTION`] of air). Water and heat in cells that become
+/// solid (σ = 0) are cleared by the caller's initialisation, not here.
+pub fn update_masks(state: &mut AtmosphereState) {
+    let heights = state.ground.height.data();
+    for layer in state.layers.iter_mut() {
+        let (b, h) = (layer.altitude, layer.thickness);
+        for (s, &t) in layer.sigma.data_mut().iter_mut().zip(heights) {
+            *s = orographic_damping(t as f64, b, h);
+        }
+    }
+    let layers = &state.layers;
+    for (k, l) in state.ground.lowest.iter_mut().enumerate() {
+        *l = layers
+            .iter()
+            .position(|layer| layer.sigma.data()[k] >= MIN_FREE_FRACTION)
+            .map_or(u8::MAX, |i| i as u8);
+    }
+}
+
+/// Samples a foundation [`Terrain`] at the atmosphere's cell centres: heights bilinear, land
+/// cover nearest, both clamped at the terrain's edges (the atmosphere may be larger than the
+/// terrain). Cells below the terrain's sea level are water at sea level.
+pub fn sample_terrain(terrain: &Terrain, grid: GridSpec) -> (Vec<f32>, Vec<LandCover>) {
+    let sea = terrain.sea_level();
+    (0..grid.cells())
+        .map(|k| {
+            let (x, y) = grid.centre(k);
+            let h = terrain.height_at(x as f32, y as f32);
+            if h < sea { (sea, LandCover::Water) } else { (h, terrain.cover_at(x as f32, y as f32)) }
+        })
+        .unzip()
+}
+
+/// Heat capacity of the ground per m² (J/(m²·K)): specific heat × density × active depth.
+pub fn heat_capacity_per_m2(cover: LandCover, params: &AtmosphereParams) -> f64 {
+    let p = cover_props(cover);
+    let depth = if cover == LandCover::Water { params.water_depth } else { params.soil_depth };
+    p.heat_capacity as f64 * p.density as f64 * depth
+}
+
+/// Fraction of direct sunlight at each cell: 0 where the terrain (toroidal) hides the sun,
+/// found by marching toward the sun until the ray is above the highest terrain. Rows run in
+/// parallel; each cell's answer depends only on the heights.
+pub fn sunlit_map(heights: &[f32], n: usize, dx: f64, sun: &SunPosition, out: &mut [f32]) {
+    if sun.elevation <= 0.0 {
+        out.fill(0.0);
+        return;
+    }
+    let top = heights.iter().cloned().fold(f32::NEG_INFINITY, f32::max) as f64;
+    let [e, no, up] = sun.direction;
+    let horiz = (e * e + no * no).sqrt();
+    if horiz < 1e-9 {
+        out.fill(1.0);
+        return;
+    }
+    let (sx, sy) = (e / horiz, no / horiz);
+    let rise = up / horiz * dx; // metres gained per cell travelled
+    let mask = n as i64 - 1;
+    out.par_chunks_mut(n).enumerate().for_each(|(j, row)| {
+        for (i, o) in row.iter_mut().enumerate() {
+            let h0 = heights[j * n + i] as f64;
+            let steps = (((top - h0) / rise).ceil().max(0.0) as usize).min(4 * n);
+            let mut lit = 1.0;
+            for s in 1..=steps {
+                let x = (i as f64 + sx * s as f64).round() as i64 & mask;
+                let y = (j as f64 + sy * s as f64).round() as i64 & mask;
+                if heights[(y as usize) * n + x as usize] as f64 > h0 + rise * s as f64 {
+                    lit = 0.0;
+                    break;
+                }
+            }
+            *o = lit;
+        }
+    });
+}
+
+/// Energy budget of the ground for one step, per cell (W/m² terms).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct GroundFluxes {
+    /// Absorbed sunlight, eq. (4.9) numerator over Δt.
+    pub absorbed: f64,
+    /// Grey-body emission `ε σ T⁴`, eq. (4.10) with the erratum.
+    pub emitted: f64,
+    /// Downwelling long-wave from the sky absorbed by the ground.
+    pub back_radiation: f64,
+    /// Sensible heat to the lowest free layer, eq. (4.11).
+    pub sensible: f64,
+}
+
+/// Absorbed solar flux (W/m²), eq. (4.9) before dividing by the heat capacity:
+/// `F_s (1 − B) cos θ / D(θ)`, with θ the angle between the surface normal and the sun.
+pub fn absorbed_flux(solar_constant: f64, albedo: f64, cos_incidence: f64, cos_zenith: f64) -> f64 {
+    if cos_zenith <= 0.0 || cos_incidence <= 0.0 {
+        return 0.0;
+    }
+    solar_constant * (1.0 - albedo) * cos_incidence / air_mass(cos_zenith)
+}
+
+/// Fraction of sunlight a cloud column of liquid water path `lwp` (g/m²) lets through to the
+/// ground (the thesis' cloud shadowing): optical depth `τ = 0.15 · LWP` (effective droplet
+/// radius 10 µm, `τ = 3 LWP / (2 ρ_w r_e)`) and the two-stream transmission of a
+/// non-absorbing cloud, `1 / (1 + 0.75 τ (1 − g))` with asymmetry g = 0.85. Vertical column
+/// (the slant path is ignored).
+pub fn cloud_transmission(lwp: f64) -> f64 {
+    let tau = 0.15 * lwp.max(0.0);
+    1.0 / (1.0 + 0.75 * tau * (1.0 - 0.85))
+}
+
+/// Grey-body emission (W/m²), eq. (4.10) with the DESIGN erratum (T⁴, not T⁸): `ε σ_B T⁴`.
+pub fn grey_body(emissivity: f64, t: f64) -> f64 {
+    emissivity * STEFAN_BOLTZMANN * t.powi(4)
+}
+
+/// One step of ground physics under `sun`: radiation (4.9, 4.10 and the sky's back
+/// radiation), sensible heat to the lowest free layer (4.11), evaporation or dew with the
+/// ground's latent heat (4.12). Returns the grams of water moved from ground to air (negative
+/// for dew).
+pub fn ground_exchange(
+    state: &mut AtmosphereState,
+    params: &AtmosphereParams,
+    sun: &SunPosition,
+    dt: f64,
+) -> f64 {
+    let n = state.grid.n;
+    let dx = state.grid.dx;
+    let sun_key = [sun.direction[0] as f32, sun.direction[1] as f32, sun.direction[2] as f32];
+    let stale = match state.ground.sunlit_for {
+        None => true,
+        Some(old) => old.iter().zip(&sun_key).any(|(a, b)| (a - b).abs() > 0.01),
+    };
+    if stale {
+        let heights = state.ground.height.data().to_vec();
+        sunlit_map(&heights, n, dx, sun, state.ground.sunlit.data_mut());
+        state.ground.sunlit_for = Some(sun_key);
+    }
+    let cos_zenith = sun.direction[2];
+    let mask = n - 1;
+    let ground = &state.ground;
+    let layers = &state.layers;
+    let heights = ground.height.data();
+    // Per-cell updates computed in parallel from the old state, applied in order below.
+    let updates: Vec<Option<CellUpdate>> = (0..n * n)
+        .into_par_iter()
+        .with_min_len(1024)
+        .map(|k| {
+            let li = ground.lowest[k];
+            if li == u8::MAX {
+                return None;
+            }
+            let layer: &LayerFields = &layers[li as usize];
+            let cover = ground.cover.data()[k];
+            let props = cover_props(cover);
+            let cap = heat_capacity_per_m2(cover, params);
+            let (i, j) = (k % n, k / n);
+            // Surface normal from central differences on the torus.
+            let hx = (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64
+                / (2.0 * dx);
+            let hy = (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64
+                / (2.0 * dx);
+            let norm = (hx * hx + hy * hy + 1.0).sqrt();
+            let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
+            let lit = ground.sunlit.data()[k] as f64;
+            let tg = ground.t.data()[k] as f64;
+            let ta = layer.t.data()[k] as f64;
+            let sigma = layer.sigma.data()[k] as f64;
+            let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
+            // Cloud shading: the column's condensed water above the ground.
+            let lwp: f64 =
+                layers.iter().map(|l| l.w.data()[k] * l.sigma.data()[k] as f64 * l.thickness).sum();
+            let absorbed = lit
+                * cloud_transmission(lwp)
+                * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
+            let emitted = grey_body(props.emissivity as f64, tg);
+            let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
+            // Sensible heat, limited so ground and air cannot overshoot their common temperature.
+            let equilibrium_energy = (tg - ta) * cap * air_cap / (cap + air_cap);
+            let mut sensible = params.sensible_heat_coefficient * (tg - ta) * dt;
+            if sensible.abs() > equilibrium_energy.abs() {
+                sensible = equilibrium_energy;
+            }
+            let mut tg_new = tg + ((absorbed - emitted + back) * dt - sensible) / cap;
+            let ta_new = ta + sensible / air_cap;
+            // Water exchange (4.12): toward saturation at the ground temperature.
+            let vol = sigma * layer.thickness;
+            let hum = layer.h.data()[k];
+            let target = saturation_humidity(tg_new, layer.pi);
+            // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
+            let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
+            let grams = (relax * (target - hum) * vol).clamp(-hum * vol, ground.water.data()[k]);
+            // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12).
+            tg_new -= grams * L_V_PER_G / cap;
+            Some(CellUpdate {
+                layer: li,
+                tg: tg_new.clamp(150.0, 400.0) as f32,
+                ta: ta_new as f32,
+                h: (hum + grams / vol).max(0.0),
+                grams,
+            })
+        })
+        .collect();
+    let mut moved = 0.0;
+    for (k, u) in updates.into_iter().enumerate() {
+        let Some(u) = u else { continue };
+        let layer = &mut state.layers[u.layer as usize];
+        layer.t.data_mut()[k] = u.ta;
+        layer.h.data_mut()[k] = u.h;
+        state.ground.t.data_mut()[k] = u.tg;
+        state.ground.water.data_mut()[k] -= u.grams;
+        moved += u.grams * dx * dx;
+    }
+    moved
+}
+
+/// One cell's ground-exchange result.
+struct CellUpdate {
+    layer: u8,
+    tg: f32,
+    ta: f32,
+    h: f64,
+    grams: f64,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::sun::sun_position;
+
+    #[test]
+    fn damping_follows_eq_4_8() {
+        assert_eq!(orographic_damping(0.0, 100.0, 200.0), 1.0);
+        assert_eq!(orographic_damping(100.0, 100.0, 200.0), 1.0);
+        assert_eq!(orographic_damping(200.0, 100.0, 200.0), 0.5);
+        assert_eq!(orographic_damping(300.0, 100.0, 200.0), 0.0);
+    }
+
+    #[test]
+    fn grey_body_is_t4_and_absorption_follows_cosines() {
+        // 288 K black body: 390 W/m² (T⁸ would be 1.5e11).
+        assert!((grey_body(1.0, 288.0) - 390.08).abs() < 0.1);
+        assert!((grey_body(0.9, 300.0) / grey_body(0.9, 150.0) - 16.0).abs() < 1e-9);
+        let noon = absorbed_flux(1000.0, 0.2, 1.0, 1.0);
+        assert!((noon - 800.0).abs() < 1e-9);
+        assert!(absorbed_flux(1000.0, 0.2, 0.5, 0.5) < 0.26 * noon);
+        assert_eq!(absorbed_flux(1000.0, 0.2, 0.5, -0.1), 0.0);
+    }
+
+    #[test]
+    fn clouds_shade_the_ground() {
+        assert_eq!(cloud_transmission(0.0), 1.0);
+        // A 1 km stratocumulus with 0.2 g/m³ (LWP 200 g/m², τ 30) lets ≈ 23 % through.
+        let t = cloud_transmission(200.0);
+        assert!((t - 1.0 / (1.0 + 0.75 * 30.0 * 0.15)).abs() < 1e-12 && t < 0.25 && t > 0.2);
+        assert!(cloud_transmission(1000.0) < cloud_transmission(100.0));
+    }
+
+    #[test]
+    fn a_cloud_column_heats_its_ground_less_at_noon() {
+        let sc = crate::model::scenario::Scenario::builtin("convection").unwrap();
+        let mut st = sc.build(Some(16)).unwrap();
+        st.layers[1].w.data_mut()[5] = 0.5;
+        let t0 = st.ground.t.data().to_vec();
+        let sun = sun_position(172.0, 12.0, 43.0);
+        ground_exchange(&mut st, &AtmosphereParams::default(), &sun, 600.0);
+        let (under, clear) = (st.ground.t.data()[5] - t0[5], st.ground.t.data()[6] - t0[6]);
+        assert!(clear > 0.5 && under < 0.3 * clear, "cloudy {under} K vs clear {clear} K");
+    }
+
+    #[test]
+    fn a_ridge_shadows_the_valley_behind_it_at_low_sun() {
+        let n = 32;
+        let mut h = vec![0.0f32; n * n];
+        for j in 0..n {
+            h[j * n + 16] = 500.0; // north–south ridge at i = 16
+        }
+        // Evening sun in the west: cells just east of the ridge are in its shadow.
+        let sun = sun_position(81.0, 17.5, 45.0);
+        assert!(sun.direction[0] < 0.0 && sun.elevation > 0.0);
+        let mut lit = vec![0.0; n * n];
+        sunlit_map(&h, n, 1000.0, &sun, &mut lit);
+        assert_eq!(lit[5 * n + 17], 0.0);
+        assert_eq!(lit[5 * n + 18], 0.0);
+        assert_eq!(lit[5 * n + 14], 1.0, "west of the ridge faces the sun");
+        assert_eq!(lit[5 * n + 16], 1.0, "the ridge top is lit");
+    }
+
+    #[test]
+    fn foundation_terrain_is_sampled_at_cell_centres() {
+        let t = volcano_core::StratovolcanoParams { resolution: 129, cell: 100.0, ..Default::default() }
+            .generate()
+            .unwrap();
+        let g = GridSpec::new(64, 400.0).unwrap();
+        let (h, c) = sample_terrain(&t, g);
+        let centre = 32 * 64 + 32; // cell centre at (200, 200) m, on the cone
+        assert!((h[centre] - t.height_at(200.0, 200.0)).abs() < 1e-3);
+        assert!(h[centre] > 1500.0, "summit region {}", h[centre]);
+        assert_eq!(c.len(), 64 * 64);
+        assert!(h.iter().all(|x| x.is_finite() && *x >= t.sea_level()));
+    }
+
+    #[test]
+    fn land_heat_capacity_is_far_below_the_sea() {
+        let p = AtmosphereParams::default();
+        let land = heat_capacity_per_m2(LandCover::Ground, &p);
+        let sea = heat_capacity_per_m2(LandCover::Water, &p);
+        assert!((land - 800.0 * 1600.0 * 0.3).abs() < 1e-6);
+        assert!(sea > 40.0 * land);
+    }
+}

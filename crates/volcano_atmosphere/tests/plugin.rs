@@ -1,0 +1,96 @@
+//! The Bevy plugin steps the model on the weather cadence and keeps the fields on the layer
+//! entities; the result matches calling the model directly with the same steps.
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano_atmosphere::model::step::{Workspace, step};
+use volcano_atmosphere::{
+    AirLayer, Atmosphere, AtmospherePlugin, Scenario, WeatherStepped, spawn_atmosphere,
+};
+use volcano_core::prelude::*;
+
+#[derive(Resource, Default)]
+struct Steps(u32);
+
+fn count(mut reader: MessageReader<WeatherStepped>, mut steps: ResMut<Steps>) {
+    steps.0 += reader.read().count() as u32;
+}
+
+#[test]
+fn plugin_steps_layers_like_the_model() {
+    let scenario = Scenario::builtin("convection").unwrap();
+    let state = scenario.build(Some(16)).unwrap();
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        VolcanoCorePlugin,
+        AtmospherePlugin { cadence: Cadence::EveryNthTick(5) },
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
+    .init_resource::<Steps>()
+    .add_systems(Update, count);
+    let params = scenario.params.clone();
+    let s2 = state.clone();
+    app.add_systems(Startup, move |mut commands: Commands| {
+        spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
+    });
+    for _ in 0..60 {
+        app.update();
+    }
+    let steps = app.world().resource::<Steps>().0;
+    assert!(steps >= 10, "weather stepped {steps} times");
+    // Same number of 0.1 s steps directly on the model.
+    let mut direct = state;
+    let mut work = Workspace::new(&direct).unwrap();
+    for _ in 0..steps {
+        step(&mut direct, &scenario.params, &mut work, 0.1).unwrap();
+    }
+    let world = app.world_mut();
+    let mut q = world.query::<&AirLayer>();
+    let mut layers: Vec<&AirLayer> = q.iter(world).collect();
+    layers.sort_by_key(|l| l.index);
+    assert_eq!(layers.len(), 3);
+    for (l, d) in layers.iter().zip(&direct.layers) {
+        assert_eq!(l.fields.t, d.t, "layer {} temperature", l.index);
+        assert_eq!(l.fields.h, d.h, "layer {} humidity", l.index);
+    }
+    let mut qa = world.query::<&Atmosphere>();
+    let atmo = qa.single(world).unwrap();
+    assert!((atmo.time_s - steps as f64 * 0.1).abs() < 1e-9);
+}
+
+#[test]
+fn plugin_fires_timeline_events() {
+    // The mixed scenario turns layer 2's wind to (−4, 6) m/s at 1800 s: run the weather with
+    // 300 s steps (time scale) and check the event fired.
+    let scenario = Scenario::builtin("mixed").unwrap();
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        VolcanoCorePlugin,
+        AtmospherePlugin { cadence: Cadence::EveryNthTick(1) },
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+    app.world_mut()
+        .resource_mut::<Time<DomainClock<volcano_atmosphere::WeatherStep>>>()
+        .context_mut()
+        .set_time_scale(15_000.0)
+        .unwrap();
+    let sc = scenario.clone();
+    app.add_systems(Startup, move |mut commands: Commands| {
+        volcano_atmosphere::spawn_scenario(&mut commands, &sc, Some(16)).unwrap();
+    });
+    for _ in 0..12 {
+        app.update();
+    }
+    let world = app.world_mut();
+    let t = world.query::<&Atmosphere>().single(world).unwrap().time_s;
+    assert!(t > 1800.0, "weather time {t}");
+    let mut q = world.query::<&AirLayer>();
+    let layer2 = q.iter(world).find(|l| l.index == 2).unwrap();
+    assert_eq!(layer2.fields.wind, Vec2::new(-4.0, 6.0));
+    let timeline = world.query::<&volcano_atmosphere::AtmosphereTimeline>().single(world).unwrap();
+    assert!(timeline.0.is_empty(), "both events fired");
+}
