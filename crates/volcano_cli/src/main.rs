@@ -2,6 +2,7 @@
 //! llvmpipe through Vulkan), lists the scene registry, and runs the plume's single-slice
 //! validation experiment.
 
+mod domains;
 mod export;
 mod plots;
 mod plume;
@@ -90,6 +91,12 @@ enum Command {
         #[command(flatten)]
         params: plume::PlumeArgs,
     },
+    /// Pahoehoe lava scenario (thesis ch. 5, Fig 5.10 terrains, incline, spread): writes
+    /// DIR/summary.json and PNG maps (thickness, crust, velocity, folds).
+    Lava(domains::LavaArgs),
+    /// Layered atmosphere scenario (thesis §4.2): writes DIR/summary.json and a PNG map of
+    /// every field of every layer.
+    Atmosphere(domains::AtmosphereArgs),
     /// Run a collapsing eruption on the `pyroclastic_flow` scene's terrain (thesis §3.6):
     /// writes DIR/summary.json (particles, runout, secondary columns, mass budget) and
     /// DIR/deposit.png (top view: terrain, deposit, particle tracks).
@@ -124,6 +131,8 @@ fn main() -> ExitCode {
         },
         Command::PlumeThreshold { params } => plume::threshold(&params),
         Command::PlumePlots { params, out } => plots::plume_plots(&params.params(), &out),
+        Command::Lava(args) => domains::lava(&args),
+        Command::Atmosphere(args) => domains::atmosphere(&args),
         Command::Pyroclastic { params, seconds, out } => pyroclastic::run(&params.params(), seconds, &out),
         Command::Render { scene, ticks, out, width, height, min_stddev, plume_view } => {
             render(&scene, ticks, out, (width, height), min_stddev, plume_view.into())

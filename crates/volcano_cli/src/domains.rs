@@ -1,0 +1,153 @@
+//! `volcano lava` and `volcano atmosphere`: thin wrappers over the domain crates' scenario
+//! runners (`volcano_lava::scenario`, `volcano_atmosphere::model::run`), writing
+//! `DIR/summary.json` and the PNG maps.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use volcano_atmosphere::model::maps::{MapField, field_values, png_bytes};
+use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
+
+/// Options of `volcano lava`.
+#[derive(clap::Args, Debug)]
+pub struct LavaArgs {
+    /// obstacle | split | canyon | slope | incline | spread.
+    #[arg(long, default_value = "obstacle")]
+    scenario: String,
+    /// Simulated seconds (default per scenario).
+    #[arg(long, allow_negative_numbers = true)]
+    seconds: Option<f64>,
+    /// Constant viscosity (Pa·s) instead of the VFT law.
+    #[arg(long, allow_negative_numbers = true)]
+    viscosity: Option<f64>,
+    /// Constant viscosity and no cooling.
+    #[arg(long)]
+    isothermal: bool,
+    /// `spread`: released volume (m³).
+    #[arg(long, allow_negative_numbers = true)]
+    volume: Option<f64>,
+    /// `spread`: radius of the released cylinder (m).
+    #[arg(long, allow_negative_numbers = true)]
+    initial_radius: Option<f64>,
+    /// Source rate: m³/s (point source), m³/s per metre of width for `incline`.
+    #[arg(long, allow_negative_numbers = true)]
+    rate: Option<f64>,
+    /// Slope (degrees; `incline` ≤ 10).
+    #[arg(long, allow_negative_numbers = true)]
+    slope_deg: Option<f64>,
+    /// Cells per side.
+    #[arg(long)]
+    grid: Option<usize>,
+    /// Cell size (m).
+    #[arg(long, allow_negative_numbers = true)]
+    cell: Option<f64>,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn write_summary(dir: &Path, json: &str) -> ExitCode {
+    if let Err(e) = std::fs::create_dir_all(dir).and_then(|_| std::fs::write(dir.join("summary.json"), json))
+    {
+        eprintln!("error: cannot write {}: {e}", dir.display());
+        return ExitCode::FAILURE;
+    }
+    println!("{json}");
+    ExitCode::SUCCESS
+}
+
+/// Runs a lava scenario.
+pub fn lava(a: &LavaArgs) -> ExitCode {
+    let kind: ScenarioKind = match a.scenario.parse() {
+        Ok(k) => k,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let mut c = ScenarioConfig::new(kind);
+    c.seconds = a.seconds.unwrap_or(c.seconds);
+    c.viscosity = a.viscosity.or(c.viscosity);
+    c.isothermal = a.isothermal;
+    c.volume = a.volume.unwrap_or(c.volume);
+    c.initial_radius = a.initial_radius.unwrap_or(c.initial_radius);
+    c.rate = a.rate.unwrap_or(c.rate);
+    c.slope_deg = a.slope_deg.unwrap_or(c.slope_deg);
+    c.grid = a.grid.unwrap_or(c.grid);
+    c.cell = a.cell.unwrap_or(c.cell);
+    let mut s = match Scenario::build(&c) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    s.run_until(c.seconds);
+    let json = serde_json::to_string_pretty(&s.summary()).unwrap_or_default();
+    if let Err(e) = volcano_lava::scenario::maps::write_maps(&s.field, &s.surface, &s.folds, &a.out) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
+    write_summary(&a.out, &json)
+}
+
+/// Options of `volcano atmosphere`.
+#[derive(clap::Args, Debug)]
+pub struct AtmosphereArgs {
+    /// convection | island | sea-breeze | orographic | mixed.
+    #[arg(long, default_value = "convection")]
+    scenario: String,
+    /// Steps (default per scenario).
+    #[arg(long)]
+    steps: Option<u32>,
+    /// Step (s).
+    #[arg(long, allow_negative_numbers = true)]
+    dt: Option<f64>,
+    /// Cells per side (a power of two).
+    #[arg(long)]
+    grid: Option<usize>,
+    /// Output directory.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+/// Runs an atmosphere scenario; maps of every field of every layer as `layerK_FIELD.png`.
+pub fn atmosphere(a: &AtmosphereArgs) -> ExitCode {
+    let scenario = match volcano_atmosphere::Scenario::builtin(&a.scenario) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let run = match volcano_atmosphere::model::run::run(&scenario, a.steps, a.dt, a.grid) {
+        Ok(r) => r,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if let Err(e) = std::fs::create_dir_all(&a.out) {
+        eprintln!("error: cannot create {}: {e}", a.out.display());
+        return ExitCode::FAILURE;
+    }
+    let n = run.state.grid.n;
+    for (k, layer) in run.state.layers.iter().enumerate() {
+        for field in MapField::ALL {
+            let name = format!("layer{k}_{field:?}.png").to_lowercase();
+            match png_bytes(&field_values(layer, field), n) {
+                Ok((bytes, _)) => {
+                    if let Err(e) = std::fs::write(a.out.join(&name), bytes) {
+                        eprintln!("error: cannot write {name}: {e}");
+                        return ExitCode::FAILURE;
+                    }
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::FAILURE;
+                }
+            }
+        }
+    }
+    write_summary(&a.out, &serde_json::to_string_pretty(&run.summary).unwrap_or_default())
+}
