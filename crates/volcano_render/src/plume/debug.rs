@@ -80,11 +80,11 @@ fn attach_umbrella(
     }
 }
 
+/// s1 or umbrella spheres.
+type AnySphere = Or<(With<S1>, With<Umbrella>)>;
+
 /// Applies a mode change to every existing sphere.
-fn show_debug_spheres(
-    mode: Res<PlumeRenderMode>,
-    mut spheres: Query<&mut Visibility, Or<(With<S1>, With<Umbrella>)>>,
-) {
+fn show_debug_spheres(mode: Res<PlumeRenderMode>, mut spheres: Query<&mut Visibility, AnySphere>) {
     if !mode.is_changed() {
         return;
     }
