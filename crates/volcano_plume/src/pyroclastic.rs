@@ -214,7 +214,7 @@ fn step_particles(
             }
         }
         if report.settled || !on_map || !finite(&pp.particle) {
-            if !report.settled {
+            if !report.settled && pp.particle.mass.is_finite() {
                 budget.lost += pp.particle.mass;
             }
             commands.entity(entity).despawn();
