@@ -244,12 +244,13 @@ pub struct Clusters {
 /// around it). Written by hand: the grouping rule is the thesis', and a k-d tree crate would
 /// not make it simpler. Deterministic: cells are visited in a fixed order.
 pub fn find_clusters(particles: &[Particle], buoyant: &[bool], radius: f64, min_count: usize) -> Clusters {
-    use std::collections::HashMap;
+    // foldhash (Bevy's map) instead of SipHash: lookups are most of the clustering time.
+    use bevy::platform::collections::HashMap;
     let mut out = Clusters::default();
     let cell = radius.max(1e-6);
     let key =
         |p: DVec3| ((p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64);
-    let mut grid: HashMap<(i64, i64, i64), Vec<usize>> = HashMap::new();
+    let mut grid: HashMap<(i64, i64, i64), Vec<usize>> = HashMap::default();
     for (i, p) in particles.iter().enumerate() {
         if buoyant.get(i).copied().unwrap_or(false) && p.position.is_finite() {
             grid.entry(key(p.position)).or_default().push(i);

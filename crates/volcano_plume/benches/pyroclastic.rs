@@ -1,0 +1,76 @@
+//! Issue target: one 1/50 s tick with 50,000 pyroclastic particles on a 512² terrain,
+//! including terrain collision and clustering (≤ 5 ms). Model level: the particle step and
+//! the spatial-hash clustering the plugin calls, over particles spread on the flanks of the
+//! procedural volcano, a quarter of them buoyant.
+
+use bevy::math::{DVec2, DVec3};
+use criterion::{Criterion, criterion_group, criterion_main};
+use rand::RngExt;
+use std::hint::black_box;
+use volcano_core::StratovolcanoParams;
+use volcano_core::rng::derive_stream;
+use volcano_plume::model::params::PlumeParams;
+use volcano_plume::model::pyroclastic::{Particle, PyroclasticParams, find_clusters, step_particle};
+use volcano_plume::model::slice::SliceEnv;
+
+fn bench(c: &mut Criterion) {
+    let terrain =
+        StratovolcanoParams { resolution: 512, cell: 40.0, ..Default::default() }.generate().unwrap();
+    let vent_y = terrain.height_at(0.0, 0.0) as f64;
+    let ground = |x: f64, y: f64| terrain.height_at(x as f32, -y as f32) as f64 - vent_y;
+    let p = PlumeParams::default();
+    let calm = |_: f64| DVec2::ZERO;
+    let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent_y, wind: &calm };
+    let params = PyroclasticParams::default();
+    let mut rng = derive_stream(3, 4);
+    let base: Vec<Particle> = (0..50_000)
+        .map(|_| {
+            let (a, r): (f64, f64) =
+                (rng.random_range(0.0..std::f64::consts::TAU), rng.random_range(200.0..4_000.0));
+            let (x, y) = (r * a.cos(), r * a.sin());
+            Particle {
+                position: DVec3::new(x, y, ground(x, y) + 1.0),
+                velocity: DVec3::new(a.cos(), a.sin(), 0.0) * 20.0,
+                radius: 10.0,
+                mass: 4.0 * 4_189.0,
+                temperature: 900.0,
+                grounded: true,
+            }
+        })
+        .collect();
+    let buoyant: Vec<bool> = (0..base.len()).map(|i| i % 4 == 0).collect();
+    c.bench_function("pyroclastic tick: 50k particles step + collide + cluster", |b| {
+        b.iter_batched_ref(
+            || base.clone(),
+            |ps| {
+                let mut deposited = 0.0;
+                for q in ps.iter_mut() {
+                    deposited += step_particle(q, &params, &env, &ground, 0.02).deposited;
+                }
+                let clusters =
+                    find_clusters(ps, &buoyant, params.cluster_radius, params.min_cluster as usize);
+                black_box((deposited, clusters.members.len()))
+            },
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    c.bench_function("pyroclastic: 50k particles step + collide only", |b| {
+        b.iter_batched_ref(
+            || base.clone(),
+            |ps| {
+                for q in ps.iter_mut() {
+                    black_box(step_particle(q, &params, &env, &ground, 0.02));
+                }
+            },
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    c.bench_function("pyroclastic: clustering 50k (12.5k buoyant) only", |b| {
+        b.iter(|| {
+            black_box(find_clusters(&base, &buoyant, params.cluster_radius, params.min_cluster as usize))
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
