@@ -1,5 +1,5 @@
 //! "Eruption" window: every eruption parameter of the first volcano with an [`Eruption`], the
-//! preset switch, the wind, sphere counts, the column's view mode, and a live plot of slice
+//! preset switch, the wind, the pyroclastic-flow parameters, sphere counts, the column's view mode, and a live plot of slice
 //! density against altitude with the ambient air (thesis Fig 3.5 A, live).
 //!
 //! Edits are made on a copy and written back only if [`Eruption::validate`] accepts them; a
@@ -95,6 +95,16 @@ fn parameter_widgets(ui: &mut egui::Ui, e: &mut Eruption) -> bool {
             };
             changed = true;
         }
+    });
+    egui::CollapsingHeader::new("Pyroclastic flows").show(ui, |ui| {
+        let py = &mut e.pyroclastic;
+        changed |= slider(ui, &mut py.sigma_pyr, 0.0..=2.0, "σ_pyr (kg/m³/s)");
+        changed |= slider(ui, &mut py.cluster_radius, 5.0..=500.0, "cluster radius r_pyr (m)");
+        changed |= ui.add(egui::Slider::new(&mut py.min_cluster, 1..=200).text("min cluster size")).changed();
+        changed |= slider(ui, &mut py.drag_coefficient, 0.0..=2.0, "sphere C_d");
+        changed |= slider(ui, &mut py.wind_coefficient, 0.0..=50.0, "sphere λ");
+        changed |= slider(ui, &mut py.deposit_density, 200.0..=3000.0, "deposit density (kg/m³)");
+        changed |= slider(ui, &mut py.settle_speed, 0.0..=5.0, "settle speed (m/s)");
     });
     egui::CollapsingHeader::new("Spheres").show(ui, |ui| {
         let s = &mut e.spheres;
