@@ -7,26 +7,8 @@
 //! density against altitude with the air (Fig 3.5 A, live). Orbit camera: left-drag to orbit,
 //! right-drag to pan, wheel to zoom. Headless: `volcano render --scene plinian_plume`.
 
-use bevy::prelude::*;
-use volcano::prelude::*;
+use bevy::prelude::AppExit;
 
 fn main() -> AppExit {
-    let scene = match VolcanoScenePlugin::builtin("plinian_plume") {
-        Ok(scene) => scene,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return AppExit::error();
-        }
-    };
-    let mut app = App::new();
-    app.add_plugins(DefaultPlugins.set(WindowPlugin {
-        primary_window: Some(Window { title: "volcano: plinian plume".into(), ..default() }),
-        ..default()
-    }))
-    .add_plugins((VolcanoPlugins, scene));
-    // `VOLCANO_SCREENSHOT=out.png` (e.g. under xvfb-run): screenshot after 60 frames and exit.
-    if let Some(capture) = volcano::render::WindowScreenshotPlugin::from_env() {
-        app.add_plugins(capture);
-    }
-    app.run()
+    volcano::scenes::run_scene_window("plinian_plume")
 }

@@ -8,26 +8,8 @@
 //! `volcano render --scene pyroclastic_flow --ticks 6000`; deposit map and numbers:
 //! `volcano pyroclastic --preset pyroclastic_showcase --seconds 120 --out DIR`.
 
-use bevy::prelude::*;
-use volcano::prelude::*;
+use bevy::prelude::AppExit;
 
 fn main() -> AppExit {
-    let scene = match VolcanoScenePlugin::builtin("pyroclastic_flow") {
-        Ok(scene) => scene,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return AppExit::error();
-        }
-    };
-    let mut app = App::new();
-    app.add_plugins(DefaultPlugins.set(WindowPlugin {
-        primary_window: Some(Window { title: "volcano: pyroclastic flow".into(), ..default() }),
-        ..default()
-    }))
-    .add_plugins((VolcanoPlugins, scene));
-    // `VOLCANO_SCREENSHOT=out.png` (e.g. under xvfb-run): screenshot after 60 frames and exit.
-    if let Some(capture) = volcano::render::WindowScreenshotPlugin::from_env() {
-        app.add_plugins(capture);
-    }
-    app.run()
+    volcano::scenes::run_scene_window("pyroclastic_flow")
 }

@@ -229,6 +229,30 @@ impl Plugin for VolcanoScenePlugin {
     }
 }
 
+/// Runs built-in scene `name` in a window with every plugin (the examples' whole `main`).
+/// `VOLCANO_SCREENSHOT=out.png` (e.g. under xvfb-run) takes a screenshot after 60 frames and
+/// exits. An unknown or invalid scene prints the error and exits with an error code.
+#[cfg(feature = "egui")]
+pub fn run_scene_window(name: &str) -> AppExit {
+    let scene = match VolcanoScenePlugin::builtin(name) {
+        Ok(scene) => scene,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return AppExit::error();
+        }
+    };
+    let mut app = App::new();
+    app.add_plugins(DefaultPlugins.set(WindowPlugin {
+        primary_window: Some(Window { title: format!("volcano: {name}"), ..default() }),
+        ..default()
+    }))
+    .add_plugins((crate::VolcanoPlugins, scene));
+    if let Some(capture) = volcano_render::WindowScreenshotPlugin::from_env() {
+        app.add_plugins(capture);
+    }
+    app.run()
+}
+
 #[cfg(feature = "render")]
 fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
     use volcano_render::{OrbitCamera, Sun, camera_bundle, sun_bundle};

@@ -221,6 +221,21 @@ pub fn read_png_rgb(path: impl AsRef<Path>) -> Result<(u32, u32, Vec<u8>), Strin
     Ok((info.width, info.height, rgb))
 }
 
+/// Mean RGB of the pixel rectangle `[x0, x1) × [y0, y1)` of a `width`-pixel-wide RGB image.
+pub fn rgb_region_mean(rgb: &[u8], width: u32, (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> [f64; 3] {
+    let mut sum = [0.0; 3];
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = ((y * width + x) * 3) as usize;
+            for c in 0..3 {
+                sum[c] += rgb[i + c] as f64;
+            }
+        }
+    }
+    let n = ((x1 - x0) * (y1 - y0)).max(1) as f64;
+    sum.map(|s| s / n)
+}
+
 /// Mean over the R, G, B channels of each channel's standard deviation across pixels (0–255
 /// scale) of an RGB buffer. A one-colour frame gives 0 whatever the colour.
 pub fn rgb_stddev(rgb: &[u8]) -> f64 {

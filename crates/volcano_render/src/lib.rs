@@ -33,7 +33,7 @@ use bevy::app::{App, Plugin};
 pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
-    rgb_stddev, write_png_rgb,
+    rgb_region_mean, rgb_stddev, write_png_rgb,
 };
 pub use plume::{AshCloud, PlumeRenderMode, PlumeRenderPlugin, PlumeVisuals};
 pub use sky::{

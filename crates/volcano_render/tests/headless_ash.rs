@@ -10,7 +10,7 @@ use volcano_core::VolcanoCorePlugin;
 use volcano_plume::{AshInstance, PlumeInstances};
 use volcano_render::{
     HeadlessCapturePlugin, MainCamera, OrbitCamera, VolcanoRenderPlugin, camera_bundle,
-    headless_default_plugins, read_png_rgb,
+    headless_default_plugins, read_png_rgb, rgb_region_mean,
 };
 
 const W: u32 = 320;
@@ -45,19 +45,6 @@ fn wall(camera: Query<&GlobalTransform, With<MainCamera>>, mut instances: ResMut
     instances.0 = Arc::new(list);
 }
 
-fn region_mean(rgb: &[u8], (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> [f64; 3] {
-    let mut sum = [0.0; 3];
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let i = ((y * W + x) * 3) as usize;
-            for c in 0..3 {
-                sum[c] += rgb[i + c] as f64;
-            }
-        }
-    }
-    sum.map(|s| s / ((x1 - x0) * (y1 - y0)) as f64)
-}
-
 #[test]
 fn instanced_ash_covers_the_sky() {
     let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_ash.png");
@@ -78,7 +65,7 @@ fn instanced_ash_covers_the_sky() {
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
     // Top eighth: covered by ash (left: spheres, right: billboards); dark grey, not sky blue.
     for (name, xs) in [("detail spheres", (8, W / 2 - 8)), ("billboards", (W / 2 + 8, W - 8))] {
-        let m = region_mean(&rgb, xs, (2, H / 8));
+        let m = rgb_region_mean(&rgb, W, xs, (2, H / 8));
         eprintln!("{name}: mean {m:?} ({})", out.display());
         assert!(m.iter().all(|&c| c < 120.0), "{name}: the sky shows through: {m:?}");
         assert!((m[2] - m[0]).abs() < 25.0, "{name}: still bluish: {m:?}");

@@ -8,7 +8,7 @@ use bevy::prelude::*;
 use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
 use volcano_render::{
     HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugin, camera_bundle, headless_default_plugins,
-    read_png_rgb, rgb_stddev,
+    read_png_rgb, rgb_region_mean, rgb_stddev,
 };
 
 const W: u32 = 320;
@@ -29,21 +29,6 @@ fn scene(mut commands: Commands) {
     };
     commands.spawn(camera_bundle(orbit));
     // The sun: VolcanoRenderPlugin spawns its default one (south-west, 35° high).
-}
-
-/// Mean RGB of the pixel rectangle `[x0, x1) × [y0, y1)`.
-fn region_mean(rgb: &[u8], (x0, x1): (u32, u32), (y0, y1): (u32, u32)) -> [f64; 3] {
-    let mut sum = [0.0; 3];
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let i = ((y * W + x) * 3) as usize;
-            for c in 0..3 {
-                sum[c] += rgb[i + c] as f64;
-            }
-        }
-    }
-    let n = ((x1 - x0) * (y1 - y0)) as f64;
-    sum.map(|s| s / n)
 }
 
 #[test]
@@ -71,8 +56,8 @@ fn renders_a_volcano_under_a_sky() {
     let sigma = rgb_stddev(&rgb);
     assert!(sigma > 8.0, "frame looks blank: pixel σ = {sigma:.2}");
 
-    let sky = region_mean(&rgb, (0, W), (0, H / 8));
-    let ground = region_mean(&rgb, (W / 4, 3 * W / 4), (3 * H / 4, H));
+    let sky = rgb_region_mean(&rgb, W, (0, W), (0, H / 8));
+    let ground = rgb_region_mean(&rgb, W, (W / 4, 3 * W / 4), (3 * H / 4, H));
     let diff: f64 = (0..3).map(|c| (sky[c] - ground[c]).abs()).sum();
     eprintln!("sky mean {sky:?}, ground mean {ground:?}, σ {sigma:.1}");
     assert!(diff > 30.0, "sky {sky:?} and terrain {ground:?} look alike");
