@@ -9,7 +9,7 @@ use volcano_core::prelude::*;
 
 use crate::components::*;
 use crate::model::slice::{Phase, Slice, SliceEnv};
-use crate::model::spheres::s1_ring;
+use crate::model::spheres::{SphereParams, s1_ring};
 use crate::model::umbrella::UmbrellaSphere;
 
 /// Schedule of the plume domain.
@@ -58,26 +58,30 @@ fn emit_slices(
             let index = emission.emitted;
             emission.emitted += 1;
             let state = Slice::at_vent(&eruption.params);
-            let mut stream = rng.stream("slice", index);
-            let ring = s1_ring(&eruption.spheres, &mut stream);
-            let slice = commands
-                .spawn((
-                    Name::new(format!("Plume slice {index}")),
-                    Transform::from_translation(vent.0),
-                    PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0 },
-                ))
-                .id();
-            for (k, sphere) in ring.into_iter().enumerate() {
-                commands.spawn((
-                    Transform::from_translation(vent.0),
-                    S1 { slice, sphere, spin: 0.0, id: (index << 8) | k as u64 },
-                ));
-            }
+            let slice = PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0 };
+            spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Plume slice {index}"));
         }
         if emission.since_last >= interval {
             // Drop the backlog rather than accumulate it.
             emission.since_last = 0.0;
         }
+    }
+}
+
+/// Spawns a slice and its s1 ring (sizes and offset from the slice's own random stream).
+pub(crate) fn spawn_slice(
+    commands: &mut Commands,
+    slice: PlumeSlice,
+    spheres: &SphereParams,
+    rng: &VolcanoRng,
+    name: String,
+) {
+    let index = slice.index;
+    let ring = s1_ring(spheres, &mut rng.stream("slice", index));
+    let at = Transform::from_translation(slice.vent + plume_to_world(slice.state.position));
+    let slice = commands.spawn((Name::new(name), at, slice)).id();
+    for (k, sphere) in ring.into_iter().enumerate() {
+        commands.spawn((at, S1 { slice, sphere, spin: 0.0, id: (index << 8) | k as u64 }));
     }
 }
 

@@ -11,7 +11,8 @@ use volcano_core::prelude::*;
 use crate::components::*;
 use crate::model::pyroclastic::{Particle, collapse, find_clusters, secondary_column, step_particle};
 use crate::model::slice::{Phase, SliceEnv};
-use crate::model::spheres::{SphereParams, s1_ring};
+use crate::model::spheres::SphereParams;
+use crate::plugin::spawn_slice;
 
 /// Schedule of the pyroclastic domain.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
@@ -283,20 +284,8 @@ fn lift_secondary_columns(
                 mass: state.mass,
                 particles: members.len(),
             });
-            let ring = s1_ring(&eruption.spheres, &mut rng.stream("slice", index));
-            let slice = commands
-                .spawn((
-                    Name::new(format!("Secondary column {index}")),
-                    Transform::from_translation(world),
-                    PlumeSlice { volcano, index, vent, state, ring_phase: 0.0 },
-                ))
-                .id();
-            for (k, sphere) in ring.into_iter().enumerate() {
-                commands.spawn((
-                    Transform::from_translation(world),
-                    S1 { slice, sphere, spin: 0.0, id: (index << 8) | k as u64 },
-                ));
-            }
+            let slice = PlumeSlice { volcano, index, vent, state, ring_phase: 0.0 };
+            spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Secondary column {index}"));
         }
     }
 }
