@@ -105,6 +105,7 @@ fn parameter_widgets(ui: &mut egui::Ui, e: &mut Eruption) -> bool {
         changed |= slider(ui, &mut py.wind_coefficient, 0.0..=50.0, "sphere λ");
         changed |= slider(ui, &mut py.deposit_density, 200.0..=3000.0, "deposit density (kg/m³)");
         changed |= slider(ui, &mut py.settle_speed, 0.0..=5.0, "settle speed (m/s)");
+        changed |= slider(ui, &mut py.repose_angle_deg, 5.0..=60.0, "deposit repose angle (°)");
     });
     egui::CollapsingHeader::new("Spheres").show(ui, |ui| {
         let s = &mut e.spheres;

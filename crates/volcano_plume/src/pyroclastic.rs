@@ -9,6 +9,7 @@ use bevy::prelude::*;
 use volcano_core::prelude::*;
 
 use crate::components::*;
+use crate::model::deposit;
 use crate::model::pyroclastic::{Particle, collapse, find_clusters, secondary_column, step_particle};
 use crate::model::slice::{Phase, SliceEnv};
 use crate::model::spheres::SphereParams;
@@ -29,6 +30,8 @@ pub struct PyroParticle {
     pub vent: Vec3,
     /// Stable id (slice index << 16 | k), for rendering.
     pub id: u64,
+    /// Lighter than the air after its last step (a secondary-column candidate).
+    pub buoyant: bool,
 }
 
 /// A collapsing slice turned into pyroclastic particles.
@@ -57,13 +60,21 @@ pub struct SecondaryColumnFormed {
     pub particles: usize,
 }
 
-/// Ash deposited on the ground, per terrain cell (kg, f64), over the first [`Terrain`]'s grid.
+/// Ash deposited on the ground, per terrain node (kg, f64), over the first [`Terrain`]'s grid.
+/// Particles run over `surface` (terrain + deposit), and the deposit relaxes to its angle of
+/// repose once per second ([`crate::model::deposit`]).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct DepositMap {
-    /// Deposited mass per cell (kg); `None` until a terrain exists.
+    /// Deposited mass per node (kg); `None` until a terrain exists.
     pub mass: Option<Grid2<f64>>,
+    /// Terrain height plus deposit thickness (m), what particles collide with.
+    pub surface: Option<Grid2<f32>>,
     /// Bulk density used for thickness (kg/m³).
     pub bulk_density: f64,
+    /// Bumped whenever the deposit changes (renderers redraw when it moves).
+    pub revision: u64,
+    ticks: u64,
+    scratch: Vec<f64>,
 }
 
 impl DepositMap {
@@ -74,11 +85,39 @@ impl DepositMap {
         if !g.contains(p) || self.bulk_density <= 0.0 {
             return 0.0;
         }
-        g.nearest(p, Boundary::Clamp) / (self.bulk_density * g.cell() * g.cell())
+        deposit::thickness(g.nearest(p, Boundary::Clamp), g.cell(), self.bulk_density)
+    }
+    /// Deposit thickness (m) at node `(i, j)` of the terrain grid; 0 outside.
+    pub fn thickness_at_node(&self, i: usize, j: usize) -> f64 {
+        match &self.mass {
+            Some(g) if i < g.nx() && j < g.ny() => {
+                deposit::thickness(g.get(i, j), g.cell(), self.bulk_density)
+            }
+            _ => 0.0,
+        }
     }
     /// Total deposited mass (kg).
     pub fn total(&self) -> f64 {
         self.mass.as_ref().map_or(0.0, |g| g.data().iter().sum())
+    }
+    /// Creates the grids over `terrain` if they do not exist yet.
+    fn ensure(&mut self, terrain: &Terrain) {
+        if self.mass.is_none() {
+            let h = terrain.heights();
+            self.mass = Grid2::new(h.nx(), h.ny(), h.cell(), h.origin(), 0.0).ok();
+            self.surface = Some(h.clone());
+        }
+    }
+    /// Adds mass to the nearest node and raises the surface there.
+    fn add(&mut self, p: Vec2, mass: f64) {
+        let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return };
+        let (fx, fy) = g.to_grid(p);
+        let i = (fx.round().max(0.0) as usize).min(g.nx() - 1);
+        let j = (fy.round().max(0.0) as usize).min(g.ny() - 1);
+        g.set(i, j, g.get(i, j) + mass);
+        let rise = deposit::thickness(mass, g.cell(), self.bulk_density) as f32;
+        s.set(i, j, s.get(i, j) + rise);
+        self.revision += 1;
     }
 }
 
@@ -114,7 +153,10 @@ impl Plugin for PyroclasticPlugin {
             .init_resource::<PyroclasticBudget>()
             .register_type::<PyroParticle>()
             .register_type::<PyroclasticBudget>()
-            .add_systems(PyroclasticStep, (hand_over, step_particles, lift_secondary_columns).chain());
+            .add_systems(
+                PyroclasticStep,
+                (hand_over, step_particles, relax_deposit, lift_secondary_columns).chain(),
+            );
     }
 }
 
@@ -158,7 +200,7 @@ fn hand_over(
                 let world = vent + plume_to_world(particle.position);
                 (
                     Transform::from_translation(world).with_scale(Vec3::splat(particle.radius as f32)),
-                    PyroParticle { volcano, particle, vent, id: (index << 16) | k as u64 },
+                    PyroParticle { volcano, particle, vent, id: (index << 16) | k as u64, buoyant: false },
                 )
             })
             .collect();
@@ -167,7 +209,8 @@ fn hand_over(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// One step of every particle, in parallel over fixed chunks; deposits, budget and despawns
+/// are then applied in query order, so the result does not depend on the thread count.
 fn step_particles(
     time: Res<Time>,
     mut commands: Commands,
@@ -179,68 +222,125 @@ fn step_particles(
 ) {
     let dt = time.delta_secs_f64();
     let terrain = terrains.iter().next();
-    if deposit.mass.is_none()
-        && let Some(t) = terrain
-    {
-        let h = t.heights();
-        deposit.mass = Grid2::new(h.nx(), h.ny(), h.cell(), h.origin(), 0.0).ok();
+    if let Some(t) = terrain {
+        deposit.ensure(t);
     }
-    for (entity, mut pp, mut transform) in &mut particles {
-        let Ok(eruption) = eruptions.get(pp.volcano) else {
+    let mut items: Vec<_> = particles.iter_mut().collect();
+    let outcomes = {
+        let surface = deposit.surface.as_ref();
+        par_map_ordered(&mut items, |(_, pp, transform)| {
+            let eruption = eruptions.get(pp.volcano).ok()?;
+            let p = &eruption.params;
+            let wind = |z: f64| p.wind.at(z);
+            let vent = pp.vent;
+            let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent.y as f64, wind: &wind };
+            // Plume frame (x, y horizontal, z up from the vent) ↔ world (x, z = −y, y up).
+            let ground = |x: f64, y: f64| match surface {
+                Some(s) => {
+                    (s.sample(Vec2::new(vent.x + x as f32, vent.z - y as f32), Boundary::Clamp) - vent.y)
+                        as f64
+                }
+                None => f64::NEG_INFINITY,
+            };
+            let report = step_particle(&mut pp.particle, &eruption.pyroclastic, &env, &ground, dt);
+            pp.buoyant = report.buoyant;
+            let world = vent + plume_to_world(pp.particle.position);
+            transform.translation = world;
+            transform.scale = Vec3::splat(pp.particle.radius as f32);
+            let on_map = terrain.is_some_and(|t| t.contains(world.x, world.z));
+            Some((report, on_map, eruption.pyroclastic.deposit_density))
+        })
+    };
+    for ((entity, pp, _), outcome) in items.iter().zip(outcomes) {
+        let Some((report, on_map, density)) = outcome else {
             budget.lost += pp.particle.mass;
-            commands.entity(entity).despawn();
+            commands.entity(*entity).despawn();
             continue;
         };
-        let p = &eruption.params;
-        deposit.bulk_density = eruption.pyroclastic.deposit_density;
-        let wind = |z: f64| p.wind.at(z);
-        let vent = pp.vent;
-        let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent.y as f64, wind: &wind };
-        // Plume frame (x, y horizontal, z up from the vent) ↔ world (x, z = −y, y up).
-        let ground = |x: f64, y: f64| match terrain {
-            Some(t) => (t.height_at(vent.x + x as f32, vent.z - y as f32) - vent.y) as f64,
-            None => f64::NEG_INFINITY,
-        };
-        let report = step_particle(&mut pp.particle, &eruption.pyroclastic, &env, &ground, dt);
-        let world = vent + plume_to_world(pp.particle.position);
-        let on_map = terrain.is_some_and(|t| t.contains(world.x, world.z));
+        deposit.bulk_density = density;
         if report.deposited > 0.0 {
-            let at = vent + plume_to_world(report.deposit_at.extend(0.0));
-            match deposit.mass.as_mut().filter(|_| on_map) {
-                Some(g) => add_deposit(g, Vec2::new(at.x, at.z), report.deposited),
-                None => budget.lost += report.deposited,
-            }
-            if on_map {
+            if on_map && deposit.mass.is_some() {
+                let at = pp.vent + plume_to_world(report.deposit_at.extend(0.0));
+                deposit.add(Vec2::new(at.x, at.z), report.deposited);
                 budget.deposited += report.deposited;
+            } else {
+                budget.lost += report.deposited;
             }
         }
         if report.settled || !on_map || !finite(&pp.particle) {
             if !report.settled && pp.particle.mass.is_finite() {
                 budget.lost += pp.particle.mass;
             }
-            commands.entity(entity).despawn();
-            continue;
+            commands.entity(*entity).despawn();
         }
-        transform.translation = world;
-        transform.scale = Vec3::splat(pp.particle.radius as f32);
     }
+}
+
+/// `f` over `items` on the compute task pool in fixed chunks of 512; results in item order.
+/// Used for the particle step (and its bench) so the outcome is independent of the threads.
+pub fn par_map_ordered<T: Send, R: Send + 'static>(
+    items: &mut [T],
+    f: impl Fn(&mut T) -> R + Sync,
+) -> Vec<R> {
+    const CHUNK: usize = 512;
+    if items.len() <= CHUNK {
+        return items.iter_mut().map(&f).collect();
+    }
+    let pool = bevy::tasks::ComputeTaskPool::get_or_init(bevy::tasks::TaskPool::default);
+    let f = &f;
+    let chunks = pool.scope(|scope| {
+        for chunk in items.chunks_mut(CHUNK) {
+            scope.spawn(async move { chunk.iter_mut().map(f).collect::<Vec<R>>() });
+        }
+    });
+    chunks.into_iter().flatten().collect()
 }
 
 fn finite(p: &Particle) -> bool {
     p.position.is_finite() && p.velocity.is_finite() && p.mass.is_finite()
 }
 
-/// Adds mass to the nearest cell.
-fn add_deposit(g: &mut Grid2<f64>, p: Vec2, mass: f64) {
-    let (fx, fy) = g.to_grid(p);
-    let i = (fx.round().max(0.0) as usize).min(g.nx() - 1);
-    let j = (fy.round().max(0.0) as usize).min(g.ny() - 1);
-    let v = g.get(i, j);
-    g.set(i, j, v + mass);
+/// Once per second (50 base ticks) the deposit relaxes to its angle of repose (a few Jacobi
+/// passes) and the collision surface follows.
+fn relax_deposit(eruptions: Query<&Eruption>, terrains: Query<&Terrain>, mut map: ResMut<DepositMap>) {
+    const EVERY: u64 = 50;
+    const PASSES: usize = 4;
+    let map = &mut *map;
+    map.ticks += 1;
+    if !map.ticks.is_multiple_of(EVERY) {
+        return;
+    }
+    let (Some(terrain), Some(mass), Some(surface)) =
+        (terrains.iter().next(), map.mass.as_mut(), map.surface.as_mut())
+    else {
+        return;
+    };
+    let angle = eruptions.iter().next().map_or(34.0, |e| e.pyroclastic.repose_angle_deg);
+    let tan = angle.to_radians().tan();
+    let h = terrain.heights();
+    if h.nx() != mass.nx() || h.ny() != mass.ny() {
+        return;
+    }
+    let (dims, cell) = ((mass.nx(), mass.ny()), mass.cell());
+    let mut moved = 0.0;
+    for _ in 0..PASSES {
+        moved += deposit::relax_to_repose(
+            h.data(),
+            mass.data_mut(),
+            dims,
+            cell,
+            map.bulk_density,
+            tan,
+            &mut map.scratch,
+        );
+    }
+    if moved > 0.0 {
+        deposit::deposit_surface(h.data(), mass.data(), cell, map.bulk_density, surface.data_mut());
+        map.revision += 1;
+    }
 }
 
 /// Buoyant particles, per volcano, gather into clusters that become rising slices.
-#[allow(clippy::too_many_arguments)]
 fn lift_secondary_columns(
     mut commands: Commands,
     mut eruptions: Query<(Entity, &Eruption, &mut EmissionState, &VolcanoRng)>,
@@ -249,24 +349,17 @@ fn lift_secondary_columns(
     mut formed: MessageWriter<SecondaryColumnFormed>,
 ) {
     for (volcano, eruption, mut emission, rng) in &mut eruptions {
-        // Fixed order (spawn order) for determinism.
+        // Candidates in a fixed order (spawn order) for determinism.
         let mut mine: Vec<(Entity, &PyroParticle)> =
-            particles.iter().filter(|(_, p)| p.volcano == volcano).collect();
-        if mine.is_empty() {
+            particles.iter().filter(|(_, p)| p.buoyant && p.volcano == volcano).collect();
+        let py = &eruption.pyroclastic;
+        if mine.len() < py.min_cluster.max(1) as usize {
             continue;
         }
         mine.sort_by_key(|(_, p)| p.id);
-        let p = &eruption.params;
-        let air = p.atmosphere.profile();
-        let vent_alt = mine[0].1.vent.y as f64;
         let list: Vec<Particle> = mine.iter().map(|(_, p)| p.particle).collect();
-        let buoyant: Vec<bool> =
-            list.iter().map(|q| q.density() < air.density(vent_alt + q.position.z)).collect();
-        if !buoyant.iter().any(|b| *b) {
-            continue;
-        }
-        let py = &eruption.pyroclastic;
-        let clusters = find_clusters(&list, &buoyant, py.cluster_radius, py.min_cluster as usize);
+        let all = vec![true; list.len()];
+        let clusters = find_clusters(&list, &all, py.cluster_radius, py.min_cluster as usize);
         for members in &clusters.members {
             let Some(state) = secondary_column(&list, members) else { continue };
             for &i in members {

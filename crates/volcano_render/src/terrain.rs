@@ -105,12 +105,12 @@ pub fn cover_color(cover: LandCover, normal: Vec3) -> LinearRgba {
     LinearRgba::rgb(mixed.red * shade, mixed.green * shade, mixed.blue * shade)
 }
 
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
+pub(crate) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
     let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
 
-fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
+pub(crate) fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
     LinearRgba::rgb(
         a.red + (b.red - a.red) * t,
         a.green + (b.green - a.green) * t,
@@ -119,7 +119,7 @@ fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
 }
 
 /// Sample indices `0, s, 2s, …` along an axis of `n` samples, always ending at `n − 1`.
-fn sample_axis(n: usize, stride: usize) -> Vec<usize> {
+pub(crate) fn sample_axis(n: usize, stride: usize) -> Vec<usize> {
     let mut v: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
     if v.last() != Some(&(n - 1)) {
         v.push(n - 1);
@@ -128,7 +128,7 @@ fn sample_axis(n: usize, stride: usize) -> Vec<usize> {
 }
 
 /// Stride that keeps at most `max_per_side` samples per side of an `n`-sample axis.
-fn stride_for(n: usize, max_per_side: usize) -> usize {
+pub(crate) fn stride_for(n: usize, max_per_side: usize) -> usize {
     let max = max_per_side.max(2);
     if n <= max { 1 } else { (n - 1).div_ceil(max - 1).max(1) }
 }
@@ -186,7 +186,8 @@ pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
         }
     }
 
-    let mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::RENDER_WORLD)
+    // Kept in the main world too: the deposit tint rewrites its colours.
+    let mesh = Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::default())
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
         .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)

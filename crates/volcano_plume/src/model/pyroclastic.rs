@@ -44,6 +44,9 @@ pub struct PyroclasticParams {
     /// Longest distance a particle may travel in one substep (m): keeps terrain collisions
     /// from tunnelling through ridges; more substeps only where particles are fast.
     pub max_travel: f64,
+    /// Angle of repose of the deposit (degrees): steeper deposit slides down (beyond the
+    /// thesis, [`super::deposit::relax_to_repose`]). Dry pyroclastic material: 30–35°.
+    pub repose_angle_deg: f64,
 }
 
 impl Default for PyroclasticParams {
@@ -57,6 +60,7 @@ impl Default for PyroclasticParams {
             deposit_density: 1_000.0,
             settle_speed: 0.5,
             max_travel: 20.0,
+            repose_angle_deg: 34.0,
         }
     }
 }
@@ -72,6 +76,7 @@ impl PyroclasticParams {
         positive("deposit_density", self.deposit_density)?;
         in_range("settle_speed", self.settle_speed, 0.0, 100.0)?;
         in_range("max_travel", self.max_travel, 0.1, 10_000.0)?;
+        in_range("repose_angle_deg", self.repose_angle_deg, 0.0, 89.0)?;
         Ok(())
     }
 }
@@ -146,6 +151,8 @@ pub struct ParticleReport {
     pub settled: bool,
     /// Substeps used.
     pub substeps: u32,
+    /// Lighter than the air around it at the end of the step (a secondary-column candidate).
+    pub buoyant: bool,
 }
 
 /// Ground normal by central differences (unit, pointing up).
@@ -176,8 +183,10 @@ pub fn step_particle(
     let n = ((travel / p.max_travel).ceil() as u32).clamp(1, 64);
     let h = dt / n as f64;
     let volume = particle.volume();
+    let mut air_density = 0.0;
     for _ in 0..n {
         let air = env.air.sample(env.vent_altitude + particle.position.z);
+        air_density = air.density;
         let wind = (env.wind)(particle.position.z.max(0.0));
         let m = particle.mass;
         // Weight and buoyancy, eq 3.4.
@@ -213,15 +222,17 @@ pub fn step_particle(
     }
     report.substeps = n;
     report.deposit_at = particle.position.truncate();
-    if particle.grounded && particle.velocity.length() <= p.settle_speed && particle.density() >= MIN_DENSITY
+    // Air density of the last substep's start (≤ max_travel away: a fraction of a percent).
+    report.buoyant = particle.density() < air_density;
+    if particle.grounded
+        && particle.velocity.length() <= p.settle_speed
+        && particle.density() >= MIN_DENSITY
+        && !report.buoyant
     {
         // At rest on the ground: it becomes deposit.
-        let buoyant = particle.density() < env.air.density(env.vent_altitude + particle.position.z);
-        if !buoyant {
-            report.deposited += particle.mass;
-            particle.mass = 0.0;
-            report.settled = true;
-        }
+        report.deposited += particle.mass;
+        particle.mass = 0.0;
+        report.settled = true;
     }
     report
 }
@@ -239,57 +250,87 @@ pub struct Clusters {
 
 /// Groups the particles lighter than the air around them (`buoyant[i]`) into clusters: seeds
 /// are taken in index order; a seed collects every still-free buoyant particle within
-/// `radius` of it; groups of at least `min_count` become clusters. A spatial hash with cells of
-/// size `radius` makes it O(N) for bounded density (each particle only looks at the 27 cells
-/// around it). Written by hand: the grouping rule is the thesis', and a k-d tree crate would
-/// not make it simpler. Deterministic: cells are visited in a fixed order.
+/// `radius` of it; groups of at least `min_count` become clusters.
+///
+/// Neighbours come from a dense horizontal grid over the buoyant particles' bounding box,
+/// filled by a counting sort (cells of at least 2·radius, so a query disc touches at most 2×2
+/// cells): O(N) for bounded density, no hashing. The grid is coarsened if the particles are
+/// so spread out that it would have more than 4 cells per particle. Written by hand: the
+/// grouping rule is the thesis', and a k-d tree crate would not make it simpler.
+/// Deterministic: each cell lists its particles in index order.
 pub fn find_clusters(particles: &[Particle], buoyant: &[bool], radius: f64, min_count: usize) -> Clusters {
-    // foldhash (Bevy's map) instead of SipHash: lookups are most of the clustering time.
-    use bevy::platform::collections::HashMap;
     let mut out = Clusters::default();
-    let cell = radius.max(1e-6);
-    let key =
-        |p: DVec3| ((p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64);
-    let mut grid: HashMap<(i64, i64, i64), Vec<usize>> = HashMap::default();
-    for (i, p) in particles.iter().enumerate() {
-        if buoyant.get(i).copied().unwrap_or(false) && p.position.is_finite() {
-            grid.entry(key(p.position)).or_default().push(i);
-        }
+    let eligible = |i: usize| buoyant.get(i).copied().unwrap_or(false) && particles[i].position.is_finite();
+    let live: Vec<usize> = (0..particles.len()).filter(|&i| eligible(i)).collect();
+    if live.is_empty() {
+        return out;
+    }
+    let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+    for &i in &live {
+        let p = particles[i].position.truncate();
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let extent = (hi - lo).max(DVec2::splat(1e-9));
+    let max_cells = 4.0 * live.len() as f64 + 64.0;
+    let mut cell = (2.0 * radius).max(1e-6);
+    if (extent.x / cell + 2.0) * (extent.y / cell + 2.0) > max_cells {
+        cell = cell.max((extent.x * extent.y / max_cells).sqrt()).max(extent.max_element() / max_cells);
+    }
+    let nx = ((extent.x / cell).floor() as usize + 2).max(2);
+    let ny = ((extent.y / cell).floor() as usize + 2).max(2);
+    let cell_of = |p: DVec3| {
+        let f = (p.truncate() - lo) / cell;
+        (f.y as usize).min(ny - 1) * nx + (f.x as usize).min(nx - 1)
+    };
+    // Counting sort of the live particles by cell (stable: index order within a cell).
+    let mut start = vec![0u32; nx * ny + 1];
+    for &i in &live {
+        start[cell_of(particles[i].position) + 1] += 1;
+    }
+    for k in 1..start.len() {
+        start[k] += start[k - 1];
+    }
+    let mut fill = start.clone();
+    let mut items = vec![0u32; live.len()];
+    for &i in &live {
+        let c = cell_of(particles[i].position);
+        items[fill[c] as usize] = i as u32;
+        fill[c] += 1;
     }
     let mut taken = vec![false; particles.len()];
     let r2 = radius * radius;
-    for seed in 0..particles.len() {
-        if taken[seed]
-            || !buoyant.get(seed).copied().unwrap_or(false)
-            || !particles[seed].position.is_finite()
-        {
+    let mut group = Vec::new();
+    for &seed in &live {
+        if taken[seed] {
             continue;
         }
         let c = particles[seed].position;
-        let (kx, ky, kz) = key(c);
-        let mut group = Vec::new();
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for dz in -1..=1 {
-                    let Some(bucket) = grid.get(&(kx + dx, ky + dy, kz + dz)) else { continue };
-                    for &j in bucket {
-                        if taken[j] {
-                            continue;
-                        }
-                        out.pair_checks += 1;
-                        if particles[j].position.distance_squared(c) <= r2 {
-                            group.push(j);
-                        }
-                    }
+        // The 2×2 cells that contain the disc of `radius` around c (cell ≥ 2·radius).
+        let f = (c.truncate() - lo) / cell - 0.5;
+        let i0 = (f.x.floor().max(0.0) as usize).min(nx - 2);
+        let j0 = (f.y.floor().max(0.0) as usize).min(ny - 2);
+        group.clear();
+        for j in j0..j0 + 2 {
+            let row = j * nx;
+            let (a, b) = (start[row + i0] as usize, start[row + i0 + 2] as usize);
+            for &k in &items[a..b] {
+                let k = k as usize;
+                if taken[k] {
+                    continue;
+                }
+                out.pair_checks += 1;
+                if particles[k].position.distance_squared(c) <= r2 {
+                    group.push(k);
                 }
             }
         }
         if group.len() >= min_count.max(1) {
             group.sort_unstable();
-            for &j in &group {
-                taken[j] = true;
+            for &k in &group {
+                taken[k] = true;
             }
-            out.members.push(group);
+            out.members.push(group.clone());
             out.seeds.push(seed);
         }
     }
