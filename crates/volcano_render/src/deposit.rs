@@ -115,6 +115,60 @@ fn tint_terrain(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::terrain::TerrainRenderPlugin;
+    use volcano_core::{Grid2, StratovolcanoParams};
+
+    /// Headless app (no renderer): a deposit on one corner of the map darkens the mesh there
+    /// and nowhere else.
+    #[test]
+    fn a_deposit_darkens_the_terrain_mesh_under_it() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, bevy::asset::AssetPlugin::default()))
+            .init_asset::<Mesh>()
+            .init_asset::<StandardMaterial>()
+            .add_plugins((volcano_core::VolcanoCorePlugin, TerrainRenderPlugin, DepositRenderPlugin));
+        app.finish();
+        app.cleanup();
+        let terrain =
+            StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap();
+        let h = terrain.heights().clone();
+        app.world_mut().spawn(terrain);
+        for _ in 0..3 {
+            app.update();
+        }
+        let colours = |app: &mut App| -> Vec<[f32; 4]> {
+            let world = app.world_mut();
+            let handle = world.query_filtered::<&Mesh3d, With<TerrainMesh>>().single(world).unwrap().0.clone();
+            let mesh = world.resource::<Assets<Mesh>>().get(&handle).unwrap();
+            match mesh.attribute(Mesh::ATTRIBUTE_COLOR) {
+                Some(VertexAttributeValues::Float32x4(c)) => c.clone(),
+                _ => panic!("vertex colours"),
+            }
+        };
+        let before = colours(&mut app);
+        // 2 m of ash on the 5×5 nodes of one corner.
+        let mut mass = Grid2::new(h.nx(), h.ny(), h.cell(), h.origin(), 0.0).unwrap();
+        for j in 0..5 {
+            for i in 0..5 {
+                mass.set(i, j, 2.0 * 1000.0 * h.cell() * h.cell());
+            }
+        }
+        {
+            let mut map = app.world_mut().resource_mut::<DepositMap>();
+            map.mass = Some(mass);
+            map.bulk_density = 1000.0;
+            map.revision = 1;
+        }
+        for _ in 0..12 {
+            app.update();
+        }
+        let after = colours(&mut app);
+        let lum = |c: [f32; 4]| c[0] + c[1] + c[2];
+        let corner = 2 * 33 + 2;
+        assert!(lum(after[corner]) < 0.7 * lum(before[corner]), "{:?} → {:?}", before[corner], after[corner]);
+        let far = 30 * 33 + 30;
+        assert_eq!(after[far], before[far]);
+    }
 
     #[test]
     fn thicker_deposits_are_darker_and_none_changes_nothing() {
