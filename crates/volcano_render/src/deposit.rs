@@ -138,7 +138,8 @@ mod tests {
         }
         let colours = |app: &mut App| -> Vec<[f32; 4]> {
             let world = app.world_mut();
-            let handle = world.query_filtered::<&Mesh3d, With<TerrainMesh>>().single(world).unwrap().0.clone();
+            let handle =
+                world.query_filtered::<&Mesh3d, With<TerrainMesh>>().single(world).unwrap().0.clone();
             let mesh = world.resource::<Assets<Mesh>>().get(&handle).unwrap();
             match mesh.attribute(Mesh::ATTRIBUTE_COLOR) {
                 Some(VertexAttributeValues::Float32x4(c)) => c.clone(),

@@ -13,6 +13,7 @@
 use super::field::{Edge, FlowField};
 use volcano_core::Grid2;
 
+use super::bands::{BAND_ROWS, band_range, par_bands};
 use super::params::{GRAVITY, LavaParams, ViscosityModel};
 
 /// Reusable work arrays of one field (allocated once).
@@ -120,94 +121,95 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         report.substeps += 1;
         let s = &mut field.scratch;
         let (g, h, t) = (field.ground.data(), field.h.data(), field.temp.data());
-        // 1. cell mobility ρ g h³/(3η(T)), times the crust factor.
-        match params.viscosity {
-            ViscosityModel::Constant(eta) => {
-                let c = rg3 / eta;
-                for ((m, &hk), &fk) in s.mob.iter_mut().zip(h).zip(&field.mob_factor) {
-                    *m = c * fk * hk * hk * hk;
+        // 1. cell mobility ρ g h³/(3η(T)), times the crust factor (row bands in parallel).
+        let band = BAND_ROWS * nx;
+        let mob_factor = &field.mob_factor;
+        let viscosity = params.viscosity;
+        let items: Vec<&mut [f64]> = s.mob.chunks_mut(band).collect();
+        par_bands(items, |b, mob| {
+            let o = b * band;
+            let (h, t, fac) = (&h[o..o + mob.len()], &t[o..o + mob.len()], &mob_factor[o..o + mob.len()]);
+            match viscosity {
+                ViscosityModel::Constant(eta) => {
+                    let c = rg3 / eta;
+                    for ((m, &hk), &fk) in mob.iter_mut().zip(h).zip(fac) {
+                        *m = c * fk * hk * hk * hk;
+                    }
+                }
+                model => {
+                    for (((m, &hk), &tk), &fk) in mob.iter_mut().zip(h).zip(t).zip(fac) {
+                        *m = if hk > 0.0 { rg3 * fk / model.viscosity(tk) * hk * hk * hk } else { 0.0 };
+                    }
                 }
             }
-            model => {
-                for (((m, &hk), &tk), &fk) in s.mob.iter_mut().zip(h).zip(t).zip(&field.mob_factor) {
-                    *m = if hk > 0.0 { rg3 * fk / model.viscosity(tk) * hk * hk * hk } else { 0.0 };
-                }
-            }
-        }
-        // 2. face fluxes and stability limits.
-        let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+        });
+        // 2. face fluxes and stability limits (row bands in parallel; maxima are exact in any
+        // order).
         let inv_dx = 1.0 / dx;
         let nfx = nx + 1;
         let mob = &s.mob;
         let cell = |k: usize| (g[k], h[k], mob[k]);
-        for j in 0..ny {
-            let row = j * nx;
-            let frow = &mut s.fx[j * nfx..(j + 1) * nfx];
-            for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
-                let (q, m, c) = face_flux(inv_dx, yield_rg, cell(row + i - 1), cell(row + i));
-                *f = q;
-                m_max = m_max.max(m);
-                c_max = c_max.max(c);
+        let edges = field.edges;
+        let items: Vec<&mut [f64]> = s.fx.chunks_mut(BAND_ROWS * nfx).collect();
+        let x_limits = par_bands(items, |b, rows| {
+            let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+            for (frow, j) in rows.chunks_mut(nfx).zip(band_range(b, ny)) {
+                let row = j * nx;
+                for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
+                    let (q, m, c) = face_flux(inv_dx, yield_rg, cell(row + i - 1), cell(row + i));
+                    *f = q;
+                    m_max = m_max.max(m);
+                    c_max = c_max.max(c);
+                }
+                let (w, e) = (row, row + nx - 1);
+                let (q0, qn) = if edges.west == Edge::Periodic {
+                    let (q, m, c) = face_flux(inv_dx, yield_rg, cell(e), cell(w));
+                    m_max = m_max.max(m);
+                    c_max = c_max.max(c);
+                    (q, q)
+                } else {
+                    let (mm, cm) = (&mut m_max, &mut c_max);
+                    let qw = open_flux(edges.west, inv_dx, yield_rg, w, w + 1, g, h, mob, mm, cm);
+                    let inner = if nx > 1 { e - 1 } else { e };
+                    let qe = open_flux(edges.east, inv_dx, yield_rg, e, inner, g, h, mob, mm, cm);
+                    (-qw, qe)
+                };
+                frow[0] = q0;
+                frow[nx] = qn;
             }
-            let (w, e) = (row, row + nx - 1);
-            let (q0, qn) = if field.edges.west == Edge::Periodic {
-                let (q, m, c) = face_flux(inv_dx, yield_rg, cell(e), cell(w));
-                m_max = m_max.max(m);
-                c_max = c_max.max(c);
-                (q, q)
-            } else {
-                let qw = open_flux(
-                    field.edges.west,
-                    inv_dx,
-                    yield_rg,
-                    w,
-                    w + 1,
-                    g,
-                    h,
-                    mob,
-                    &mut m_max,
-                    &mut c_max,
-                );
-                let inner = if nx > 1 { e - 1 } else { e };
-                let qe = open_flux(
-                    field.edges.east,
-                    inv_dx,
-                    yield_rg,
-                    e,
-                    inner,
-                    g,
-                    h,
-                    mob,
-                    &mut m_max,
-                    &mut c_max,
-                );
-                (-qw, qe)
-            };
-            frow[0] = q0;
-            frow[nx] = qn;
-        }
-        for j in 1..ny {
-            let frow = &mut s.fy[j * nx..(j + 1) * nx];
-            for (i, f) in frow.iter_mut().enumerate() {
-                let (q, m, c) = face_flux(inv_dx, yield_rg, cell((j - 1) * nx + i), cell(j * nx + i));
-                *f = q;
-                m_max = m_max.max(m);
-                c_max = c_max.max(c);
+            (m_max, c_max)
+        });
+        // Interior y faces: face row j (1..ny) lies between cell rows j−1 and j.
+        let interior = &mut s.fy[nx..ny * nx];
+        let items: Vec<&mut [f64]> = interior.chunks_mut(BAND_ROWS * nx).collect();
+        let y_limits = par_bands(items, |b, rows| {
+            let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+            for (frow, j) in rows.chunks_mut(nx).zip(band_range(b, ny - 1).map(|r| r + 1)) {
+                for (i, f) in frow.iter_mut().enumerate() {
+                    let (q, m, c) = face_flux(inv_dx, yield_rg, cell((j - 1) * nx + i), cell(j * nx + i));
+                    *f = q;
+                    m_max = m_max.max(m);
+                    c_max = c_max.max(c);
+                }
             }
+            (m_max, c_max)
+        });
+        let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+        for (m, c) in x_limits.into_iter().chain(y_limits) {
+            m_max = m_max.max(m);
+            c_max = c_max.max(c);
         }
         for i in 0..nx {
             let (so, no) = (i, (ny - 1) * nx + i);
-            let (q0, qn) = if field.edges.south == Edge::Periodic {
+            let (q0, qn) = if edges.south == Edge::Periodic {
                 let (q, m, c) = face_flux(inv_dx, yield_rg, cell(no), cell(so));
                 m_max = m_max.max(m);
                 c_max = c_max.max(c);
                 (q, q)
             } else {
                 let (si, ni) = if ny > 1 { (so + nx, no - nx) } else { (so, no) };
-                let qs =
-                    open_flux(field.edges.south, inv_dx, yield_rg, so, si, g, h, mob, &mut m_max, &mut c_max);
-                let qn =
-                    open_flux(field.edges.north, inv_dx, yield_rg, no, ni, g, h, mob, &mut m_max, &mut c_max);
+                let qs = open_flux(edges.south, inv_dx, yield_rg, so, si, g, h, mob, &mut m_max, &mut c_max);
+                let qn = open_flux(edges.north, inv_dx, yield_rg, no, ni, g, h, mob, &mut m_max, &mut c_max);
                 (-qs, qn)
             };
             s.fy[i] = q0;
@@ -281,57 +283,74 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
     let (h, t) = (field.h.data(), field.temp.data());
     let (fx, fy) = (&s.fx, &s.fy);
     // Limiter: a cell's outgoing volume never exceeds what it holds.
-    for j in 0..ny {
-        for i in 0..nx {
-            let k = j * nx + i;
-            let (w, e) = (fx[j * nfx + i], fx[j * nfx + i + 1]);
-            let (so, no) = (fy[k], fy[k + nx]);
-            let out = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
-            let avail = h[k] * area;
-            s.lim[k] = if out > avail { avail / out } else { 1.0 };
+    let items: Vec<&mut [f64]> = s.lim.chunks_mut(BAND_ROWS * nx).collect();
+    par_bands(items, |b, lim| {
+        for (lrow, j) in lim.chunks_mut(nx).zip(band_range(b, ny)) {
+            for (i, l) in lrow.iter_mut().enumerate() {
+                let k = j * nx + i;
+                let (w, e) = (fx[j * nfx + i], fx[j * nfx + i + 1]);
+                let (so, no) = (fy[k], fy[k + nx]);
+                let out = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
+                let avail = h[k] * area;
+                *l = if out > avail { avail / out } else { 1.0 };
+            }
         }
-    }
+    });
     let lim = &s.lim;
-    // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature.
+    // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature. Row bands
+    // in parallel; the round-off tally is summed in band order.
     let (hn, tn) = (s.h_new.data_mut(), s.t_new.data_mut());
     let (u, v) = field.vel.split_at_mut(1);
     let (u, v) = (u[0].data_mut(), v[0].data_mut());
-    let mut rounding = 0.0;
-    for j in 0..ny {
-        let jm = if j > 0 { j - 1 } else { ny - 1 };
-        let jp = if j + 1 < ny { j + 1 } else { 0 };
-        for i in 0..nx {
-            let k = j * nx + i;
-            let im = j * nx + if i > 0 { i - 1 } else { nx - 1 };
-            let ip = j * nx + if i + 1 < nx { i + 1 } else { 0 };
-            let (sm, sp) = (jm * nx + i, jp * nx + i);
-            // Signed face volumes, +x / +y positive, each scaled by its donor's factor.
-            let qw = fx[j * nfx + i] * vol;
-            let qe = fx[j * nfx + i + 1] * vol;
-            let qs = fy[k] * vol;
-            let qn = fy[k + nx] * vol;
-            let vw = qw * if qw > 0.0 { lim[im] } else { lim[k] };
-            let ve = qe * if qe > 0.0 { lim[k] } else { lim[ip] };
-            let vs = qs * if qs > 0.0 { lim[sm] } else { lim[k] };
-            let vn = qn * if qn > 0.0 { lim[k] } else { lim[sp] };
-            let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
-            let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
-            let ein = vw.max(0.0) * t[im] - ve.min(0.0) * t[ip] + vs.max(0.0) * t[sm] - vn.min(0.0) * t[sp];
-            let mut hk = h[k] + (vin - vout) * inv_area;
-            if hk < 0.0 {
-                rounding -= hk * area;
-                hk = 0.0;
-            }
-            let remain = (h[k] - vout * inv_area).max(0.0);
-            tn[k] = if hk > 0.0 { (remain * t[k] + ein * inv_area) / hk } else { t[k] };
-            hn[k] = hk;
-            if write_velocity {
-                let ok = hk > 0.0;
-                u[k] = if ok { 0.5 * (vw + ve) / (vol * hk) } else { 0.0 };
-                v[k] = if ok { 0.5 * (vs + vn) / (vol * hk) } else { 0.0 };
+    let band = BAND_ROWS * nx;
+    let items: Vec<_> = hn
+        .chunks_mut(band)
+        .zip(tn.chunks_mut(band))
+        .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
+        .collect();
+    let tallies = par_bands(items, |b, ((hn, tn), (u, v))| {
+        let mut rounding = 0.0;
+        let o = b * band;
+        for j in band_range(b, ny) {
+            let jm = if j > 0 { j - 1 } else { ny - 1 };
+            let jp = if j + 1 < ny { j + 1 } else { 0 };
+            for i in 0..nx {
+                let k = j * nx + i;
+                let im = j * nx + if i > 0 { i - 1 } else { nx - 1 };
+                let ip = j * nx + if i + 1 < nx { i + 1 } else { 0 };
+                let (sm, sp) = (jm * nx + i, jp * nx + i);
+                // Signed face volumes, +x / +y positive, each scaled by its donor's factor.
+                let qw = fx[j * nfx + i] * vol;
+                let qe = fx[j * nfx + i + 1] * vol;
+                let qs = fy[k] * vol;
+                let qn = fy[k + nx] * vol;
+                let vw = qw * if qw > 0.0 { lim[im] } else { lim[k] };
+                let ve = qe * if qe > 0.0 { lim[k] } else { lim[ip] };
+                let vs = qs * if qs > 0.0 { lim[sm] } else { lim[k] };
+                let vn = qn * if qn > 0.0 { lim[k] } else { lim[sp] };
+                let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
+                let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
+                let ein =
+                    vw.max(0.0) * t[im] - ve.min(0.0) * t[ip] + vs.max(0.0) * t[sm] - vn.min(0.0) * t[sp];
+                let mut hk = h[k] + (vin - vout) * inv_area;
+                if hk < 0.0 {
+                    rounding -= hk * area;
+                    hk = 0.0;
+                }
+                let remain = (h[k] - vout * inv_area).max(0.0);
+                let l = k - o;
+                tn[l] = if hk > 0.0 { (remain * t[k] + ein * inv_area) / hk } else { t[k] };
+                hn[l] = hk;
+                if write_velocity {
+                    let ok = hk > 0.0;
+                    u[l] = if ok { 0.5 * (vw + ve) / (vol * hk) } else { 0.0 };
+                    v[l] = if ok { 0.5 * (vs + vn) / (vol * hk) } else { 0.0 };
+                }
             }
         }
-    }
+        rounding
+    });
+    let rounding: f64 = tallies.iter().sum();
     // Volume through open edges (same expressions as above).
     let mut outflow = 0.0;
     let e = field.edges;

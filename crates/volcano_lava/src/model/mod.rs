@@ -1,6 +1,7 @@
 //! Plain-data model of the lava domain: no ECS types. One call to [`step`] advances a
 //! [`FlowField`] by one domain step (0.02 s by default).
 
+pub mod bands;
 pub mod breakout;
 pub mod budget;
 pub mod field;
