@@ -8,6 +8,7 @@ pub mod field;
 pub mod flow;
 pub mod folds;
 pub mod params;
+pub mod samples;
 pub mod surface;
 pub mod thermal;
 

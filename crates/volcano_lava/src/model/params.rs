@@ -111,6 +111,9 @@ pub struct LavaParams {
     pub breakout_inflation: f64,
     /// Radius (m) of the crust torn by a breakout.
     pub breakout_radius: f64,
+    /// Lagrangian surface samples per cell at most (thesis §5.4.2; [`super::samples`]);
+    /// 0 = crust from the grid alone.
+    pub surface_samples: u32,
 }
 
 impl Default for LavaParams {
@@ -137,6 +140,7 @@ impl Default for LavaParams {
             crust_drag: true,
             breakout_inflation: 0.3,
             breakout_radius: 1.0,
+            surface_samples: 2,
         }
     }
 }
@@ -180,6 +184,7 @@ impl LavaParams {
             });
         }
         in_range("max_substeps", self.max_substeps as f64, 1.0, 100_000.0)?;
+        in_range("surface_samples", self.surface_samples as f64, 0.0, 16.0)?;
         in_range("min_thickness", self.min_thickness, 1e-9, 0.1)?;
         in_range("crust_viscosity_ratio", self.crust_viscosity_ratio, 1.0, 1e12)?;
         positive("rigid_crust", self.rigid_crust)?;

@@ -5,6 +5,7 @@
 use super::bands::{BAND_ROWS, band_range, par_bands};
 use super::field::FlowField;
 use super::params::LavaParams;
+use super::samples::{CellSurface, SurfaceSamples, update_samples};
 
 /// Crust thickness (m) above which divergence changes the crust (thesis §5.4.2: 1 cm).
 pub const DIVERGENCE_MIN_CRUST: f64 = 0.01;
@@ -48,6 +49,8 @@ pub struct SurfaceState {
     pub vsurf: [Vec<f64>; 2],
     /// Divergence of the surface velocity (1/s).
     pub divergence: Vec<f64>,
+    /// Lagrangian samples that carry the crust (thesis §5.4.2).
+    pub samples: SurfaceSamples,
     old: [Vec<f64>; 2],
 }
 
@@ -62,6 +65,7 @@ impl SurfaceState {
             contact: z.clone(),
             vsurf: [z.clone(), z.clone()],
             divergence: z.clone(),
+            samples: SurfaceSamples::default(),
             old: [z.clone(), z],
         }
     }
@@ -99,6 +103,8 @@ impl SurfaceState {
 ///    `crust_reset_ratio × 2√(κt)` resets `t = h_c²/(4κ)`.
 /// 5. No crust where the lava is thinner than 20 cm and moving; none where there is no lava;
 ///    never thicker than the lava.
+/// 6. Lagrangian samples ([`super::samples`]) advected on the surface velocity get the same
+///    physics; cells that hold samples take their mean (unless `surface_samples` is 0).
 pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaParams, dt: f64) {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     if s.nx != nx || s.ny != ny || !(dt.is_finite() && dt > 0.0) {
@@ -225,6 +231,14 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     });
     std::mem::swap(&mut s.crust, &mut s.old[0]);
     std::mem::swap(&mut s.contact, &mut s.old[1]);
+    // 6. Lagrangian samples carry the crust; cells holding samples take their mean.
+    let cells = CellSurface {
+        vsurf: [&s.vsurf[0], &s.vsurf[1]],
+        divergence: &s.divergence,
+        crust: &mut s.crust,
+        contact: &mut s.contact,
+    };
+    update_samples(&mut s.samples, field, params, cells, dt, params.surface_samples);
 }
 
 #[cfg(test)]
