@@ -51,6 +51,12 @@ fn benches(c: &mut Criterion) {
     g.bench_function("crust_update", |b| {
         b.iter(|| update_surface(black_box(&mut s), &f, &p, 0.02));
     });
+    // The same without the Lagrangian samples (grid crust only), for the samples' share.
+    let grid_only = LavaParams { surface_samples: 0, ..p.clone() };
+    let mut s0 = SurfaceState::new(N, N);
+    g.bench_function("crust_update_grid_only", |b| {
+        b.iter(|| update_surface(black_box(&mut s0), &f, &grid_only, 0.02));
+    });
     // 2,000 fold particles: 20 parallel folds of 100 particles, 0.3 m apart (ℓ = 0.35 m, so
     // neighbouring folds collide), motion + springs + collisions (detection off).
     s.crust.iter_mut().for_each(|c| *c = 0.02);

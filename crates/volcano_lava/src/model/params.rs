@@ -114,6 +114,10 @@ pub struct LavaParams {
     /// Lagrangian surface samples per cell at most (thesis §5.4.2; [`super::samples`]);
     /// 0 = crust from the grid alone.
     pub surface_samples: u32,
+    /// The samples move and update every this many steps, with the elapsed time (their
+    /// physics is exact in the time step, and they move ≪ 1 cell per step); in between the
+    /// grid carries the crust. 5 (0.1 s) keeps their cost near a fifth.
+    pub surface_sample_every: u32,
 }
 
 impl Default for LavaParams {
@@ -140,7 +144,8 @@ impl Default for LavaParams {
             crust_drag: true,
             breakout_inflation: 0.3,
             breakout_radius: 1.0,
-            surface_samples: 2,
+            surface_samples: 1,
+            surface_sample_every: 5,
         }
     }
 }
@@ -185,6 +190,7 @@ impl LavaParams {
         }
         in_range("max_substeps", self.max_substeps as f64, 1.0, 100_000.0)?;
         in_range("surface_samples", self.surface_samples as f64, 0.0, 16.0)?;
+        in_range("surface_sample_every", self.surface_sample_every as f64, 1.0, 1000.0)?;
         in_range("min_thickness", self.min_thickness, 1e-9, 0.1)?;
         in_range("crust_viscosity_ratio", self.crust_viscosity_ratio, 1.0, 1e12)?;
         positive("rigid_crust", self.rigid_crust)?;

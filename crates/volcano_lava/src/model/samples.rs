@@ -13,6 +13,7 @@
 
 use bevy::math::DVec2;
 
+use super::bands::par_bands;
 use super::field::FlowField;
 use super::params::LavaParams;
 use super::surface::{
@@ -37,7 +38,13 @@ pub struct SurfaceSamples {
     pub samples: Vec<SurfaceSample>,
     count: Vec<u32>,
     sum: Vec<[f64; 2]>,
+    cells: Vec<u32>,
+    /// Calls since the last update and the time they covered.
+    pending: (u32, f64),
 }
+
+/// Samples per parallel task.
+const SAMPLE_CHUNK: usize = 16_384;
 
 /// What the surface layer hands to [`update_samples`] (per-cell arrays, row-major).
 pub struct CellSurface<'a> {
@@ -51,8 +58,9 @@ pub struct CellSurface<'a> {
     pub contact: &'a mut [f64],
 }
 
-/// Advances the samples by `dt`, then writes their per-cell means into `cells` (see the
-/// module doc). `max_per_cell` = 0 disables the samples (and drops any).
+/// Advances the samples by `dt` (accumulated over `params.surface_sample_every` calls), then
+/// writes their per-cell means into `cells` (see the module doc). `max_per_cell` = 0 disables
+/// the samples (and drops any).
 pub fn update_samples(
     s: &mut SurfaceSamples,
     field: &FlowField,
@@ -65,20 +73,28 @@ pub fn update_samples(
     let n = nx * ny;
     if max_per_cell == 0 || cells.crust.len() != n || !(dt.is_finite() && dt > 0.0) {
         s.samples.clear();
+        s.pending = (0, 0.0);
         return;
     }
+    // Every `surface_sample_every` calls, with the time elapsed since the last update.
+    s.pending = (s.pending.0 + 1, s.pending.1 + dt);
+    if s.pending.0 < params.surface_sample_every.max(1) {
+        return;
+    }
+    let dt = std::mem::take(&mut s.pending).1;
     let h = field.h.data();
     let min_h = params.min_thickness;
     let kappa = params.kappa();
     let four_kdt = 4.0 * kappa * dt;
+    // Truncation is floor for non-negative values (and avoids a libm call per sample).
     let cell_of = |p: DVec2| -> Option<usize> {
-        let (i, j) = (p.x.floor(), p.y.floor());
-        (i >= 0.0 && j >= 0.0 && (i as usize) < nx && (j as usize) < ny).then(|| j as usize * nx + i as usize)
+        let (i, j) = (p.x as usize, p.y as usize);
+        (p.x >= 0.0 && p.y >= 0.0 && i < nx && j < ny).then_some(j * nx + i)
     };
     // Bilinear surface velocity at a position in cell units (values at cell centres).
     let velocity = |p: DVec2| -> DVec2 {
         let g = (p - 0.5).clamp(DVec2::ZERO, DVec2::new((nx - 1) as f64, (ny - 1) as f64));
-        let (i0, j0) = (g.x.floor() as usize, g.y.floor() as usize);
+        let (i0, j0) = (g.x as usize, g.y as usize);
         let (i1, j1) = ((i0 + 1).min(nx - 1), (j0 + 1).min(ny - 1));
         let (tx, ty) = (g.x - i0 as f64, g.y - j0 as f64);
         let at = |a: &[f64]| {
@@ -92,21 +108,27 @@ pub fn update_samples(
     s.count.resize(n, 0);
     s.sum.clear();
     s.sum.resize(n, [0.0; 2]);
-    let (count, sum) = (&mut s.count, &mut s.sum);
-    s.samples.retain_mut(|smp| {
-        // Advect (midpoint rule), then the cell physics at the new place.
-        let mid = smp.pos + velocity(smp.pos) * (0.5 * dt / dx);
-        smp.pos += velocity(mid) * (dt / dx);
-        let Some(k) = cell_of(smp.pos) else { return false };
-        let hk = h[k];
-        if hk < min_h || count[k] >= max_per_cell {
-            return false;
-        }
-        let (vx, vy) = (cells.vsurf[0][k], cells.vsurf[1][k]);
-        if hk < NO_CRUST_BELOW && vx * vx + vy * vy > MOVING_SPEED * MOVING_SPEED {
-            smp.crust = 0.0;
-            smp.contact = 0.0;
-        } else {
+    // Advection and physics per sample in parallel (fixed chunks); each reports its cell, or
+    // `u32::MAX` when it left the grid or the lava.
+    s.cells.resize(s.samples.len(), 0);
+    let items: Vec<_> = s.samples.chunks_mut(SAMPLE_CHUNK).zip(s.cells.chunks_mut(SAMPLE_CHUNK)).collect();
+    par_bands(items, |_, (samples, ks)| {
+        for (smp, kk) in samples.iter_mut().zip(ks.iter_mut()) {
+            // Explicit Euler: a sample moves ≪ 1 cell per step (Courant ~10⁻²).
+            smp.pos += velocity(smp.pos) * (dt / dx);
+            *kk = u32::MAX;
+            let Some(k) = cell_of(smp.pos) else { continue };
+            let hk = h[k];
+            if hk < min_h {
+                continue;
+            }
+            *kk = k as u32;
+            let (vx, vy) = (cells.vsurf[0][k], cells.vsurf[1][k]);
+            if hk < NO_CRUST_BELOW && vx * vx + vy * vy > MOVING_SPEED * MOVING_SPEED {
+                smp.crust = 0.0;
+                smp.contact = 0.0;
+                continue;
+            }
             smp.contact += dt;
             let mut c = (smp.crust * smp.crust + four_kdt).sqrt();
             let div = cells.divergence[k];
@@ -117,6 +139,16 @@ pub fn update_samples(
                 }
             }
             smp.crust = c.min(hk);
+        }
+    });
+    // Binning in sample order (deterministic): drop the lost and the surplus, sum the rest.
+    let (count, sum, ks) = (&mut s.count, &mut s.sum, &s.cells);
+    let mut idx = 0;
+    s.samples.retain(|smp| {
+        let k = ks[idx] as usize;
+        idx += 1;
+        if k == u32::MAX as usize || count[k] >= max_per_cell {
+            return false;
         }
         count[k] += 1;
         sum[k][0] += smp.crust;
