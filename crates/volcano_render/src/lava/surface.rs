@@ -116,9 +116,10 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
             uvs.push([(i as f32 + 0.5) / nx as f32, (j as f32 + 0.5) / ny as f32]);
             let crust_k = crust.get(k).copied().unwrap_or(0.0);
             let colour = match (mode, c) {
-                // Dry vertices only show in the margin quads, dipping under the ground: they
-                // take the colour of crust-free lava so the margin keeps its colour.
-                (LavaRenderMode::DebugCrust, Cover::Dry) => debug_crust(0.0),
+                // Dry vertices only show in the margin quads, dipping under the ground. In the
+                // crust view they stay neutral (a red one next to blue crust would blend to a
+                // misleading purple where lava ponds against an obstacle).
+                (LavaRenderMode::DebugCrust, Cover::Dry) => frozen_albedo(),
                 (LavaRenderMode::DebugThickness, Cover::Dry) => heat_ramp(0.0),
                 (LavaRenderMode::Lit, Cover::Dry) => crust_albedo(0.0, params.rigid_crust),
                 (LavaRenderMode::DebugCrust, Cover::Frozen) => LinearRgba::from(Srgba::rgb_u8(150, 150, 150)),
