@@ -23,6 +23,7 @@
 //! clock), [`volcano_plume`] (eruption columns), `volcano_render` (feature `render`) and
 //! `volcano_egui` (feature `egui`).
 
+pub mod lava_scene;
 pub mod scenes;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
@@ -30,6 +31,7 @@ use bevy::app::{PluginGroup, PluginGroupBuilder};
 pub use volcano_core as core;
 #[cfg(feature = "egui")]
 pub use volcano_egui as egui;
+pub use volcano_lava as lava;
 pub use volcano_plume as plume;
 #[cfg(feature = "render")]
 pub use volcano_render as render;
@@ -43,6 +45,7 @@ impl PluginGroup for VolcanoSimPlugins {
         PluginGroupBuilder::start::<Self>()
             .add(volcano_core::VolcanoCorePlugin)
             .add(volcano_plume::PlumePlugin)
+            .add(volcano_lava::LavaPlugin)
     }
 }
 

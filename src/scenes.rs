@@ -13,6 +13,7 @@ const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
+    ("lava_folds", include_str!("../assets/scenes/lava_folds.ron")),
 ];
 
 /// Names of the built-in scenes.
@@ -57,6 +58,20 @@ pub enum TerrainSpec {
         /// Altitude (m).
         altitude: f32,
     },
+    /// A lava test table of thesis Fig 5.10 (`obstacle`, `split`, `canyon`; or `slope`), see
+    /// [`crate::lava_scene::table_terrain`].
+    LavaTable {
+        /// Scenario name.
+        scenario: String,
+        /// Cells per side of the table.
+        cells: u32,
+        /// Cell size (m).
+        cell: f64,
+        /// Slope (degrees), descending toward +z.
+        slope_deg: f64,
+        /// Cells of continued slope around the table.
+        margin: u32,
+    },
 }
 
 impl TerrainSpec {
@@ -77,6 +92,9 @@ impl TerrainSpec {
                 in_range("resolution", *resolution as f64, 2.0, 4097.0)?;
                 finite("altitude", *altitude as f64)?;
                 Terrain::flat(*resolution as usize, *cell, *altitude)
+            }
+            TerrainSpec::LavaTable { scenario, cells, cell, slope_deg, margin } => {
+                crate::lava_scene::table_terrain(scenario, *cells, *cell, *slope_deg, *margin)
             }
         }
     }
@@ -147,6 +165,9 @@ pub struct SceneSpec {
     pub camera: CameraSpec,
     /// Sun.
     pub sun: SunSpec,
+    /// A lava field with its sources, if any.
+    #[serde(default)]
+    pub lava: Option<crate::lava_scene::LavaSceneSpec>,
 }
 
 impl SceneSpec {
@@ -175,6 +196,9 @@ impl SceneSpec {
         finite("sun.azimuth_deg", self.sun.azimuth_deg as f64)?;
         in_range("sun.elevation_deg", self.sun.elevation_deg as f64, -90.0, 90.0)?;
         in_range("sun.illuminance_lux", self.sun.illuminance_lux as f64, 0.0, 1.0e6)?;
+        if let Some(lava) = &self.lava {
+            lava.validate()?;
+        }
         Ok(())
     }
 }
@@ -222,6 +246,9 @@ impl Plugin for VolcanoScenePlugin {
                 if let Some(preset) = spec.eruption {
                     e.insert(preset.eruption());
                 }
+            }
+            if let Some(lava) = &spec.lava {
+                lava.spawn(&mut commands);
             }
             #[cfg(feature = "render")]
             spawn_view(&mut commands, &spec);

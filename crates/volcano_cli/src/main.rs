@@ -50,6 +50,9 @@ enum Command {
         /// How the eruption column is drawn: the main view or a debug view.
         #[arg(long, value_enum, default_value_t = PlumeView::Ash)]
         plume_view: PlumeView,
+        /// How lava is drawn: incandescent, or a debug view.
+        #[arg(long, value_enum, default_value_t = LavaView::Lit)]
+        lava_view: LavaView,
     },
     /// List the scenes of the registry.
     Scenes,
@@ -134,8 +137,9 @@ fn main() -> ExitCode {
         Command::Lava(args) => domains::lava(&args),
         Command::Atmosphere(args) => domains::atmosphere(&args),
         Command::Pyroclastic { params, seconds, out } => pyroclastic::run(&params.params(), seconds, &out),
-        Command::Render { scene, ticks, out, width, height, min_stddev, plume_view } => {
-            render(&scene, ticks, out, (width, height), min_stddev, plume_view.into())
+        Command::Render { scene, ticks, out, width, height, min_stddev, plume_view, lava_view } => {
+            let lava = volcano::render::LavaRenderMode::from(lava_view);
+            render(&scene, ticks, out, (width, height), min_stddev, (plume_view.into(), lava))
         }
     }
 }
@@ -165,13 +169,35 @@ impl From<PlumeView> for volcano::render::PlumeRenderMode {
     }
 }
 
+/// `--lava-view` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+enum LavaView {
+    /// Incandescent surface darkened by the crust, lit folds.
+    Lit,
+    /// Crust thickness in the thesis' debug colours (red < 8 mm, green < 2 cm, blue), folds white.
+    Crust,
+    /// Lava thickness.
+    Thickness,
+}
+
+impl From<LavaView> for volcano::render::LavaRenderMode {
+    fn from(v: LavaView) -> Self {
+        use volcano::render::LavaRenderMode as M;
+        match v {
+            LavaView::Lit => M::Lit,
+            LavaView::Crust => M::DebugCrust,
+            LavaView::Thickness => M::DebugThickness,
+        }
+    }
+}
+
 fn render(
     scene: &str,
     ticks: u32,
     out: PathBuf,
     (width, height): (u32, u32),
     min_stddev: f64,
-    view: volcano::render::PlumeRenderMode,
+    (view, lava_view): (volcano::render::PlumeRenderMode, volcano::render::LavaRenderMode),
 ) -> ExitCode {
     if !(16..=8192).contains(&width) || !(16..=8192).contains(&height) {
         eprintln!("error: --width and --height must be in 16..=8192");
@@ -200,6 +226,7 @@ fn render(
         .add_plugins(volcano::render::VolcanoRenderPlugin)
         .add_plugins(scene)
         .insert_resource(view)
+        .insert_resource(lava_view)
         // Several base ticks per update so long runs do not render thousands of software
         // frames: `chunk` divides `ticks`, so exactly `ticks` ticks are simulated; afterwards
         // time stops while the capture settles.

@@ -8,8 +8,10 @@
 //! orbit camera ignores the mouse while egui uses it.
 
 mod eruption;
+mod lava;
 
 pub use eruption::EruptionPanel;
+pub use lava::LavaPanel;
 
 use bevy::prelude::*;
 use bevy::time::Real;
@@ -44,6 +46,7 @@ impl Plugin for VolcanoEguiPlugin {
             .add_systems(Update, measure_frame_time)
             .add_systems(EguiPrimaryContextPass, volcano_panel);
         eruption::build(app);
+        lava::build(app);
     }
 }
 

@@ -24,6 +24,7 @@
 pub mod camera;
 pub mod deposit;
 pub mod headless;
+pub mod lava;
 pub mod plume;
 pub mod sky;
 pub mod terrain;
@@ -37,6 +38,7 @@ pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,
 };
+pub use lava::{LavaRenderMode, LavaRenderPlugin, LavaRenderSettings};
 pub use plume::{AshCloud, PlumeRenderMode, PlumeRenderPlugin, PlumeVisuals};
 pub use sky::{
     ActiveSky, GradientSky, SkyMode, SkyPlugin, SkySettings, Sun, VolcanoSky, sky_camera_components,
@@ -53,7 +55,7 @@ pub struct VolcanoRenderPlugin;
 impl Plugin for VolcanoRenderPlugin {
     fn build(&self, app: &mut App) {
         app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, PlumeRenderPlugin));
-        app.add_plugins(DepositRenderPlugin);
+        app.add_plugins((DepositRenderPlugin, LavaRenderPlugin));
     }
 }
 

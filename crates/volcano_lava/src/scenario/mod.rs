@@ -260,12 +260,7 @@ impl Scenario {
                 (field, vec![], c)
             }
             kind => {
-                let g = match kind {
-                    ScenarioKind::Obstacle => terrains::long_obstacle(n, dx, config.slope_deg)?,
-                    ScenarioKind::Split => terrains::small_obstacle(n, dx, config.slope_deg)?,
-                    ScenarioKind::Slope => terrains::incline(n, n, dx, config.slope_deg)?,
-                    _ => terrains::canyon(n, dx, config.slope_deg)?,
-                };
+                let g = terrains::scenario_ground(kind, n, dx, config.slope_deg)?;
                 let field = FlowField::new(g, open, params.air_temperature)?;
                 let c = field.ground().position(n / 2, n / 10);
                 let src = field.point_source(c, 1.5 * dx.max(0.5), config.rate, hot)?;

@@ -4,7 +4,10 @@
 //! increasing `j`).
 
 use bevy::math::Vec2;
-use volcano_core::{ConfigError, Grid2};
+use volcano_core::terrain::centred_origin;
+use volcano_core::{ConfigError, Grid2, LandCover, Terrain};
+
+use super::ScenarioKind;
 
 /// Uniform incline of `slope_deg`, descending toward +y, `nx × ny` cells of `cell` m.
 pub fn incline(nx: usize, ny: usize, cell: f64, slope_deg: f64) -> Result<Grid2<f64>, ConfigError> {
@@ -75,4 +78,81 @@ pub fn canyon(n: usize, cell: f64, slope_deg: f64) -> Result<Grid2<f64>, ConfigE
         }
     }
     Ok(g)
+}
+
+/// Ground of scenario `kind` on an `n × n` grid (the sloping kinds; `incline` is the plain
+/// slope of `slope`, `spread` flat ground).
+pub fn scenario_ground(
+    kind: ScenarioKind,
+    n: usize,
+    cell: f64,
+    slope_deg: f64,
+) -> Result<Grid2<f64>, ConfigError> {
+    match kind {
+        ScenarioKind::Obstacle => long_obstacle(n, cell, slope_deg),
+        ScenarioKind::Split => small_obstacle(n, cell, slope_deg),
+        ScenarioKind::Canyon => canyon(n, cell, slope_deg),
+        ScenarioKind::Slope | ScenarioKind::Incline => incline(n, n, cell, slope_deg),
+        ScenarioKind::Spread => flat(n, cell),
+    }
+}
+
+/// A [`Terrain`] (for rendering and for placing a `LavaField` on) of scenario `kind`: its
+/// `n × n` ground centred on the world origin, surrounded by `margin` cells on every side that
+/// continue it (edge values carried outward, the slope continued downhill), bare ground. A
+/// field of `n × n` cells of `cell` m centred on the origin samples it exactly.
+pub fn scenario_terrain(
+    kind: ScenarioKind,
+    n: usize,
+    cell: f64,
+    slope_deg: f64,
+    margin: usize,
+) -> Result<Terrain, ConfigError> {
+    if margin > 4096 {
+        return Err(ConfigError::InvalidParameter {
+            name: "margin",
+            value: margin as f64,
+            reason: "must be at most 4096 cells".into(),
+        });
+    }
+    let g = scenario_ground(kind, n, cell, slope_deg)?;
+    let tan = slope_deg.to_radians().tan();
+    let nt = n + 2 * margin;
+    let origin = centred_origin(nt, cell);
+    let mut heights = Grid2::new(nt, nt, cell, origin, 0.0f32)?;
+    for jt in 0..nt {
+        for it in 0..nt {
+            let (i, j) = (it as i64 - margin as i64, jt as i64 - margin as i64);
+            let (ic, jc) = (i.clamp(0, n as i64 - 1), j.clamp(0, n as i64 - 1));
+            let h = g.get(ic as usize, jc as usize) - (j - jc) as f64 * cell * tan;
+            heights.set(it, jt, h as f32);
+        }
+    }
+    let cover = Grid2::new(nt, nt, cell, origin, LandCover::Ground)?;
+    Terrain::new(heights, cover, f32::MIN)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn padded_terrain_matches_the_scenario_ground_and_continues_the_slope() {
+        let (n, cell, m) = (32, 0.5, 8);
+        let g = scenario_ground(ScenarioKind::Obstacle, n, cell, 3.0).unwrap();
+        let t = scenario_terrain(ScenarioKind::Obstacle, n, cell, 3.0, m).unwrap();
+        assert_eq!(t.heights().nx(), n + 2 * m);
+        // Cell (i, j) of a field of n cells centred on the origin sits on terrain sample (i+m, j+m).
+        let field_origin = centred_origin(n, cell);
+        for (i, j) in [(0, 0), (5, 20), (16, 19), (31, 31)] {
+            let p = field_origin + Vec2::new(i as f32, j as f32) * cell as f32;
+            assert!((t.height_at(p.x, p.y) as f64 - g.get(i, j)).abs() < 1e-4, "({i}, {j})");
+        }
+        // Below the grid the slope keeps descending.
+        let last = t.heights().get(m + 3, n + m - 1);
+        let below = t.heights().get(m + 3, n + 2 * m - 1);
+        let drop = (m as f64 * cell * 3f64.to_radians().tan()) as f32;
+        assert!((last - below - drop).abs() < 1e-4);
+        assert!(scenario_terrain(ScenarioKind::Canyon, n, cell, 3.0, 100_000).is_err());
+    }
 }

@@ -1,0 +1,313 @@
+//! "Lava" window (shown while a `LavaField` exists): the state of the first field, the test
+//! terrains of thesis Fig 5.10, viscosity model, cooling, crust and fold parameters, sources,
+//! and the lava view. Ctrl + left click on the terrain places a `LavaSource` there.
+//!
+//! Edits are made on a copy and written back only if `LavaParams::validate` and
+//! `FoldParams::validate` accept them; a rejected edit shows the message in red and leaves the
+//! running field untouched.
+
+use bevy::prelude::*;
+use bevy::window::PrimaryWindow;
+use bevy_egui::{EguiContexts, egui};
+use volcano_core::Terrain;
+use volcano_lava::scenario::terrains::scenario_terrain;
+use volcano_lava::{
+    FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, ScenarioKind, ViscosityModel,
+};
+use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, PointerCaptured};
+
+/// Window state.
+#[derive(Resource, Debug, Clone, Reflect)]
+#[reflect(Resource)]
+pub struct LavaPanel {
+    /// Show the window.
+    pub visible: bool,
+    /// Message of the last edit the validation rejected (cleared by a valid edit).
+    pub error: Option<String>,
+    /// Slope (degrees) of the test terrains the switch builds.
+    pub slope_deg: f64,
+    /// Rate (m³/s) of sources placed by Ctrl + click.
+    pub new_source_rate: f64,
+}
+
+impl Default for LavaPanel {
+    fn default() -> Self {
+        Self { visible: true, error: None, slope_deg: 3.0, new_source_rate: 1.0 }
+    }
+}
+
+pub(crate) fn build(app: &mut App) {
+    app.register_type::<LavaPanel>()
+        .init_resource::<LavaPanel>()
+        .add_systems(Update, place_source_on_click)
+        .add_systems(bevy_egui::EguiPrimaryContextPass, lava_window);
+}
+
+fn slider(ui: &mut egui::Ui, value: &mut f64, range: std::ops::RangeInclusive<f64>, text: &str) -> bool {
+    ui.add(egui::Slider::new(value, range).text(text)).changed()
+}
+
+fn drag(ui: &mut egui::Ui, value: &mut f64, speed: f64, text: &str) -> bool {
+    ui.horizontal(|ui| {
+        let c = ui.add(egui::DragValue::new(value).speed(speed)).changed();
+        ui.label(text);
+        c
+    })
+    .inner
+}
+
+/// Viscosity, cooling and crust widgets; returns whether anything changed.
+fn param_widgets(ui: &mut egui::Ui, p: &mut LavaParams) -> bool {
+    let mut changed = false;
+    egui::CollapsingHeader::new("Viscosity").default_open(true).show(ui, |ui| {
+        let vft = matches!(p.viscosity, ViscosityModel::Vft { .. });
+        ui.horizontal(|ui| {
+            if ui.radio(vft, "VFT (FLOWGO basalt)").clicked() && !vft {
+                p.viscosity = ViscosityModel::FLOWGO_BASALT;
+                changed = true;
+            }
+            if ui.radio(!vft, "constant").clicked() && vft {
+                p.viscosity = ViscosityModel::Constant(1000.0);
+                changed = true;
+            }
+        });
+        match &mut p.viscosity {
+            ViscosityModel::Constant(eta) => {
+                changed |=
+                    ui.add(egui::Slider::new(eta, 1.0..=1e6).logarithmic(true).text("η (Pa·s)")).changed();
+            }
+            ViscosityModel::Vft { a, b, c } => {
+                changed |= drag(ui, a, 0.01, "A (log10 Pa·s)");
+                changed |= drag(ui, b, 1.0, "B (K)");
+                changed |= drag(ui, c, 1.0, "C (K)");
+            }
+        }
+        changed |= slider(ui, &mut p.yield_strength, 0.0..=5000.0, "yield strength (Pa)");
+    });
+    egui::CollapsingHeader::new("Cooling").show(ui, |ui| {
+        changed |= ui.checkbox(&mut p.cooling, "cooling").changed();
+        changed |= slider(ui, &mut p.emissivity, 0.0..=1.0, "emissivity");
+        changed |= slider(ui, &mut p.convection, 0.0..=200.0, "convection (W/m²/K)");
+        changed |= slider(ui, &mut p.base_heat_transfer, 0.0..=200.0, "base transfer (W/m²/K)");
+        changed |= drag(ui, &mut p.liquidus, 1.0, "liquidus (K)");
+        changed |= drag(ui, &mut p.solidus, 1.0, "solidus (K)");
+    });
+    egui::CollapsingHeader::new("Crust").show(ui, |ui| {
+        changed |= slider(ui, &mut p.rigid_crust, 0.005..=0.1, "rigid crust (m)");
+        changed |= slider(ui, &mut p.crust_reset_ratio, 0.0..=1.0, "reset ratio");
+        changed |= ui.checkbox(&mut p.crust_drag, "crust slows the flow").changed();
+        changed |= ui
+            .add(
+                egui::Slider::new(&mut p.crust_viscosity_ratio, 1.0..=1e6)
+                    .logarithmic(true)
+                    .text("ν_crust/ν_lava (5.4)"),
+            )
+            .changed();
+        changed |= slider(ui, &mut p.breakout_inflation, 0.01..=2.0, "breakout inflation (m)");
+    });
+    changed
+}
+
+/// Fold widgets; returns whether anything changed.
+fn fold_widgets(ui: &mut egui::Ui, f: &mut FoldParams) -> bool {
+    let mut changed = false;
+    egui::CollapsingHeader::new("Folds").show(ui, |ui| {
+        changed |= ui.checkbox(&mut f.enabled, "folds").changed();
+        changed |= ui.checkbox(&mut f.rolling, "rolling collisions (§5.5.2.3)").changed();
+        changed |= slider(ui, &mut f.first_min_crust, 0.0..=0.05, "first: min crust (m)");
+        changed |= slider(ui, &mut f.first_min_lava, 0.0..=2.0, "first: min lava (m)");
+        changed |= slider(ui, &mut f.first_min_height_diff, 0.0..=1.0, "first: min height diff (m)");
+        changed |= slider(ui, &mut f.next_min_crust, 0.0..=0.05, "next: min crust (m)");
+        changed |= slider(ui, &mut f.next_min_lava, 0.0..=2.0, "next: min lava (m)");
+        changed |= slider(ui, &mut f.chain_min_crust, 0.0..=0.05, "chain: min crust (m)");
+        changed |= slider(ui, &mut f.particle_length, 0.05..=2.0, "particle length L (m)");
+        changed |= slider(ui, &mut f.rise_time, 0.0..=30.0, "rise time (s)");
+    });
+    changed
+}
+
+/// Replaces the terrain by the Fig 5.10 table `kind` (same size) and restarts the field.
+fn switch_terrain(
+    commands: &mut Commands,
+    kind: ScenarioKind,
+    slope: f64,
+    terrain: (Entity, &Terrain),
+    field: (Entity, &LavaField),
+) -> Result<(), String> {
+    let (n, cell) = (field.1.placement.nx, field.1.placement.cell);
+    let margin = terrain.1.heights().nx().saturating_sub(n) / 2;
+    let t = scenario_terrain(kind, n, cell, slope, margin).map_err(|e| e.to_string())?;
+    commands.entity(terrain.0).insert(t);
+    restart(commands, field);
+    Ok(())
+}
+
+/// Respawns the field (its lava, crust and folds are lost; sources stay).
+fn restart(commands: &mut Commands, (entity, field): (Entity, &LavaField)) {
+    commands.entity(entity).despawn();
+    commands.spawn((Name::new("Lava field"), field.clone()));
+}
+
+#[allow(clippy::too_many_arguments)]
+fn lava_window(
+    mut commands: Commands,
+    mut contexts: EguiContexts,
+    mut panel: ResMut<LavaPanel>,
+    mut fields: Query<(Entity, &mut LavaField, Option<&LavaState>, Option<&LavaFieldStatus>)>,
+    terrains: Query<(Entity, &Terrain)>,
+    mut sources: Query<(Entity, &mut LavaSource)>,
+    mut mode: Option<ResMut<LavaRenderMode>>,
+    mut settings: Option<ResMut<LavaRenderSettings>>,
+) -> Result {
+    if !panel.visible {
+        return Ok(());
+    }
+    let Some((entity, mut field, state, status)) = fields.iter_mut().min_by_key(|(e, ..)| *e) else {
+        return Ok(());
+    };
+    let ctx = contexts.ctx_mut()?;
+    let mut edited = field.clone();
+    let mut changed = false;
+    let mut error = panel.error.clone();
+    let corner = ctx.content_rect().right_top() + egui::vec2(-10.0, 10.0);
+    egui::Window::new("Lava").default_width(330.0).pivot(egui::Align2::RIGHT_TOP).default_pos(corner).show(
+        ctx,
+        |ui| {
+            if let Some(s) = state {
+                let b = s.flow.budget();
+                ui.label(format!(
+                    "t = {:.1} s · {:.1} m³ liquid · {:.1} m³ frozen · {} substeps",
+                    s.flow.time(),
+                    s.flow.lava_volume(),
+                    b.solidified,
+                    s.last_substeps
+                ));
+                ui.label(format!(
+                    "{} folds · {} particles · {} breakouts",
+                    s.folds.fold_count(),
+                    s.folds.particle_count(),
+                    s.breakouts.count
+                ));
+            }
+            if let Some(LavaFieldStatus::Rejected(msg)) = status {
+                ui.colored_label(egui::Color32::from_rgb(230, 80, 60), format!("field rejected: {msg}"));
+            }
+            ui.horizontal(|ui| {
+                ui.label("terrain (Fig 5.10)");
+                for (kind, name) in [
+                    (ScenarioKind::Obstacle, "long obstacle"),
+                    (ScenarioKind::Split, "small obstacle"),
+                    (ScenarioKind::Canyon, "canyon"),
+                ] {
+                    if ui.button(name).clicked()
+                        && let Some(t) = terrains.iter().next()
+                        && let Err(e) =
+                            switch_terrain(&mut commands, kind, panel.slope_deg, t, (entity, &field))
+                    {
+                        error = Some(e);
+                    }
+                }
+            });
+            ui.horizontal(|ui| {
+                ui.add(egui::Slider::new(&mut panel.slope_deg, 0.0..=20.0).text("slope (°)"));
+                if ui.button("restart").clicked() {
+                    restart(&mut commands, (entity, &field));
+                }
+            });
+            egui::ScrollArea::vertical().max_height(380.0).show(ui, |ui| {
+                changed |= param_widgets(ui, &mut edited.params);
+                changed |= fold_widgets(ui, &mut edited.folds);
+                egui::CollapsingHeader::new("Sources").show(ui, |ui| {
+                    ui.label("Ctrl + left click on the lava table places a source.");
+                    slider(ui, &mut panel.new_source_rate, 0.0..=5.0, "new source rate (m³/s)");
+                    for (source_entity, mut src) in &mut sources {
+                        ui.horizontal(|ui| {
+                            let mut s = src.clone();
+                            let mut c =
+                                ui.add(egui::Slider::new(&mut s.rate, 0.0..=5.0).text("m³/s")).changed();
+                            c |= ui
+                                .add(egui::Slider::new(&mut s.temperature, 1100.0..=1600.0).text("K"))
+                                .changed();
+                            if c && s.validate().is_ok() {
+                                *src = s;
+                            }
+                            if ui.button("✖").clicked() {
+                                commands.entity(source_entity).despawn();
+                            }
+                        });
+                    }
+                });
+                egui::CollapsingHeader::new("View").default_open(true).show(ui, |ui| {
+                    if let Some(mode) = mode.as_deref_mut() {
+                        let mut m = *mode;
+                        for option in LavaRenderMode::ALL {
+                            ui.radio_value(&mut m, option, option.label());
+                        }
+                        if m != *mode {
+                            *mode = m;
+                        }
+                    }
+                    if let Some(settings) = settings.as_deref_mut() {
+                        let mut s = settings.clone();
+                        ui.checkbox(&mut s.show_folds, "fold particles");
+                        ui.add(egui::Slider::new(&mut s.emissive_nits, 0.0..=200_000.0).text("glow (nits)"));
+                        ui.add(
+                            egui::Slider::new(&mut s.rebuild_every_frames, 1..=30)
+                                .text("rebuild every N frames"),
+                        );
+                        if s != *settings {
+                            *settings = s;
+                        }
+                    }
+                });
+            });
+            if let Some(msg) = &error {
+                ui.colored_label(egui::Color32::from_rgb(230, 80, 60), format!("rejected: {msg}"));
+            }
+        },
+    );
+    if changed {
+        match edited.params.validate().and_then(|_| edited.folds.validate()) {
+            Ok(()) => {
+                *field = edited;
+                error = None;
+            }
+            Err(e) => error = Some(e.to_string()),
+        }
+    }
+    if panel.error != error {
+        panel.error = error;
+    }
+    Ok(())
+}
+
+/// Ctrl + left click on the terrain (when no UI has the pointer) places a source there.
+#[allow(clippy::too_many_arguments)]
+fn place_source_on_click(
+    mut commands: Commands,
+    buttons: Option<Res<ButtonInput<MouseButton>>>,
+    keys: Option<Res<ButtonInput<KeyCode>>>,
+    captured: Option<Res<PointerCaptured>>,
+    panel: Res<LavaPanel>,
+    windows: Query<&Window, With<PrimaryWindow>>,
+    cameras: Query<(&Camera, &GlobalTransform), With<MainCamera>>,
+    terrains: Query<&Terrain>,
+    fields: Query<&LavaState>,
+) {
+    let (Some(buttons), Some(keys)) = (buttons, keys) else { return };
+    let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
+    if !(ctrl && buttons.just_pressed(MouseButton::Left)) || captured.is_some_and(|c| c.0) {
+        return;
+    }
+    let (Ok(window), Some((camera, transform))) = (windows.single(), cameras.iter().next()) else { return };
+    let Some(cursor) = window.cursor_position() else { return };
+    let Ok(ray) = camera.viewport_to_world(transform, cursor) else { return };
+    let Some(hit) = terrains.iter().find_map(|t| t.raycast(ray.origin, *ray.direction)) else { return };
+    if !fields.iter().any(|s| s.flow.cell_at(Vec2::new(hit.x, hit.z)).is_some()) {
+        return;
+    }
+    if let Ok(mut src) = LavaSource::new(hit, panel.new_source_rate, LavaParams::default().liquidus) {
+        src.radius = 0.75;
+        commands.spawn((Name::new("Lava source"), src));
+    }
+}

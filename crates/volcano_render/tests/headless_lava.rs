@@ -1,0 +1,83 @@
+//! The lava surface draws: a disc of hot lava (no crust) on flat ground, seen from above, must
+//! glow orange-red where it lies and leave the bare ground beside it as it is; under a rigid
+//! crust in the debug-crust view the same disc must turn blue (thesis Fig 5.11 colours). If
+//! the surface mesh, its emissive texture or the material were broken, the ground would show.
+
+use std::path::PathBuf;
+
+use bevy::prelude::*;
+use volcano_core::{Terrain, VolcanoCorePlugin};
+use volcano_lava::model::breakout::BreakoutState;
+use volcano_lava::{Edges, FlowField, FoldSystem, LavaField, LavaParams, LavaState, Placement, SurfaceState};
+use volcano_render::{
+    HeadlessCapturePlugin, LavaRenderMode, OrbitCamera, VolcanoRenderPlugin, camera_bundle,
+    headless_default_plugins, read_png_rgb, rgb_region_mean,
+};
+
+const W: u32 = 320;
+const H: u32 = 240;
+
+/// Renders the disc with `crust` (m) in `mode`; returns the mean RGB over the disc and over
+/// bare ground to its right.
+fn render(name: &str, crust: f64, mode: LavaRenderMode) -> ([f64; 3], [f64; 3]) {
+    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_file(&out);
+    let terrain = Terrain::flat(129, 0.5, 0.0).unwrap();
+    let placement = Placement { centre: Vec2::new(-8.0, 0.0), nx: 32, ny: 64, cell: 0.5 };
+    let mut flow = FlowField::on_terrain(&terrain, placement, Edges::default()).unwrap();
+    flow.place_volume(Vec2::new(-8.0, 0.0), 6.0, 60.0, 1450.0).unwrap();
+    let mut surface = SurfaceState::new(32, 64);
+    surface.crust.fill(crust);
+    let state = LavaState {
+        flow,
+        surface,
+        folds: FoldSystem::new(0),
+        breakouts: BreakoutState::new(32 * 64),
+        last_substeps: 0,
+        mobility_capped: false,
+    };
+    let field = LavaField::new(placement, LavaParams::default()).unwrap();
+    let exit = App::new()
+        // One app after the other in this process: only the first may set the global logger.
+        .add_plugins(headless_default_plugins().disable::<bevy::log::LogPlugin>())
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .insert_resource(mode)
+        .add_plugins(HeadlessCapturePlugin {
+            width: W,
+            height: H,
+            out: out.clone(),
+            capture_after_updates: 8,
+        })
+        .add_systems(Startup, move |mut commands: Commands| {
+            commands.spawn(terrain.clone());
+            commands.spawn((field.clone(), state.clone()));
+            // Straight down from 40 m: screen right = +x, the disc (x = −8 m) left of centre.
+            let orbit = OrbitCamera {
+                focus: Vec3::ZERO,
+                yaw: 0.0,
+                pitch: 89f32.to_radians(),
+                distance: 40.0,
+                min_distance: 1.0,
+                ..default()
+            };
+            commands.spawn(camera_bundle(orbit));
+        })
+        .run();
+    assert!(exit.is_success(), "app exited with {exit:?}");
+    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    // ~0.14 m per pixel: the disc spans x ≈ 59..145 px; bare ground at x ≈ 220..260 px.
+    let disc = rgb_region_mean(&rgb, W, (85, 120), (105, 135));
+    let bare = rgb_region_mean(&rgb, W, (220, 260), (105, 135));
+    eprintln!("{name}: disc {disc:?}, bare ground {bare:?} ({})", out.display());
+    (disc, bare)
+}
+
+#[test]
+fn hot_lava_glows_and_crust_shows_in_the_debug_view() {
+    let (disc, bare) = render("headless_lava_lit.png", 0.0, LavaRenderMode::Lit);
+    assert!(disc[0] > bare[0] + 80.0, "hot lava is not brighter than the ground: {disc:?} vs {bare:?}");
+    assert!(disc[0] > disc[2] + 80.0, "hot lava is not red-orange: {disc:?}");
+    let (disc, bare) = render("headless_lava_crust.png", 0.05, LavaRenderMode::DebugCrust);
+    assert!(disc[2] > disc[0] + 60.0 && disc[2] > disc[1] + 40.0, "crust > 2 cm is not blue: {disc:?}");
+    assert!(bare[2] < disc[2] - 60.0, "the ground is as blue as the crust: {bare:?}");
+}

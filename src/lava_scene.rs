@@ -1,0 +1,153 @@
+//! The lava part of a scene: a `LavaField` placed on the scene's terrain with its sources
+//! (`lava: Some((...))` in a scene's RON), and the Fig 5.10 test tables as a terrain
+//! (`terrain: LavaTable(...)`).
+
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+use volcano_core::Terrain;
+use volcano_core::error::{ConfigError, finite, in_range};
+use volcano_lava::{LavaField, LavaParams, LavaSource, Placement, ScenarioKind};
+
+/// A lava source of a scene.
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LavaSourceSpec {
+    /// World (x, z) of the source (m).
+    pub position: (f32, f32),
+    /// Volume rate (m³/s).
+    pub rate: f64,
+    /// Lava temperature (K); the liquidus (1473 K) if left out.
+    #[serde(default = "liquidus")]
+    pub temperature: f64,
+    /// Radius of the fed disc (m); 0 = one cell.
+    #[serde(default)]
+    pub radius: f64,
+}
+
+fn liquidus() -> f64 {
+    LavaParams::default().liquidus
+}
+
+/// A lava field of a scene: a grid of `cells` cells of `cell` m centred on `centre` (world
+/// x, z), resampling the scene's terrain, with default (thesis Table 5.2) parameters.
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LavaSceneSpec {
+    /// World (x, z) of the grid centre (m).
+    pub centre: (f32, f32),
+    /// Cells along x and z.
+    pub cells: (u32, u32),
+    /// Cell size (m), thesis 0.5.
+    pub cell: f64,
+    /// Sources.
+    #[serde(default)]
+    pub sources: Vec<LavaSourceSpec>,
+    /// Seed of the fold layer.
+    #[serde(default)]
+    pub seed: u64,
+}
+
+impl LavaSceneSpec {
+    /// The field's placement.
+    pub fn placement(&self) -> Placement {
+        Placement {
+            centre: Vec2::new(self.centre.0, self.centre.1),
+            nx: self.cells.0 as usize,
+            ny: self.cells.1 as usize,
+            cell: self.cell,
+        }
+    }
+
+    /// The field component (default parameters, open edges).
+    pub fn field(&self) -> Result<LavaField, ConfigError> {
+        let mut field = LavaField::new(self.placement(), LavaParams::default())?;
+        field.seed = self.seed;
+        Ok(field)
+    }
+
+    /// The source components.
+    pub fn source_components(&self) -> Result<Vec<LavaSource>, ConfigError> {
+        self.sources
+            .iter()
+            .map(|s| {
+                let mut src =
+                    LavaSource::new(Vec3::new(s.position.0, 0.0, s.position.1), s.rate, s.temperature)?;
+                src.radius = s.radius;
+                src.validate()?;
+                Ok(src)
+            })
+            .collect()
+    }
+
+    /// Checks every value (whether the grid lies on the terrain is checked when it is built).
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        finite("lava.centre.x", self.centre.0 as f64)?;
+        finite("lava.centre.y", self.centre.1 as f64)?;
+        self.field()?;
+        self.source_components()?;
+        Ok(())
+    }
+
+    /// Spawns the field and its sources.
+    pub fn spawn(&self, commands: &mut Commands) {
+        // Validated when the scene was loaded.
+        if let Ok(field) = self.field() {
+            commands.spawn((Name::new("Lava field"), field));
+        }
+        for src in self.source_components().unwrap_or_default() {
+            commands.spawn((Name::new("Lava source"), src));
+        }
+    }
+}
+
+/// Terrain of a Fig 5.10 test table (`obstacle`, `split`, `canyon`, `slope`): `cells` × `cells`
+/// of `cell` m descending toward +z at `slope_deg`, centred on the origin, with `margin` cells
+/// of continued slope around it.
+pub fn table_terrain(
+    scenario: &str,
+    cells: u32,
+    cell: f64,
+    slope_deg: f64,
+    margin: u32,
+) -> Result<Terrain, ConfigError> {
+    let kind: ScenarioKind = scenario.parse()?;
+    in_range("cells", cells as f64, 8.0, 4096.0)?;
+    in_range("cell", cell, 0.01, 100.0)?;
+    in_range("slope_deg", slope_deg, 0.0, 45.0)?;
+    volcano_lava::scenario::terrains::scenario_terrain(kind, cells as usize, cell, slope_deg, margin as usize)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_lava_specs_are_errors() {
+        let good = LavaSceneSpec {
+            centre: (0.0, 0.0),
+            cells: (64, 64),
+            cell: 0.5,
+            sources: vec![LavaSourceSpec {
+                position: (0.0, -10.0),
+                rate: 1.0,
+                temperature: 1473.0,
+                radius: 0.75,
+            }],
+            seed: 1,
+        };
+        good.validate().unwrap();
+        let mut bad = good.clone();
+        bad.sources[0].rate = -1.0;
+        assert!(bad.validate().unwrap_err().to_string().contains("rate"));
+        let mut bad = good.clone();
+        bad.sources[0].temperature = f64::NAN;
+        assert!(bad.validate().is_err());
+        let mut bad = good.clone();
+        bad.cell = 0.0;
+        assert!(bad.validate().is_err());
+        assert!(table_terrain("volcano", 64, 0.5, 3.0, 8).is_err());
+        assert!(table_terrain("obstacle", 64, 0.5, 80.0, 8).is_err());
+        let t = table_terrain("obstacle", 64, 0.5, 3.0, 8).unwrap();
+        assert_eq!(t.heights().nx(), 80);
+    }
+}
