@@ -27,6 +27,7 @@ pub mod scenes;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 
+pub use volcano_atmosphere as atmosphere;
 pub use volcano_core as core;
 #[cfg(feature = "egui")]
 pub use volcano_egui as egui;
@@ -43,6 +44,8 @@ impl PluginGroup for VolcanoSimPlugins {
         PluginGroupBuilder::start::<Self>()
             .add(volcano_core::VolcanoCorePlugin)
             .add(volcano_plume::PlumePlugin)
+            // Costs one empty query every 50 ticks when no `Atmosphere` entity exists.
+            .add(volcano_atmosphere::AtmospherePlugin::default())
     }
 }
 

@@ -8,11 +8,15 @@ use volcano_core::error::{ConfigError, finite, in_range, positive};
 use volcano_core::terrain::png_io::HeightmapScale;
 use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
 
+mod atmosphere;
+pub use atmosphere::SceneAtmosphere;
+
 /// Built-in scenes: (name, RON text).
 const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
+    ("skyscape", include_str!("../assets/scenes/skyscape.ron")),
 ];
 
 /// Names of the built-in scenes.
@@ -147,6 +151,9 @@ pub struct SceneSpec {
     pub camera: CameraSpec,
     /// Sun.
     pub sun: SunSpec,
+    /// A layered atmosphere over the terrain, if any.
+    #[serde(default)]
+    pub atmosphere: Option<SceneAtmosphere>,
 }
 
 impl SceneSpec {
@@ -175,6 +182,9 @@ impl SceneSpec {
         finite("sun.azimuth_deg", self.sun.azimuth_deg as f64)?;
         in_range("sun.elevation_deg", self.sun.elevation_deg as f64, -90.0, 90.0)?;
         in_range("sun.illuminance_lux", self.sun.illuminance_lux as f64, 0.0, 1.0e6)?;
+        if let Some(a) = &self.atmosphere {
+            a.validate()?;
+        }
         Ok(())
     }
 }
@@ -214,6 +224,9 @@ impl Plugin for VolcanoScenePlugin {
         let spec = self.spec.clone();
         let terrain = self.terrain.clone();
         app.insert_resource(ActiveScene(spec.clone()));
+        if let Some(a) = &spec.atmosphere {
+            atmosphere::build(app, a, &terrain);
+        }
         app.add_systems(Startup, move |mut commands: Commands| {
             commands.spawn((Name::new("Terrain"), terrain.clone()));
             // `build` cannot fail here: the spec was validated in `new`.

@@ -7,8 +7,10 @@
 //! `EguiPrimaryContextPass`, and keeps [`volcano_render::PointerCaptured`] up to date so the
 //! orbit camera ignores the mouse while egui uses it.
 
+mod atmosphere;
 mod eruption;
 
+pub use atmosphere::{AtmospherePanel, map_rgb, map_to_grid, ramp};
 pub use eruption::EruptionPanel;
 
 use bevy::prelude::*;
@@ -44,6 +46,7 @@ impl Plugin for VolcanoEguiPlugin {
             .add_systems(Update, measure_frame_time)
             .add_systems(EguiPrimaryContextPass, volcano_panel);
         eruption::build(app);
+        atmosphere::build(app);
     }
 }
 

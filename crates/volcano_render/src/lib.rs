@@ -22,6 +22,7 @@
 //! ```
 
 pub mod camera;
+pub mod clouds;
 pub mod headless;
 pub mod plume;
 pub mod sky;
@@ -31,6 +32,7 @@ pub mod window_capture;
 use bevy::app::{App, Plugin};
 
 pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
+pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,
@@ -51,6 +53,7 @@ pub struct VolcanoRenderPlugin;
 impl Plugin for VolcanoRenderPlugin {
     fn build(&self, app: &mut App) {
         app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, PlumeRenderPlugin));
+        app.add_plugins(CloudRenderPlugin);
     }
 }
 
