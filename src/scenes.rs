@@ -17,6 +17,7 @@ const BUILTIN: &[(&str, &str)] = &[
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
     ("skyscape", include_str!("../assets/scenes/skyscape.ron")),
+    ("skyscape_island", include_str!("../assets/scenes/skyscape_island.ron")),
 ];
 
 /// Names of the built-in scenes.
