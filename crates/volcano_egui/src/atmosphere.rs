@@ -177,7 +177,7 @@ fn atmosphere_window(
     mut layers: Query<&mut AirLayer>,
     terrains: Query<(Entity, &Terrain)>,
     clock: Option<ResMut<Time<DomainClock<WeatherStep>>>>,
-    mut texture: Local<Option<egui::TextureHandle>>,
+    mut texture: Local<Option<(egui::TextureHandle, Vec<u8>)>>,
 ) -> Result {
     if !panel.visible {
         return Ok(());
@@ -249,15 +249,21 @@ fn atmosphere_window(
             let n = mine[p.layer].fields.t.nx();
             let values = field_values(&mine[p.layer].fields, p.map_field);
             let (rgb, (lo, hi)) = map_rgb(&values, n);
-            let image = egui::ColorImage::from_rgb([n, n], &rgb);
-            let tex = texture.get_or_insert_with(|| {
-                ui.ctx().load_texture("atmosphere_map", image.clone(), egui::TextureOptions::NEAREST)
+            // Upload only when the picture changes: a texture replaced every frame is never
+            // ready to draw on a slow (software) renderer.
+            let image = || egui::ColorImage::from_rgb([n, n], &rgb);
+            let (tex, shown) = texture.get_or_insert_with(|| {
+                let t = ui.ctx().load_texture("atmosphere_map", image(), egui::TextureOptions::NEAREST);
+                (t, rgb.clone())
             });
-            tex.set(image, egui::TextureOptions::NEAREST);
+            if *shown != rgb {
+                tex.set(image(), egui::TextureOptions::NEAREST);
+                *shown = rgb.clone();
+            }
             let response = ui.add(
                 egui::Image::new((tex.id(), egui::vec2(256.0, 256.0))).sense(egui::Sense::click_and_drag()),
             );
-            ui.label(format!("{lo:.3} … {hi:.3}   (blue → red)"));
+            ui.label(format!("{lo:.3} … {hi:.3}   (blue to red)"));
             ui.separator();
             ui.label(egui::RichText::new("Paint (weather paused)").strong());
             egui::ComboBox::from_label("field").selected_text(p.paint_field.label()).show_ui(ui, |ui| {
