@@ -87,13 +87,18 @@ pub fn ramp(t: f64) -> [u8; 3] {
 }
 
 /// RGB bytes of an `n × n` field (row 0 of the field at the bottom, so north is up) scaled
-/// from its finite minimum to maximum, and that range. A constant field maps to mid-ramp.
+/// from the 1st to the 99th percentile of its finite values (a few extreme cells do not
+/// flatten the rest; values beyond are clamped), and that range. A constant field maps to
+/// mid-ramp.
 pub fn map_rgb(values: &[f64], n: usize) -> (Vec<u8>, (f64, f64)) {
-    let (lo, hi) = values
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| (lo.min(v), hi.max(v)));
-    let (lo, hi) = if lo.is_finite() { (lo, hi) } else { (0.0, 0.0) };
+    let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    finite.sort_by(f64::total_cmp);
+    let (lo, hi) = if finite.is_empty() {
+        (0.0, 0.0)
+    } else {
+        let last = (finite.len() - 1) as f64;
+        (finite[(0.01 * last).floor() as usize], finite[(0.99 * last).ceil() as usize])
+    };
     let span = hi - lo;
     let mut rgb = Vec::with_capacity(n * n * 3);
     for row in (0..n).rev() {
@@ -356,6 +361,15 @@ mod tests {
         assert_eq!(&rgb[3..6], &[128, 128, 128]);
         assert_eq!(&rgb[6..9], &ramp(0.0));
         assert_eq!(&rgb[9..12], &ramp(0.5));
+        // One extreme cell among 400 does not set the scale.
+        let mut v = vec![1.0; 400];
+        v[7] = 1e6;
+        v[8] = 0.0;
+        let (_, r) = map_rgb(&v, 20);
+        assert_eq!(r, (1.0, 1.0));
+        let v: Vec<f64> = (0..400).map(|i| if i == 3 { 1e6 } else { (i % 20) as f64 }).collect();
+        let (_, r) = map_rgb(&v, 20);
+        assert_eq!(r, (0.0, 19.0));
         let (flat, r) = map_rgb(&[3.0; 4], 2);
         assert_eq!(r, (3.0, 3.0));
         assert!(flat.chunks(3).all(|c| c == ramp(0.5)));
