@@ -28,6 +28,7 @@ pub mod scenes;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 
+pub use volcano_atmosphere as atmosphere;
 pub use volcano_core as core;
 #[cfg(feature = "egui")]
 pub use volcano_egui as egui;
@@ -46,6 +47,8 @@ impl PluginGroup for VolcanoSimPlugins {
             .add(volcano_core::VolcanoCorePlugin)
             .add(volcano_plume::PlumePlugin)
             .add(volcano_lava::LavaPlugin)
+            // Costs one empty query every 50 ticks when no `Atmosphere` entity exists.
+            .add(volcano_atmosphere::AtmospherePlugin::default())
     }
 }
 

@@ -8,12 +8,17 @@ use volcano_core::error::{ConfigError, finite, in_range, positive};
 use volcano_core::terrain::png_io::HeightmapScale;
 use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
 
+mod atmosphere;
+pub use atmosphere::SceneAtmosphere;
+
 /// Built-in scenes: (name, RON text).
 const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
     ("lava_folds", include_str!("../assets/scenes/lava_folds.ron")),
+    ("skyscape", include_str!("../assets/scenes/skyscape.ron")),
+    ("skyscape_island", include_str!("../assets/scenes/skyscape_island.ron")),
 ];
 
 /// Names of the built-in scenes.
@@ -168,6 +173,9 @@ pub struct SceneSpec {
     /// A lava field with its sources, if any.
     #[serde(default)]
     pub lava: Option<crate::lava_scene::LavaSceneSpec>,
+    /// A layered atmosphere over the terrain, if any.
+    #[serde(default)]
+    pub atmosphere: Option<SceneAtmosphere>,
 }
 
 impl SceneSpec {
@@ -198,6 +206,9 @@ impl SceneSpec {
         in_range("sun.illuminance_lux", self.sun.illuminance_lux as f64, 0.0, 1.0e6)?;
         if let Some(lava) = &self.lava {
             lava.validate()?;
+        }
+        if let Some(a) = &self.atmosphere {
+            a.validate()?;
         }
         Ok(())
     }
@@ -238,6 +249,9 @@ impl Plugin for VolcanoScenePlugin {
         let spec = self.spec.clone();
         let terrain = self.terrain.clone();
         app.insert_resource(ActiveScene(spec.clone()));
+        if let Some(a) = &spec.atmosphere {
+            atmosphere::build(app, a, &terrain);
+        }
         app.add_systems(Startup, move |mut commands: Commands| {
             commands.spawn((Name::new("Terrain"), terrain.clone()));
             // `build` cannot fail here: the spec was validated in `new`.

@@ -16,5 +16,5 @@ pub use model::scenario::Scenario;
 pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherStep, WeatherStepped,
-    spawn_atmosphere, spawn_scenario,
+    spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

@@ -151,6 +151,40 @@ pub fn spawn_scenario(
     Ok(entity)
 }
 
+/// Spawns a scenario as in [`spawn_scenario`], over a game's own `terrain` if given (sampled
+/// at the cell centres, `Scenario::build_with_terrain`), after running `prespin_steps` model
+/// steps of the scenario's Δt (timeline events included) so a scene starts with developed
+/// weather. Returns the atmosphere entity.
+pub fn spawn_scenario_with(
+    commands: &mut Commands,
+    scenario: &Scenario,
+    grid: Option<usize>,
+    terrain: Option<&Terrain>,
+    prespin_steps: u32,
+) -> Result<Entity, ConfigError> {
+    let mut state = match terrain {
+        Some(t) => scenario.build_with_terrain(grid, t)?,
+        None => scenario.build(grid)?,
+    };
+    let mut events = scenario.events.clone();
+    events.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+    if prespin_steps > 0 {
+        let mut work = Workspace::new(&state)?;
+        let mut next = 0;
+        for _ in 0..prespin_steps {
+            while next < events.len() && events[next].at_s <= state.time_s {
+                apply_event(&mut state, &events[next]);
+                next += 1;
+            }
+            step(&mut state, &scenario.params, &mut work, scenario.dt)?;
+        }
+        events.drain(..next);
+    }
+    let entity = spawn_atmosphere(commands, state, scenario.params.clone())?;
+    commands.entity(entity).insert(AtmosphereTimeline(events));
+    Ok(entity)
+}
+
 /// Gathers each atmosphere's layers, fires due timeline events, steps the model, writes the
 /// fields back.
 fn step_weather(

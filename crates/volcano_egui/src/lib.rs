@@ -7,9 +7,11 @@
 //! `EguiPrimaryContextPass`, and keeps [`volcano_render::PointerCaptured`] up to date so the
 //! orbit camera ignores the mouse while egui uses it.
 
+mod atmosphere;
 mod eruption;
 mod lava;
 
+pub use atmosphere::{AtmospherePanel, map_rgb, map_to_grid, ramp};
 pub use eruption::EruptionPanel;
 pub use lava::LavaPanel;
 
@@ -47,6 +49,7 @@ impl Plugin for VolcanoEguiPlugin {
             .add_systems(EguiPrimaryContextPass, volcano_panel);
         eruption::build(app);
         lava::build(app);
+        atmosphere::build(app);
     }
 }
 

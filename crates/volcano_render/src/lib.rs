@@ -23,6 +23,7 @@
 
 pub mod camera;
 pub mod deposit;
+pub mod clouds;
 pub mod headless;
 pub mod lava;
 pub mod plume;
@@ -34,6 +35,7 @@ use bevy::app::{App, Plugin};
 
 pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
 pub use deposit::{DepositRenderPlugin, DepositTint};
+pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,
@@ -55,7 +57,7 @@ pub struct VolcanoRenderPlugin;
 impl Plugin for VolcanoRenderPlugin {
     fn build(&self, app: &mut App) {
         app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, PlumeRenderPlugin));
-        app.add_plugins((DepositRenderPlugin, LavaRenderPlugin));
+        app.add_plugins((DepositRenderPlugin, LavaRenderPlugin, CloudRenderPlugin));
     }
 }
 

@@ -7,6 +7,7 @@ pub mod clouds;
 pub mod fields;
 pub mod maps;
 pub mod multigrid;
+pub mod paint;
 pub mod params;
 pub mod projection;
 pub mod run;

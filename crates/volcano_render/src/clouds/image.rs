@@ -1,0 +1,141 @@
+//! Pure parts of the cloud renderer: the atmosphere's 3D density (condensed water, g/m³,
+//! x fastest, then grid y, then altitude) as an `R8Unorm` 3D [`Image`] laid out for
+//! [`bevy::light::FogVolume`] (u = world x, v = altitude, w = world z = grid y), and the fog
+//! volume's placement and coefficients.
+
+use bevy::asset::RenderAssetUsages;
+use bevy::image::{ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
+use bevy::prelude::*;
+use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+use volcano_core::ConfigError;
+use volcano_core::error::{in_range, positive};
+
+/// Texel value (0–1) of a condensed-water density `d` (g/m³): `1 − exp(−d / d₀)`, linear for
+/// thin cloud and saturating for dense cores, so the 8-bit texture keeps thin cirrus
+/// (≈ 0.01 g/m³) and thick cumulus (≈ 1 g/m³) apart. Non-finite or negative input is 0.
+pub fn texel(d: f32, d0: f32) -> f32 {
+    if !(d.is_finite() && d > 0.0 && d0 > 0.0) {
+        return 0.0;
+    }
+    1.0 - (-d / d0).exp()
+}
+
+/// Reorders `density` (`nxy × nxy × nz`, x fastest, then grid y, then altitude) into 8-bit
+/// texels with u = x, v = altitude, w = grid y (the fog volume's local axes), mapping each
+/// value with [`texel`]. Errors if the length does not match.
+pub fn density_texels(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<Vec<u8>, ConfigError> {
+    if nxy == 0 || nz == 0 || density.len() != nxy * nxy * nz {
+        return Err(ConfigError::InvalidParameter {
+            name: "cloud density volume",
+            value: density.len() as f64,
+            reason: format!("expected {nxy}×{nxy}×{nz} values"),
+        });
+    }
+    positive("cloud density scale d0", d0 as f64)?;
+    let mut out = vec![0u8; density.len()];
+    for iz in 0..nz {
+        for jy in 0..nxy {
+            let src = (iz * nxy + jy) * nxy;
+            let dst = (jy * nz + iz) * nxy;
+            for ix in 0..nxy {
+                out[dst + ix] = (texel(density[src + ix], d0) * 255.0).round() as u8;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// A 3D `R8Unorm` image (`nxy × nz × nxy`, linear filtering, clamped) from [`density_texels`].
+pub fn density_image(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<Image, ConfigError> {
+    let data = density_texels(density, nxy, nz, d0)?;
+    let size = Extent3d { width: nxy as u32, height: nz as u32, depth_or_array_layers: nxy as u32 };
+    let mut image =
+        Image::new(size, TextureDimension::D3, data, TextureFormat::R8Unorm, RenderAssetUsages::all());
+    image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
+        address_mode_u: ImageAddressMode::ClampToEdge,
+        address_mode_v: ImageAddressMode::ClampToEdge,
+        address_mode_w: ImageAddressMode::ClampToEdge,
+        mag_filter: ImageFilterMode::Linear,
+        min_filter: ImageFilterMode::Linear,
+        ..default()
+    });
+    Ok(image)
+}
+
+/// Transform of the unit fog cube covering an `extent × extent` footprint centred on the
+/// world origin (the atmosphere grid is centred there too) from altitude `z_min` to `z_max`.
+pub fn volume_transform(extent: f32, z_min: f32, z_max: f32) -> Transform {
+    Transform::from_xyz(0.0, 0.5 * (z_min + z_max), 0.0).with_scale(Vec3::new(
+        extent,
+        (z_max - z_min).max(1.0),
+        extent,
+    ))
+}
+
+/// Radius of the sphere bounding a fog volume of this transform (what Bevy's fog shader uses
+/// to attenuate the light reaching a sample: `exp(−density · radius · extinction)`).
+pub fn bounding_radius(transform: &Transform) -> f32 {
+    (transform.scale * 0.5).length()
+}
+
+/// `FogVolume::density_factor` for a peak extinction `sigma_max` (1/m at texel 1) given the
+/// volume's absorption + scattering coefficients.
+pub fn density_factor(sigma_max: f32, absorption: f32, scattering: f32) -> Result<f32, ConfigError> {
+    positive("peak cloud extinction", sigma_max as f64)?;
+    in_range("fog absorption", absorption as f64, 0.0, 1e3)?;
+    in_range("fog scattering", scattering as f64, 1e-6, 1e3)?;
+    Ok(sigma_max / (absorption + scattering))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn texel_saturates_and_rejects_bad_values() {
+        assert_eq!(texel(0.0, 0.1), 0.0);
+        assert_eq!(texel(-1.0, 0.1), 0.0);
+        assert_eq!(texel(f32::NAN, 0.1), 0.0);
+        assert_eq!(texel(f32::INFINITY, 0.1), 0.0);
+        assert!((texel(0.1, 0.1) - (1.0 - (-1.0f32).exp())).abs() < 1e-6);
+        assert!(texel(10.0, 0.1) > 0.999);
+        // Monotone.
+        assert!(texel(0.01, 0.1) < texel(0.02, 0.1));
+    }
+
+    #[test]
+    fn texels_are_reordered_to_u_x_v_altitude_w_y() {
+        let (nxy, nz) = (4, 3);
+        // Input index of (x, grid y, level z); output index of (u = x, v = z, w = y).
+        let src = |x: usize, y: usize, z: usize| (z * nxy + y) * nxy + x;
+        let dst = |u: usize, v: usize, w: usize| (w * nz + v) * nxy + u;
+        let mut d = vec![0.0f32; nxy * nxy * nz];
+        // One dense voxel at x = 1, grid y = 2, level z = 0 (input: x fastest, then y, then z).
+        d[src(1, 2, 0)] = 5.0;
+        // A thin one at x = 3, y = 0, z = 2.
+        d[src(3, 0, 2)] = 0.01;
+        let t = density_texels(&d, nxy, nz, 0.1).unwrap();
+        // Output: u = x fastest, then v = z, then w = y.
+        assert_eq!(t[dst(1, 0, 2)], 255);
+        let thin = t[dst(3, 2, 0)];
+        assert!((20..=30).contains(&thin), "{thin}");
+        assert_eq!(t.iter().filter(|&&v| v > 0).count(), 2);
+        assert!(density_texels(&d[1..], nxy, nz, 0.1).is_err());
+        assert!(density_texels(&d, nxy, nz, 0.0).is_err());
+    }
+
+    #[test]
+    fn image_is_3d_and_sized_for_the_volume() {
+        let img = density_image(&vec![0.2; 8 * 8 * 4], 8, 4, 0.1).unwrap();
+        assert_eq!(img.texture_descriptor.dimension, TextureDimension::D3);
+        assert_eq!(img.texture_descriptor.size, Extent3d { width: 8, height: 4, depth_or_array_layers: 8 });
+        assert_eq!(img.data.as_ref().map(|d| d.len()), Some(256));
+        let t = volume_transform(51_200.0, 0.0, 10_000.0);
+        assert_eq!(t.translation.y, 5_000.0);
+        let r = bounding_radius(&t);
+        assert!((r - 0.5 * (2.0f32 * 51_200.0 * 51_200.0 + 1e8).sqrt()).abs() < 1.0, "{r}");
+        assert!((density_factor(1e-3, 0.0, 1.0).unwrap() - 1e-3).abs() < 1e-9);
+        assert!(density_factor(0.0, 0.0, 1.0).is_err());
+        assert!(density_factor(1e-3, -1.0, 1.0).is_err());
+    }
+}

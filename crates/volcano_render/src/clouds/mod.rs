@@ -1,0 +1,310 @@
+//! Volumetric clouds of the layered atmosphere (thesis §4.2.6) with Bevy's volumetric fog:
+//! each [`Atmosphere`] gets one [`FogVolume`] over its footprint whose 3D density image is the
+//! crate's cloud density volume (`volcano_atmosphere::model::volume`: Table 4.3 forms,
+//! k-means++ coherence, type-keyed noise), rebuilt when the weather steps or a layer is
+//! edited, not every frame. Main cameras get [`VolumetricFog`] and suns [`VolumetricLight`]
+//! while a cloud volume exists, so scenes without an atmosphere pay nothing.
+//!
+//! Bevy's fog shader attenuates the sunlight reaching a sample by
+//! `exp(−density · bounding_radius · extinction)` with the volume's bounding radius (tens of
+//! kilometres here), so the peak extinction is chosen from that radius
+//! ([`CloudRenderSettings::light_depth`]): dense cores stay grey, edges bright.
+
+mod image;
+
+pub use image::{bounding_radius, density_factor, density_image, density_texels, texel, volume_transform};
+
+use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
+use bevy::prelude::*;
+use volcano_atmosphere::model::fields::{AtmosphereState, GridSpec, Ground};
+use volcano_atmosphere::model::volume::{VolumeSpec, coherent_forms, density_volume};
+use volcano_atmosphere::{AirLayer, Atmosphere};
+use volcano_core::ConfigError;
+use volcano_core::error::in_range;
+
+use crate::camera::MainCamera;
+use crate::sky::Sun;
+
+/// How clouds are turned into fog (a resource; edits rebuild the volumes).
+#[derive(Resource, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Resource, Debug, Default)]
+pub struct CloudRenderSettings {
+    /// Draw the clouds.
+    pub enabled: bool,
+    /// Voxels per side horizontally (8–512).
+    pub voxels_xy: u32,
+    /// Voxels vertically (4–256).
+    pub voxels_z: u32,
+    /// Condensed water (g/m³) at which the texel reaches 1 − 1/e (see [`texel`]).
+    pub density_scale: f32,
+    /// Optical depth of the light path at full density over the bounding radius (see the
+    /// module docs): peak extinction = `light_depth / bounding_radius`.
+    pub light_depth: f32,
+    /// Multiplier of the in-scattered sunlight (compensates the shader's light attenuation).
+    pub light_intensity: f32,
+    /// Henyey–Greenstein asymmetry (clouds scatter forward, but a strong lobe hides them when
+    /// the sun is behind the camera).
+    pub scattering_asymmetry: f32,
+    /// Ray-march steps per pixel.
+    pub step_count: u32,
+    /// k-means++ clusters for the coherence pass.
+    pub clusters: usize,
+    /// Fraction of a layer's cloudy cells bordering another form that triggers k-means.
+    pub fragmentation: f64,
+}
+
+impl Default for CloudRenderSettings {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            voxels_xy: 256,
+            voxels_z: 96,
+            density_scale: 0.15,
+            light_depth: 6.0,
+            light_intensity: 18.0,
+            scattering_asymmetry: 0.5,
+            step_count: 192,
+            clusters: 8,
+            fragmentation: 0.3,
+        }
+    }
+}
+
+impl CloudRenderSettings {
+    /// Checks every field; the error names it.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        in_range("voxels_xy", self.voxels_xy as f64, 8.0, 512.0)?;
+        in_range("voxels_z", self.voxels_z as f64, 4.0, 256.0)?;
+        in_range("density_scale", self.density_scale as f64, 1e-4, 100.0)?;
+        in_range("light_depth", self.light_depth as f64, 1e-3, 50.0)?;
+        in_range("light_intensity", self.light_intensity as f64, 0.0, 1e4)?;
+        in_range("scattering_asymmetry", self.scattering_asymmetry as f64, -0.99, 0.99)?;
+        in_range("step_count", self.step_count as f64, 8.0, 1024.0)?;
+        in_range("clusters", self.clusters as f64, 1.0, 64.0)?;
+        in_range("fragmentation", self.fragmentation, 0.0, 1.0)?;
+        Ok(())
+    }
+}
+
+/// On an [`Atmosphere`] entity: its fog volume entity and density image.
+#[derive(Component, Debug, Clone, Reflect)]
+#[reflect(Component, Debug)]
+pub struct CloudVolume {
+    /// The [`FogVolume`] entity.
+    pub fog: Entity,
+    /// The 3D density image.
+    pub image: Handle<Image>,
+    /// Weather time (s) the image was built for.
+    pub built_at_s: f64,
+    /// Fraction of non-empty texels in the last build (diagnostics, tests).
+    pub filled_fraction: f32,
+}
+
+/// Marks the fog volume entity of an atmosphere's clouds.
+#[derive(Component, Debug, Clone, Copy, Reflect)]
+#[reflect(Component, Debug)]
+pub struct CloudFog {
+    /// The atmosphere it shows.
+    pub atmosphere: Entity,
+}
+
+/// Volumetric clouds for every [`Atmosphere`] entity.
+#[derive(Debug, Default, Clone)]
+pub struct CloudRenderPlugin;
+
+impl Plugin for CloudRenderPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<CloudRenderSettings>()
+            .register_type::<CloudVolume>()
+            .register_type::<CloudFog>()
+            .init_resource::<CloudRenderSettings>()
+            .add_systems(PostUpdate, (update_cloud_volumes, volumetric_views).chain());
+    }
+}
+
+/// Builds the model state the volume functions read (layers only; the ground is not used).
+pub fn cloud_state(atmo: &Atmosphere, layers: &[&AirLayer]) -> Result<AtmosphereState, ConfigError> {
+    let grid = GridSpec::new(atmo.n, atmo.dx)?;
+    let mut sorted: Vec<&AirLayer> = layers.to_vec();
+    sorted.sort_by_key(|l| l.index);
+    Ok(AtmosphereState {
+        grid,
+        layers: sorted.iter().map(|l| l.fields.clone()).collect(),
+        ground: Ground::default(),
+        time_s: atmo.time_s,
+        start_hour: atmo.start_hour,
+        day_of_year: atmo.day_of_year,
+        latitude_deg: atmo.latitude_deg,
+        precipitated: atmo.precipitated,
+    })
+}
+
+/// The voxel grid over a state's layers: from the lowest layer's bottom to one thickness
+/// above the top layer (cumulonimbus towers reach a full thickness above their layer).
+pub fn volume_spec(state: &AtmosphereState, settings: &CloudRenderSettings) -> VolumeSpec {
+    let z_min = state.layers.first().map_or(0.0, |l| l.bottom.max(0.0));
+    let z_max = state.layers.last().map_or(1000.0, |l| l.altitude + l.thickness);
+    VolumeSpec {
+        nxy: settings.voxels_xy as usize,
+        nz: settings.voxels_z as usize,
+        z_min,
+        z_max: z_max.max(z_min + 1.0),
+        seed: 7,
+    }
+}
+
+/// Density image, fog transform and filled fraction of an atmosphere's clouds.
+pub fn build_cloud_image(
+    state: &AtmosphereState,
+    settings: &CloudRenderSettings,
+    cloud_threshold: f64,
+) -> Result<(Image, Transform, f32), ConfigError> {
+    settings.validate()?;
+    let spec = volume_spec(state, settings);
+    let forms = coherent_forms(state, cloud_threshold, settings.clusters, settings.fragmentation, 0);
+    let density = density_volume(state, &forms, &spec);
+    let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
+    let filled = image
+        .data
+        .as_ref()
+        .map_or(0.0, |d| d.iter().filter(|&&v| v > 0).count() as f32 / d.len().max(1) as f32);
+    let transform = volume_transform(state.grid.extent() as f32, spec.z_min as f32, spec.z_max as f32);
+    Ok((image, transform, filled))
+}
+
+/// The [`FogVolume`] for a density image in a volume of this transform.
+pub fn cloud_fog(image: Handle<Image>, transform: &Transform, settings: &CloudRenderSettings) -> FogVolume {
+    let (absorption, scattering) = (0.05, 0.95);
+    let sigma_max = settings.light_depth / bounding_radius(transform).max(1.0);
+    FogVolume {
+        fog_color: Color::WHITE,
+        density_factor: density_factor(sigma_max, absorption, scattering).unwrap_or(0.0),
+        density_texture: Some(image),
+        absorption,
+        scattering,
+        scattering_asymmetry: settings.scattering_asymmetry,
+        light_intensity: settings.light_intensity,
+        ..default()
+    }
+}
+
+#[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's fog in step")]
+fn update_cloud_volumes(
+    mut commands: Commands,
+    settings: Res<CloudRenderSettings>,
+    mut atmospheres: Query<(Entity, &Atmosphere, Option<&mut CloudVolume>)>,
+    layers: Query<Ref<AirLayer>>,
+    mut fogs: Query<(&mut FogVolume, &mut Transform, &mut Visibility), With<CloudFog>>,
+    mut images: ResMut<Assets<Image>>,
+    mut removed: RemovedComponents<Atmosphere>,
+    orphans: Query<(Entity, &CloudFog)>,
+) {
+    for gone in removed.read() {
+        for (fog, owner) in &orphans {
+            if owner.atmosphere == gone {
+                commands.entity(fog).despawn();
+            }
+        }
+    }
+    for (entity, atmo, volume) in &mut atmospheres {
+        let mine: Vec<Ref<AirLayer>> = layers.iter().filter(|l| l.atmosphere == entity).collect();
+        // `is_added` counts as changed: skip the layers' first frame when the volume was built
+        // for the same weather time.
+        let changed = mine.iter().any(|l| l.is_changed() && !l.is_added());
+        let stale = match &volume {
+            None => true,
+            Some(v) => changed || v.built_at_s != atmo.time_s || settings.is_changed(),
+        };
+        if !stale {
+            continue;
+        }
+        if let Some(v) = &volume
+            && let Ok((_, _, mut vis)) = fogs.get_mut(v.fog)
+        {
+            vis.set_if_neq(if settings.enabled { Visibility::Inherited } else { Visibility::Hidden });
+        }
+        if !settings.enabled {
+            continue;
+        }
+        let refs: Vec<&AirLayer> = mine.iter().map(|l| &**l).collect();
+        let built = cloud_state(atmo, &refs)
+            .and_then(|state| build_cloud_image(&state, &settings, atmo.params.cloud_threshold));
+        let (image, transform, filled) = match built {
+            Ok(b) => {
+                debug!("clouds of {entity} rebuilt: {:.1} % of voxels filled", 100.0 * b.2);
+                b
+            }
+            Err(e) => {
+                warn_once!("clouds of {entity} not rendered: {e}");
+                continue;
+            }
+        };
+        match volume {
+            Some(mut v) => {
+                if images.insert(v.image.id(), image).is_err() {
+                    warn_once!("cloud density image of {entity} could not be replaced");
+                }
+                if let Ok((mut fog, mut t, _)) = fogs.get_mut(v.fog) {
+                    *fog = cloud_fog(v.image.clone(), &transform, &settings);
+                    *t = transform;
+                }
+                v.built_at_s = atmo.time_s;
+                v.filled_fraction = filled;
+            }
+            None => {
+                let handle = images.add(image);
+                let fog = commands
+                    .spawn((
+                        Name::new("Clouds"),
+                        CloudFog { atmosphere: entity },
+                        cloud_fog(handle.clone(), &transform, &settings),
+                        transform,
+                    ))
+                    .id();
+                commands.entity(entity).insert(CloudVolume {
+                    fog,
+                    image: handle,
+                    built_at_s: atmo.time_s,
+                    filled_fraction: filled,
+                });
+            }
+        }
+    }
+}
+
+/// Adds [`VolumetricFog`] to main cameras and [`VolumetricLight`] to suns while cloud volumes
+/// exist, and removes them when none is left.
+fn volumetric_views(
+    mut commands: Commands,
+    settings: Res<CloudRenderSettings>,
+    fogs: Query<(), With<CloudFog>>,
+    cameras: Query<(Entity, Option<&VolumetricFog>), With<MainCamera>>,
+    suns: Query<(Entity, Has<VolumetricLight>), With<Sun>>,
+) {
+    let want = settings.enabled && !fogs.is_empty();
+    for (camera, fog) in &cameras {
+        match (want, fog) {
+            (true, Some(f)) if f.step_count == settings.step_count => {}
+            (true, _) => {
+                commands.entity(camera).insert(VolumetricFog {
+                    ambient_intensity: 0.0,
+                    step_count: settings.step_count,
+                    // Metres: breaks the banding of thin layers into fine noise.
+                    jitter: 300.0,
+                    ..default()
+                });
+            }
+            (false, Some(_)) => {
+                commands.entity(camera).remove::<VolumetricFog>();
+            }
+            (false, None) => {}
+        }
+    }
+    for (sun, has) in &suns {
+        if want && !has {
+            commands.entity(sun).insert(VolumetricLight);
+        } else if !want && has {
+            commands.entity(sun).remove::<VolumetricLight>();
+        }
+    }
+}

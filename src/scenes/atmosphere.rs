@@ -1,0 +1,66 @@
+//! The optional atmosphere of a scene: a built-in layered-atmosphere scenario
+//! (`volcano_atmosphere`) run over the scene's own terrain, pre-spun at startup so the clouds
+//! are there in the first frame, with a weather time scale so they move at a watchable pace.
+
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+use volcano_atmosphere::model::fields::GridSpec;
+use volcano_atmosphere::{Scenario, WeatherStep, spawn_scenario_with};
+use volcano_core::error::{ConfigError, in_range};
+use volcano_core::{DomainClock, Terrain};
+
+/// A scene's atmosphere (`atmosphere: Some((scenario: "mixed", …))` in a scene file).
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneAtmosphere {
+    /// Built-in scenario name (`convection`, `island`, `sea-breeze`, `orographic`, `mixed`).
+    pub scenario: String,
+    /// Cells per side (power of two); the scenario's own if `None`.
+    #[serde(default)]
+    pub grid: Option<usize>,
+    /// Model steps of the scenario's Δt run at startup (0–10,000).
+    #[serde(default)]
+    pub prespin_steps: u32,
+    /// Weather seconds per simulated second (the weather steps once per simulated second, so
+    /// this is its Δt), 0.01–1,000. Default 30 (the scenarios' Δt).
+    #[serde(default = "default_time_scale")]
+    pub time_scale: f64,
+}
+
+fn default_time_scale() -> f64 {
+    30.0
+}
+
+impl SceneAtmosphere {
+    /// Checks the scenario name and the numbers.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let scenario = Scenario::builtin(&self.scenario)?;
+        if let Some(n) = self.grid {
+            GridSpec::new(n, scenario.extent_m / n.max(1) as f64)?;
+        }
+        in_range("atmosphere.prespin_steps", self.prespin_steps as f64, 0.0, 10_000.0)?;
+        in_range("atmosphere.time_scale", self.time_scale, 0.01, 1_000.0)?;
+        Ok(())
+    }
+}
+
+/// Spawns the atmosphere over `terrain` at startup and sets the weather's time scale.
+pub(crate) fn build(app: &mut App, spec: &SceneAtmosphere, terrain: &Terrain) {
+    let (spec, terrain) = (spec.clone(), terrain.clone());
+    app.add_systems(
+        Startup,
+        move |mut commands: Commands, clock: Option<ResMut<Time<DomainClock<WeatherStep>>>>| {
+            if let Some(mut clock) = clock
+                && let Err(e) = clock.context_mut().set_time_scale(spec.time_scale)
+            {
+                error!("scene atmosphere: {e}");
+            }
+            let spawned = Scenario::builtin(&spec.scenario).and_then(|s| {
+                spawn_scenario_with(&mut commands, &s, spec.grid, Some(&terrain), spec.prespin_steps)
+            });
+            if let Err(e) = spawned {
+                error!("scene atmosphere `{}` not spawned: {e}", spec.scenario);
+            }
+        },
+    );
+}
