@@ -32,7 +32,8 @@ impl Default for DepositTint {
 /// How much of the ash colour a deposit of `thickness` metres shows: 0 below 1 mm, then
 /// rising with log₁₀ of the thickness to 1 at 10 m.
 pub fn deposit_cover(thickness: f64) -> f32 {
-    if !(thickness > 1e-3) {
+    // NaN counts as no deposit.
+    if thickness.is_nan() || thickness <= 1e-3 {
         return 0.0;
     }
     let x = ((thickness.log10() + 3.0) / 4.0) as f32;

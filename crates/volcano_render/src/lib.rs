@@ -22,8 +22,8 @@
 //! ```
 
 pub mod camera;
-pub mod deposit;
 pub mod clouds;
+pub mod deposit;
 pub mod headless;
 pub mod lava;
 pub mod plume;
@@ -34,8 +34,8 @@ pub mod window_capture;
 use bevy::app::{App, Plugin};
 
 pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
-pub use deposit::{DepositRenderPlugin, DepositTint};
 pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
+pub use deposit::{DepositRenderPlugin, DepositTint};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,
