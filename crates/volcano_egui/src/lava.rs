@@ -122,6 +122,7 @@ fn fold_widgets(ui: &mut egui::Ui, f: &mut FoldParams) -> bool {
         changed |= slider(ui, &mut f.chain_min_crust, 0.0..=0.05, "chain: min crust (m)");
         changed |= slider(ui, &mut f.particle_length, 0.05..=2.0, "particle length L (m)");
         changed |= slider(ui, &mut f.rise_time, 0.0..=30.0, "rise time (s)");
+        changed |= slider(ui, &mut f.bury_depth, 0.0..=1.0, "bury overridden within (× contact)");
     });
     changed
 }

@@ -58,6 +58,9 @@ pub struct LavaState {
     pub last_substeps: u32,
     /// Whether the last step hit the substep cap (the flow was slowed to stay stable).
     pub mobility_capped: bool,
+    /// Terrain nodes under the field, into which frozen lava is written back (none when the
+    /// field was built on flat ground without a `Terrain`).
+    pub imprint: Option<crate::model::imprint::TerrainImprint>,
 }
 
 /// Why a field could not be built, or `Ok`.

@@ -9,6 +9,7 @@ use crate::components::*;
 use crate::model::breakout::{BreakoutState, update_breakouts};
 use crate::model::field::{FlowField, Source};
 use crate::model::folds::{FoldSystem, update_folds};
+use crate::model::imprint::TerrainImprint;
 use crate::model::surface::{SurfaceState, update_surface};
 
 /// Schedule of the lava domain.
@@ -29,7 +30,7 @@ impl Plugin for LavaPlugin {
             .register_type::<LavaSource>()
             .register_type::<LavaSourceStatus>()
             .register_type::<LavaZone>()
-            .add_systems(LavaStep, (build_fields, step_fields, check_zones).chain());
+            .add_systems(LavaStep, (build_fields, step_fields, check_zones, imprint_terrain).chain());
         #[cfg(debug_assertions)]
         app.add_systems(PostUpdate, assert_finite_fields);
     }
@@ -64,6 +65,7 @@ fn build_fields(
         match result {
             Ok(flow) => {
                 let surface = SurfaceState::new(flow.nx(), flow.ny());
+                let imprint = terrains.iter().next().map(|t| TerrainImprint::new(t.heights(), &flow));
                 e.insert((
                     LavaState {
                         surface,
@@ -72,6 +74,7 @@ fn build_fields(
                         flow,
                         last_substeps: 0,
                         mobility_capped: false,
+                        imprint,
                     },
                     LavaFieldStatus::Ok,
                     key,
@@ -138,6 +141,34 @@ fn step_fields(
         update_folds(&mut state.folds, &state.flow, &state.surface, &field.params, &field.folds, dt);
         state.last_substeps = report.substeps;
         state.mobility_capped = report.mobility_capped;
+    }
+}
+
+/// Steps between two write-backs of frozen lava into the terrain (1 s at 50 Hz).
+const IMPRINT_EVERY: u64 = 50;
+
+/// Writes each field's frozen lava into the first `Terrain` (the one the fields are built
+/// on) once per simulated second; the terrain is marked changed only when a node moved by
+/// at least 1 mm.
+fn imprint_terrain(
+    mut steps: Local<u64>,
+    mut terrains: Query<&mut Terrain>,
+    mut fields: Query<&mut LavaState>,
+) {
+    *steps += 1;
+    if !steps.is_multiple_of(IMPRINT_EVERY) {
+        return;
+    }
+    let Some(mut terrain) = terrains.iter_mut().next() else { return };
+    let mut changed = 0;
+    for mut state in &mut fields {
+        let state = &mut *state;
+        if let Some(imprint) = &mut state.imprint {
+            changed += imprint.apply(terrain.bypass_change_detection().heights_mut(), &state.flow, 1e-3);
+        }
+    }
+    if changed > 0 {
+        terrain.set_changed();
     }
 }
 

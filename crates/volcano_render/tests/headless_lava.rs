@@ -29,6 +29,7 @@ fn render(name: &str, crust: f64, mode: LavaRenderMode) -> ([f64; 3], [f64; 3]) 
     let mut surface = SurfaceState::new(32, 64);
     surface.crust.fill(crust);
     let state = LavaState {
+        imprint: None,
         flow,
         surface,
         folds: FoldSystem::new(0),

@@ -7,6 +7,7 @@ pub mod budget;
 pub mod field;
 pub mod flow;
 pub mod folds;
+pub mod imprint;
 pub mod params;
 pub mod samples;
 pub mod surface;

@@ -197,6 +197,10 @@ pub struct LavaSummary {
     pub folds: Option<u64>,
     /// Fold particles (layer 3).
     pub fold_particles: Option<u64>,
+    /// Fold particles overridden by other folds and removed so far.
+    pub buried_fold_particles: Option<u64>,
+    /// Most fold particles whose centres fall in one grid cell.
+    pub max_fold_particles_per_cell: Option<u64>,
     /// Crust tears (breakouts) so far.
     pub breakouts: Option<u64>,
     /// Analytic references where they exist.
@@ -307,6 +311,17 @@ impl Scenario {
         }
     }
 
+    /// Most fold particles whose centres fall in one grid cell (how densely they pile up).
+    pub fn max_fold_particles_per_cell(&self) -> u64 {
+        let mut counts = vec![0u64; self.field.nx() * self.field.ny()];
+        for q in &self.folds.particles {
+            if let Some((i, j)) = self.field.cell_at(Vec2::new(q.pos.x as f32, q.pos.y as f32)) {
+                counts[j * self.field.nx() + i] += 1;
+            }
+        }
+        counts.into_iter().max().unwrap_or(0)
+    }
+
     /// Measures the current state.
     pub fn summary(&self) -> LavaSummary {
         let c = &self.config;
@@ -382,6 +397,8 @@ impl Scenario {
             mean_crust_m: mean_crust,
             folds: Some(self.folds.fold_count() as u64),
             fold_particles: Some(self.folds.particle_count() as u64),
+            buried_fold_particles: Some(self.folds.buried_count()),
+            max_fold_particles_per_cell: Some(self.max_fold_particles_per_cell()),
             breakouts: Some(self.breakouts.count),
             analytic,
         }

@@ -39,7 +39,21 @@ impl SpatialHash {
         }
     }
 
-    /// Indices in the 3×3 buckets around `p` (everything within one bucket size), ascending.
+    /// Adds particle `idx` at `p` (a particle created after the last rebuild).
+    pub fn insert(&mut self, idx: u32, p: DVec2) {
+        if p.is_finite() {
+            let key = self.key(p);
+            self.buckets.entry(key).or_default().push(idx);
+        }
+    }
+
+    /// Bucket size (m): queries through [`Self::near`] see everything within this distance.
+    pub fn size(&self) -> f64 {
+        self.size
+    }
+
+    /// Indices in the 3×3 buckets around `p` (everything within one bucket size), in a fixed
+    /// order (bucket by bucket, each in insertion order), so results are deterministic.
     pub fn near(&self, p: DVec2, out: &mut Vec<u32>) {
         out.clear();
         let (ci, cj) = self.key(p);
@@ -50,7 +64,6 @@ impl SpatialHash {
                 }
             }
         }
-        out.sort_unstable();
     }
 }
 
@@ -80,11 +93,17 @@ pub fn roll_sign(own: f64, other: f64, neighbours: &[f64], random: bool) -> f64 
     }
 }
 
-/// Resolves collisions between particles of different folds; returns how many. A particle P
-/// moving toward the closest particle P' of another fold closer than `(ℓ + ℓ')/2` is
-/// blocked: it takes P' 's velocity next step and (blocking variant) is put back at exactly
-/// that distance if that stays on the flow; (rolling variant) it rises or sinks to `d_z = ±√((ℓ/2 + ℓ'/2)² − d_xy²)`
-/// relative to P' (eq 5.5) and rotates by α = atan2(d_z, d_xy).
+/// Resolves collisions between particles of different folds; returns how many particles
+/// were blocked. A particle P moving into particles P' of other folds closer than
+/// `(ℓ + ℓ')/2` is blocked: it takes the closest P' 's velocity next step and (blocking
+/// variant) is pushed out of every such overlap at once, if that stays on the flow; (rolling
+/// variant) it rises or sinks to `d_z = ±√((ℓ/2 + ℓ'/2)² − d_xy²)` relative to the closest P'
+/// (eq 5.5) and rotates by α = atan2(d_z, d_xy).
+///
+/// The pass is Jacobi-style: every particle sees the positions and heights of the step
+/// before, so the result does not depend on the particle order, and a particle squeezed
+/// between several folds gets the sum of their pushes (the thesis' closest-particle rule
+/// alone let converging flow stack particles of dozens of folds in one cell).
 pub(crate) fn collide(sys: &mut FoldSystem, field: &FlowField, p: &FoldParams) -> u32 {
     let n = sys.particles.len();
     if n == 0 {
@@ -100,55 +119,59 @@ pub(crate) fn collide(sys: &mut FoldSystem, field: &FlowField, p: &FoldParams) -
             links[w[1] as usize][0] = w[0];
         }
     }
+    let before = sys.particles.clone();
     let mut near = Vec::new();
     let mut count = 0;
-    #[allow(clippy::needless_range_loop)] // particles are mutated inside the loop
-    for k in 0..n {
-        let pk = sys.particles[k];
+    for (k, pk) in before.iter().enumerate() {
         sys.hash.near(pk.pos, &mut near);
         let mut best: Option<(f64, usize)> = None;
+        let mut push = DVec2::ZERO;
         for &o in &near {
             let o = o as usize;
-            if sys.particles[o].fold == pk.fold {
+            let po = &before[o];
+            if po.fold == pk.fold {
                 continue;
             }
-            let d = sys.particles[o].pos.distance(pk.pos);
-            if best.is_none_or(|(bd, _)| d < bd) {
+            let d = po.pos.distance(pk.pos);
+            let r = 0.5 * (pk.thickness + po.thickness);
+            if d >= r {
+                continue;
+            }
+            // Each one's own speed toward the other: the pair approaches if the sum is
+            // positive (or both are still), and the one moving in faster yields (ties: the
+            // higher index), so exactly one particle of an overlapping pair is pushed.
+            let (ak, ao) = (pk.vel.dot(po.pos - pk.pos), po.vel.dot(pk.pos - po.pos));
+            if ak + ao < 0.0 || ao > ak || (ao == ak && k < o) {
+                continue; // separating, or P' is the one moving in: handled from its side
+            }
+            if best.is_none_or(|(bd, bo)| d < bd || (d == bd && o < bo)) {
                 best = Some((d, o));
             }
+            let away = (pk.pos - po.pos).try_normalize().unwrap_or(-pk.tangent.perp());
+            push += away * (r - d);
         }
         let Some((d_xy, o)) = best else { continue };
-        let po = sys.particles[o];
-        let r = 0.5 * (pk.thickness + po.thickness);
-        if d_xy >= r {
-            continue;
-        }
-        let toward = (pk.vel - po.vel).dot(po.pos - pk.pos);
-        if toward < 0.0 || (toward == 0.0 && k < o) {
-            continue; // P' is the one moving; it is handled from its side
-        }
+        let po = &before[o];
         count += 1;
-        let q = &mut sys.particles[k];
-        q.blocked_by = Some(o as u32);
+        sys.particles[k].blocked_by = Some(o as u32);
         if p.rolling {
             let neigh: Vec<f64> = links[k]
                 .iter()
                 .filter(|&&l| l != u32::MAX)
-                .map(|&l| sys.particles[l as usize].roll_height)
+                .map(|&l| before[l as usize].roll_height)
                 .collect();
             let random = sys.rng.random::<bool>();
-            let own = sys.particles[k].roll_height;
-            let sign = roll_sign(own, po.roll_height, &neigh, random);
+            let sign = roll_sign(pk.roll_height, po.roll_height, &neigh, random);
+            let r = 0.5 * (pk.thickness + po.thickness);
             let dz = (r * r - d_xy * d_xy).max(0.0).sqrt();
             let q = &mut sys.particles[k];
             q.roll_height = po.roll_height + sign * dz;
             q.roll_angle = (sign * dz).atan2(d_xy);
         } else {
-            let away = (pk.pos - po.pos).try_normalize().unwrap_or(-pk.tangent.perp());
-            let pushed = po.pos + away * r;
+            let pushed = pk.pos + push;
             // The push never takes a particle off the flow (§5.5.2.1).
-            if cylinder_on_flow(field, pushed, q.tangent, p.particle_length, q.thickness) {
-                q.pos = pushed;
+            if cylinder_on_flow(field, pushed, pk.tangent, p.particle_length, pk.thickness) {
+                sys.particles[k].pos = pushed;
             }
         }
     }

@@ -16,6 +16,8 @@ struct Ctx<'a> {
     field: &'a FlowField,
     surface: &'a SurfaceState,
     p: &'a FoldParams,
+    /// Largest particle diameter at the start of the pass (capped at 2 m).
+    lmax: f64,
 }
 
 impl Ctx<'_> {
@@ -31,17 +33,14 @@ impl Ctx<'_> {
     }
 }
 
-/// Closest particle not in `own` fold within `radius` of `q` (linear scan of the hash
-/// neighbourhood plus particles added since the hash was built).
-fn closest_other(sys: &FoldSystem, q: DVec2, own: u32, radius: f64, hashed: usize) -> Option<usize> {
+/// Closest particle not in `own` fold within `radius` of `q` (the hash holds every
+/// particle, new ones included; `radius` is capped at the hash's bucket size).
+fn closest_other(sys: &FoldSystem, q: DVec2, own: u32, radius: f64) -> Option<usize> {
+    let radius = radius.min(sys.hash.size());
     let mut near = Vec::new();
     sys.hash.near(q, &mut near);
-    let extra = (hashed as u32)..(sys.particles.len() as u32);
     near.iter()
-        .copied()
-        .filter(|&o| (o as usize) < hashed)
-        .chain(extra)
-        .map(|o| o as usize)
+        .map(|&o| o as usize)
         .filter(|&o| sys.particles[o].fold != own)
         .map(|o| (sys.particles[o].pos.distance(q), o))
         .filter(|(d, _)| *d < radius)
@@ -49,22 +48,27 @@ fn closest_other(sys: &FoldSystem, q: DVec2, own: u32, radius: f64, hashed: usiz
         .map(|(_, o)| o)
 }
 
+/// Whether a new particle of fold `own` (diameter `ell`) at `q` would overlap a particle of
+/// another fold (closer than `(ℓ + ℓ')/2`) or a particle of its own fold other than the chain
+/// end it grows from (closer than L/2: the chain would fold back on itself).
+fn occupied(sys: &FoldSystem, q: DVec2, own: u32, ell: f64, end: u32, half_length: f64) -> bool {
+    let mut near = Vec::new();
+    sys.hash.near(q, &mut near);
+    near.iter().any(|&o| {
+        let po = &sys.particles[o as usize];
+        let d = po.pos.distance(q);
+        if po.fold == own { o != end && d < half_length } else { d < 0.5 * (ell + po.thickness) }
+    })
+}
+
 /// Next particle of a chain in two steps (Fig 5.7 left): `p' = p + L/2·d`, tangent `d'` at
 /// `p'` (orthogonal to the surface velocity, or the closest neighbouring fold's tangent if
 /// `p'` is within a wavelength of it, Fig 5.7 right), `p_next = p' + L/2·d'`.
-fn next_position(
-    c: &Ctx,
-    sys: &FoldSystem,
-    pos: DVec2,
-    d: DVec2,
-    ell: f64,
-    fold: u32,
-    hashed: usize,
-) -> (DVec2, DVec2) {
+fn next_position(c: &Ctx, sys: &FoldSystem, pos: DVec2, d: DVec2, ell: f64, fold: u32) -> (DVec2, DVec2) {
     let half = 0.5 * c.p.particle_length;
     let mid = pos + d * half;
     let mut d2 = c.across_flow(mid).unwrap_or(d);
-    if let Some(o) = closest_other(sys, mid, fold, ell + sys.particles_max_thickness(), hashed) {
+    if let Some(o) = closest_other(sys, mid, fold, ell + c.lmax) {
         d2 = sys.particles[o].tangent;
     }
     if d2.dot(d) < 0.0 {
@@ -89,15 +93,10 @@ fn particle(pos: DVec2, tangent: DVec2, ell: f64, fold: u32, vel: DVec2) -> Fold
     }
 }
 
-impl FoldSystem {
-    fn particles_max_thickness(&self) -> f64 {
-        self.particles.iter().map(|q| q.thickness).fold(0.0, f64::max).min(2.0)
-    }
-}
-
 /// Extends fold `f` from its end (`front = false`) or start (`front = true`) until a new
-/// particle would not be on crust > `chain_min_crust` or its cylinder would leave the flow.
-fn grow(c: &Ctx, sys: &mut FoldSystem, f: usize, front: bool, hashed: usize) -> u32 {
+/// particle would not be on crust > `chain_min_crust`, its cylinder would leave the flow, or
+/// it would overlap another fold or its own (a fold does not grow into occupied crust).
+fn grow(c: &Ctx, sys: &mut FoldSystem, f: usize, front: bool) -> u32 {
     let mut added = 0;
     while sys.folds[f].chain.len() < c.p.max_chain && sys.particles.len() < c.p.max_particles {
         let chain = &sys.folds[f].chain;
@@ -117,9 +116,10 @@ fn grow(c: &Ctx, sys: &mut FoldSystem, f: usize, front: bool, hashed: usize) -> 
                 }
             }
         };
-        let (pos, d) = next_position(c, sys, e.pos, out, e.thickness, f as u32, hashed);
+        let (pos, d) = next_position(c, sys, e.pos, out, e.thickness, f as u32);
         if c.crust(pos) <= c.p.chain_min_crust
             || !cylinder_on_flow(c.field, pos, d, c.p.particle_length, e.thickness)
+            || occupied(sys, pos, f as u32, e.thickness, end, 0.5 * c.p.particle_length)
         {
             break;
         }
@@ -127,6 +127,7 @@ fn grow(c: &Ctx, sys: &mut FoldSystem, f: usize, front: bool, hashed: usize) -> 
         let tangent = if front { -d } else { d };
         sys.particles.push(particle(pos, tangent, e.thickness, f as u32, vel));
         let idx = (sys.particles.len() - 1) as u32;
+        sys.hash.insert(idx, pos);
         if front {
             sys.folds[f].chain.insert(0, idx);
         } else {
@@ -139,27 +140,24 @@ fn grow(c: &Ctx, sys: &mut FoldSystem, f: usize, front: bool, hashed: usize) -> 
 
 /// Starts a fold with one particle at `pos` (tangent across the flow, ℓ from eq 5.4) and
 /// chains it both ways. Returns the particles added, or `None` if the seed is not valid.
-fn start_fold(
-    c: &Ctx,
-    sys: &mut FoldSystem,
-    lava: &LavaParams,
-    pos: DVec2,
-    first: bool,
-    hashed: usize,
-) -> Option<u32> {
+fn start_fold(c: &Ctx, sys: &mut FoldSystem, lava: &LavaParams, pos: DVec2, first: bool) -> Option<u32> {
     let tangent = c.across_flow(pos)?;
     let ell = fold_thickness(c.crust(pos), c.lava(pos), lava.crust_viscosity_ratio);
     if ell.is_nan() || ell <= 0.0 || !cylinder_on_flow(c.field, pos, tangent, c.p.particle_length, ell) {
         return None;
     }
-    if sys.particles.len() >= c.p.max_particles {
+    let f = sys.folds.len();
+    if sys.particles.len() >= c.p.max_particles
+        || occupied(sys, pos, f as u32, ell, u32::MAX, 0.5 * c.p.particle_length)
+    {
         return None;
     }
-    let f = sys.folds.len();
     let vel = surface_velocity(c.field, c.surface, pos);
     sys.particles.push(particle(pos, tangent, ell, f as u32, vel));
-    sys.folds.push(Fold { chain: vec![(sys.particles.len() - 1) as u32], follower: None, first });
-    Some(1 + grow(c, sys, f, false, hashed) + grow(c, sys, f, true, hashed))
+    let idx = (sys.particles.len() - 1) as u32;
+    sys.hash.insert(idx, pos);
+    sys.folds.push(Fold { chain: vec![idx], follower: None, first });
+    Some(1 + grow(c, sys, f, false) + grow(c, sys, f, true))
 }
 
 /// One detection pass: extend existing folds, create following folds behind folds that have
@@ -173,13 +171,12 @@ pub(crate) fn detect_and_extend(
     lava: &LavaParams,
     p: &FoldParams,
 ) -> (u32, u32) {
-    let c = Ctx { field, surface, p };
-    let hashed = sys.particles.len();
-    let lmax = sys.particles_max_thickness();
+    let lmax = sys.particles.iter().map(|q| q.thickness).fold(0.0, f64::max).min(2.0);
+    let c = Ctx { field, surface, p, lmax };
     sys.hash.rebuild((2.0 * lmax).max(p.particle_length).max(1.0), sys.particles.iter().map(|q| q.pos));
     let (mut folds, mut parts) = (0u32, 0u32);
     for f in 0..sys.folds.len() {
-        parts += grow(&c, sys, f, false, hashed) + grow(&c, sys, f, true, hashed);
+        parts += grow(&c, sys, f, false) + grow(&c, sys, f, true);
     }
     // Following folds: ℓ behind the centre particle, opposite to the velocity.
     for f in 0..sys.folds.len() {
@@ -196,10 +193,10 @@ pub(crate) fn detect_and_extend(
         if c.crust(pos) <= p.next_min_crust || c.lava(pos) <= p.next_min_lava {
             continue;
         }
-        if closest_other(sys, pos, f as u32, 0.5 * centre.thickness, hashed).is_some() {
+        if closest_other(sys, pos, f as u32, 0.5 * centre.thickness).is_some() {
             continue; // another fold is already there
         }
-        if let Some(n) = start_fold(&c, sys, lava, pos, false, hashed) {
+        if let Some(n) = start_fold(&c, sys, lava, pos, false) {
             sys.folds[f].follower = Some((sys.folds.len() - 1) as u32);
             folds += 1;
             parts += n;
@@ -238,10 +235,10 @@ pub(crate) fn detect_and_extend(
             DVec2::new(origin.x as f64 + i as f64 * field.cell(), origin.y as f64 + j as f64 * field.cell());
         let ell = fold_thickness(surface.crust[k], h[k], lava.crust_viscosity_ratio);
         let clear = p.particle_length.max(2.0 * ell);
-        if closest_other(sys, pos, u32::MAX, clear, hashed).is_some() {
+        if closest_other(sys, pos, u32::MAX, clear).is_some() {
             continue;
         }
-        if let Some(n) = start_fold(&c, sys, lava, pos, true, hashed) {
+        if let Some(n) = start_fold(&c, sys, lava, pos, true) {
             folds += 1;
             parts += n;
             made += 1;

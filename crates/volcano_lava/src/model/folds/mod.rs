@@ -6,6 +6,7 @@
 //! Particles live in one `Vec` per field (not one entity each): the render side instances
 //! them from [`FoldSystem::particles`].
 
+mod bury;
 mod collide;
 mod create;
 mod sample;
@@ -21,6 +22,7 @@ use super::field::FlowField;
 use super::params::LavaParams;
 use super::surface::SurfaceState;
 
+pub use bury::consistent;
 pub use collide::SpatialHash;
 
 /// Parameters of the fold layer (thesis §5.4.3, §5.5 and Table 5.2).
@@ -57,6 +59,10 @@ pub struct FoldParams {
     pub max_particles: usize,
     /// At most this many particles per fold.
     pub max_chain: usize,
+    /// Burial (beyond the thesis): a particle whose centre comes within this fraction of the
+    /// contact distance `(ℓ + ℓ')/2` of an older fold's particle is overridden and removed
+    /// (checked every `detect_every` steps). 0 keeps every particle.
+    pub bury_depth: f64,
 }
 
 impl Default for FoldParams {
@@ -77,6 +83,7 @@ impl Default for FoldParams {
             detect_every: 25,
             max_particles: 20_000,
             max_chain: 200,
+            bury_depth: 0.5,
         }
     }
 }
@@ -101,6 +108,7 @@ impl FoldParams {
         in_range("detect_every", self.detect_every as f64, 1.0, 1e6)?;
         in_range("max_particles", self.max_particles as f64, 0.0, 1e7)?;
         in_range("max_chain", self.max_chain as f64, 1.0, 1e5)?;
+        in_range("bury_depth", self.bury_depth, 0.0, 1.0)?;
         Ok(())
     }
 }
@@ -158,18 +166,22 @@ pub struct FoldReport {
     pub new_particles: u32,
     /// Particle collisions resolved.
     pub collisions: u32,
+    /// Particles overridden and removed.
+    pub buried: u32,
 }
 
 /// All folds of one field.
 #[derive(Debug, Clone)]
 pub struct FoldSystem {
-    /// Particles (never removed; frozen lava keeps its ropes).
+    /// Particles (removed only when overridden, see [`FoldParams::bury_depth`]; frozen lava
+    /// keeps its ropes).
     pub particles: Vec<FoldParticle>,
     /// Folds.
     pub folds: Vec<Fold>,
     pub(crate) hash: SpatialHash,
     pub(crate) rng: ChaCha8Rng,
     steps: u64,
+    buried: u64,
 }
 
 impl FoldSystem {
@@ -181,6 +193,7 @@ impl FoldSystem {
             hash: SpatialHash::new(1.0),
             rng: volcano_core::derive_stream(seed, volcano_core::rng::stream_id("lava_folds", 0)),
             steps: 0,
+            buried: 0,
         }
     }
 
@@ -193,11 +206,16 @@ impl FoldSystem {
     pub fn particle_count(&self) -> usize {
         self.particles.len()
     }
+
+    /// Particles overridden and removed so far.
+    pub fn buried_count(&self) -> u64 {
+        self.buried
+    }
 }
 
 /// Advances the folds by `dt`: motion (surface velocity + springs, kept inside the flow),
-/// collisions, rise of the offset, then every `detect_every` steps detection of first and
-/// following folds and extension of existing ones.
+/// collisions, rise of the offset, then every `detect_every` steps burial of overridden
+/// particles, detection of first and following folds and extension of existing ones.
 pub fn update_folds(
     sys: &mut FoldSystem,
     field: &FlowField,
@@ -214,6 +232,8 @@ pub fn update_folds(
     report.collisions = collide::collide(sys, field, params);
     sys.steps += 1;
     if sys.steps.is_multiple_of(params.detect_every as u64) {
+        report.buried = bury::bury_overridden(sys, params.bury_depth);
+        sys.buried += report.buried as u64;
         let (f, p) = create::detect_and_extend(sys, field, surface, lava, params);
         report.new_folds = f;
         report.new_particles = p;
