@@ -36,6 +36,39 @@ fn folds_pile_up_in_front_of_the_obstacle_not_on_a_free_slope() {
     assert!(sum.max_crust_m > fsum.max_crust_m);
 }
 
+/// Past 240 s the ponded lava in front of the obstacle keeps converging: particles of many
+/// folds used to pile into single cells (117 per 0.5 m cell at 240 s, 648 at 270 s) and the
+/// neighbour searches went quadratic. Chains now stop at occupied crust and overridden
+/// particles are buried, so the density stays bounded.
+#[test]
+fn folds_do_not_pile_up_as_the_pond_keeps_converging() {
+    let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);
+    c.seconds = 320.0;
+    let mut s = Scenario::build(&c).unwrap();
+    s.run_until(c.seconds);
+    let sum = s.summary();
+    println!(
+        "320 s: {:?} folds, {:?} particles, {:?} buried, at most {:?} per cell",
+        sum.folds, sum.fold_particles, sum.buried_fold_particles, sum.max_fold_particles_per_cell
+    );
+    assert!(volcano_lava::model::folds::consistent(&s.folds));
+    assert!(sum.fold_particles.unwrap() > 1000, "the pond is covered with folds");
+    assert!(sum.buried_fold_particles.unwrap() > 0, "converging folds override each other");
+    assert!(sum.max_fold_particles_per_cell.unwrap() <= 10, "{sum:?}");
+    // No two particles of different folds closer than half their contact distance after a
+    // burial pass (the last step of 320 s = 16,000 steps ran one: 16,000 is a multiple of 25).
+    let p = &s.folds.particles;
+    let mut worst = f64::INFINITY;
+    for a in p {
+        for b in p {
+            if a.fold != b.fold {
+                worst = worst.min(a.pos.distance(b.pos) / (0.5 * (a.thickness + b.thickness)));
+            }
+        }
+    }
+    assert!(worst >= 0.5 - 1e-9, "closest pair at {worst} × contact distance");
+}
+
 #[test]
 fn breakouts_tear_the_crust_where_lava_inflates_in_front_of_the_obstacle() {
     let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);

@@ -31,10 +31,12 @@ pub(crate) fn bury_overridden(sys: &mut FoldSystem, depth: f64) -> u32 {
     remove(sys, &dead)
 }
 
-/// Removes the particles flagged in `dead`. A chain loses its dead particles and splits where
-/// they were, each piece becoming its own fold (the first piece keeps the fold's index order
-/// and its follower link); folds left empty disappear. Particle and fold indices are
-/// compacted in order, so the result is deterministic.
+/// Removes the particles flagged in `dead`. A chain loses its dead particles and closes up
+/// (the springs then pull the survivors together: an overridden rope is drawn under rather
+/// than torn into pieces, which in a test of the obstacle scenario left 3,154 folds of 2.8
+/// particles on average at 400 s, against 335 of 14.5 this way); folds left empty disappear
+/// and follower links to them are dropped. Particle and fold indices are compacted in order,
+/// so the result is deterministic.
 pub(crate) fn remove(sys: &mut FoldSystem, dead: &[bool]) -> u32 {
     let removed = dead.iter().filter(|&&d| d).count() as u32;
     if removed == 0 {
@@ -51,34 +53,17 @@ pub(crate) fn remove(sys: &mut FoldSystem, dead: &[bool]) -> u32 {
     let mut fold_map = vec![None; sys.folds.len()];
     let mut folds: Vec<Fold> = Vec::with_capacity(sys.folds.len());
     for (f, fold) in sys.folds.iter().enumerate() {
-        let mut piece: Vec<u32> = Vec::new();
-        let mut pieces = Vec::new();
-        for &k in &fold.chain {
-            if dead[k as usize] {
-                if !piece.is_empty() {
-                    pieces.push(std::mem::take(&mut piece));
-                }
-            } else {
-                piece.push(remap[k as usize]);
-            }
+        let chain: Vec<u32> =
+            fold.chain.iter().filter(|&&k| !dead[k as usize]).map(|&k| remap[k as usize]).collect();
+        if chain.is_empty() {
+            continue;
         }
-        if !piece.is_empty() {
-            pieces.push(piece);
+        let idx = folds.len() as u32;
+        fold_map[f] = Some(idx);
+        for &k in &chain {
+            kept[k as usize].fold = idx;
         }
-        for (i, chain) in pieces.into_iter().enumerate() {
-            let idx = folds.len() as u32;
-            if i == 0 {
-                fold_map[f] = Some(idx);
-            }
-            for &k in &chain {
-                kept[k as usize].fold = idx;
-            }
-            folds.push(Fold {
-                chain,
-                follower: if i == 0 { fold.follower } else { None },
-                first: fold.first,
-            });
-        }
+        folds.push(Fold { chain, follower: fold.follower, first: fold.first });
     }
     for fold in &mut folds {
         fold.follower = fold.follower.and_then(|f| fold_map[f as usize]);
@@ -145,28 +130,34 @@ mod tests {
             }
             sys.folds.push(Fold { chain, follower: None, first: true });
         }
-        sys.folds[0].follower = Some(2);
+        sys.folds[0].follower = Some(1);
+        if rows.len() > 2 {
+            sys.folds[1].follower = Some(2);
+        }
         sys
     }
 
     #[test]
-    fn removing_the_middle_of_a_chain_splits_it() {
+    fn removing_particles_closes_the_chain_and_drops_empty_folds() {
         let mut sys = folds(&[(0.0, 0.0), (5.0, 0.0), (10.0, 0.0)]);
         sys.particles[7].blocked_by = Some(2);
         sys.particles[8].blocked_by = Some(3);
         let mut dead = vec![false; 18];
-        dead[3] = true; // middle of fold 0: two pieces of 3 and 2
+        dead[3] = true; // middle of fold 0
         dead[12..18].fill(true); // all of fold 2
         assert_eq!(remove(&mut sys, &dead), 7);
         assert!(consistent(&sys));
         assert_eq!(sys.particles.len(), 11);
         let lens: Vec<usize> = sys.folds.iter().map(|f| f.chain.len()).collect();
-        assert_eq!(lens, vec![3, 2, 6]);
-        // Fold 0's follower (old fold 2) is gone; blocked_by links follow the compaction.
-        assert_eq!(sys.folds[0].follower, None);
-        assert_eq!(sys.particles[5 + 2].blocked_by, None, "pointed at a removed particle");
+        assert_eq!(lens, vec![5, 6]);
+        assert_eq!(sys.folds[0].chain, vec![0, 1, 2, 3, 4]);
+        // Fold 0 keeps its follower (fold 1); fold 1's follower (fold 2) is gone.
+        assert_eq!(sys.folds[0].follower, Some(1));
+        assert_eq!(sys.folds[1].follower, None);
+        // blocked_by links follow the compaction; one pointed at a removed particle.
+        assert_eq!(sys.particles[5 + 2].blocked_by, None);
         assert_eq!(sys.particles[5 + 1].blocked_by, Some(2));
-        // Positions kept their order.
+        // Positions kept their order: old particle 4 is now 3.
         assert_eq!(sys.particles[3].pos, DVec2::new(2.0, 0.0));
     }
 

@@ -1,7 +1,5 @@
 //! Fold–fold collisions (thesis §5.5.2.2) and the ascending / rolling variant (§5.5.2.3,
-//! eq 5.5), with a spatial hash for neighbours.
-
-use std::collections::HashMap;
+//! eq 5.5), with a uniform grid ([`super::hash::SpatialHash`]) for neighbours.
 
 use bevy::math::DVec2;
 use rand::RngExt;
@@ -9,63 +7,6 @@ use rand::RngExt;
 use super::sample::cylinder_on_flow;
 use super::{FoldParams, FoldSystem};
 use crate::model::field::FlowField;
-
-/// Uniform-grid spatial hash of particle indices.
-#[derive(Debug, Clone, Default)]
-pub struct SpatialHash {
-    size: f64,
-    buckets: HashMap<(i64, i64), Vec<u32>>,
-}
-
-impl SpatialHash {
-    /// A hash with buckets of `size` m.
-    pub fn new(size: f64) -> Self {
-        Self { size: size.max(1e-3), buckets: HashMap::new() }
-    }
-
-    fn key(&self, p: DVec2) -> (i64, i64) {
-        ((p.x / self.size).floor() as i64, (p.y / self.size).floor() as i64)
-    }
-
-    /// Clears and inserts `points` (index = position in the slice) with bucket size `size`.
-    pub fn rebuild(&mut self, size: f64, points: impl Iterator<Item = DVec2>) {
-        self.size = size.max(1e-3);
-        self.buckets.values_mut().for_each(Vec::clear);
-        for (k, p) in points.enumerate() {
-            if p.is_finite() {
-                let key = self.key(p);
-                self.buckets.entry(key).or_default().push(k as u32);
-            }
-        }
-    }
-
-    /// Adds particle `idx` at `p` (a particle created after the last rebuild).
-    pub fn insert(&mut self, idx: u32, p: DVec2) {
-        if p.is_finite() {
-            let key = self.key(p);
-            self.buckets.entry(key).or_default().push(idx);
-        }
-    }
-
-    /// Bucket size (m): queries through [`Self::near`] see everything within this distance.
-    pub fn size(&self) -> f64 {
-        self.size
-    }
-
-    /// Indices in the 3×3 buckets around `p` (everything within one bucket size), in a fixed
-    /// order (bucket by bucket, each in insertion order), so results are deterministic.
-    pub fn near(&self, p: DVec2, out: &mut Vec<u32>) {
-        out.clear();
-        let (ci, cj) = self.key(p);
-        for dj in -1..=1 {
-            for di in -1..=1 {
-                if let Some(b) = self.buckets.get(&(ci + di, cj + dj)) {
-                    out.extend_from_slice(b);
-                }
-            }
-        }
-    }
-}
 
 /// Over/under choice for a rolling collision of P with P' (§5.5.2.3): stay above (below) if
 /// already above (below); at the same height follow the chain neighbours if they agree;

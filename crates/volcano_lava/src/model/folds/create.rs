@@ -12,6 +12,11 @@ use crate::model::surface::SurfaceState;
 /// New first folds per detection pass, at most.
 const MAX_FIRST_PER_PASS: usize = 8;
 
+/// A new particle may start this close to another fold, as a fraction of the contact distance
+/// `(ℓ + ℓ')/2`: a following fold is placed one wavelength ℓ behind its leader, in contact,
+/// and round-off must not reject it. Collisions then keep the two apart.
+const CREATE_CLEARANCE: f64 = 0.8;
+
 struct Ctx<'a> {
     field: &'a FlowField,
     surface: &'a SurfaceState,
@@ -49,15 +54,20 @@ fn closest_other(sys: &FoldSystem, q: DVec2, own: u32, radius: f64) -> Option<us
 }
 
 /// Whether a new particle of fold `own` (diameter `ell`) at `q` would overlap a particle of
-/// another fold (closer than `(ℓ + ℓ')/2`) or a particle of its own fold other than the chain
-/// end it grows from (closer than L/2: the chain would fold back on itself).
+/// another fold (closer than [`CREATE_CLEARANCE`] × `(ℓ + ℓ')/2`) or a particle of its own
+/// fold other than the chain end it grows from (closer than L/2: the chain would fold back
+/// on itself).
 fn occupied(sys: &FoldSystem, q: DVec2, own: u32, ell: f64, end: u32, half_length: f64) -> bool {
     let mut near = Vec::new();
     sys.hash.near(q, &mut near);
     near.iter().any(|&o| {
         let po = &sys.particles[o as usize];
         let d = po.pos.distance(q);
-        if po.fold == own { o != end && d < half_length } else { d < 0.5 * (ell + po.thickness) }
+        if po.fold == own {
+            o != end && d < half_length
+        } else {
+            d < CREATE_CLEARANCE * 0.5 * (ell + po.thickness)
+        }
     })
 }
 

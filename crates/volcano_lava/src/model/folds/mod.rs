@@ -9,6 +9,7 @@
 mod bury;
 mod collide;
 mod create;
+mod hash;
 mod sample;
 
 use bevy::math::DVec2;
@@ -23,7 +24,7 @@ use super::params::LavaParams;
 use super::surface::SurfaceState;
 
 pub use bury::consistent;
-pub use collide::SpatialHash;
+pub use hash::SpatialHash;
 
 /// Parameters of the fold layer (thesis §5.4.3, §5.5 and Table 5.2).
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
