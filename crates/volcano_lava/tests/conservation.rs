@@ -97,3 +97,16 @@ fn frozen_lava_raises_ground_and_later_lava_flows_over_it() {
     let probe = f.probe(Vec2::new(8.0, 8.0)).unwrap();
     assert!(probe.ground > 0.0 && probe.thickness > 0.0);
 }
+
+#[test]
+fn volume_conserved_10000_steps_periodic_both_ways() {
+    // Periodic south/north faces join the first and last row bands (48 rows: bands of 32 and
+    // 16), the one place where a band needs a row that is not next to it.
+    let p = LavaParams::isothermal(1000.0).unwrap();
+    let all =
+        Edges { west: Edge::Periodic, east: Edge::Periodic, south: Edge::Periodic, north: Edge::Periodic };
+    let (err, budget_err, _) = run_closed(all, &p);
+    println!("periodic both ways: relative volume error {err:e}, budget {budget_err:e}");
+    assert!(err <= 1e-9, "{err}");
+    assert!(budget_err <= 1e-9, "{budget_err}");
+}

@@ -9,6 +9,11 @@
 //! cell holds; (4) every face volume is subtracted from its donor and added to its receiver
 //! as the same f64 number, so the total changes only by round-off, and heat (h·T) moves with
 //! it at the donor temperature.
+//!
+//! The work runs in two passes over fixed row bands (see [`super::bands`]): mobilities and
+//! fluxes, then the global substep, then limiter and cell update. Each band computes what it
+//! needs of its neighbours' rows (mobility one row below, limiter one row each side) into its
+//! own buffer instead of waiting for a separate pass over the whole grid.
 
 use super::field::{Edge, FlowField};
 use volcano_core::Grid2;
@@ -19,14 +24,14 @@ use super::params::{GRAVITY, LavaParams, ViscosityModel};
 /// Reusable work arrays of one field (allocated once).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scratch {
-    /// Cell mobility ρ g h³/(3η(T)) (m³/s per unit gradient).
-    mob: Vec<f64>,
     /// x-face fluxes, `(nx+1) × ny` (m²/s, +x positive); face `i` is west of cell `i`.
     fx: Vec<f64>,
     /// y-face fluxes, `nx × (ny+1)`; face `j` is south of row `j`.
     fy: Vec<f64>,
-    /// Per-cell limiter factor in [0, 1].
-    lim: Vec<f64>,
+    /// Per band: cell mobility ρ g h³/(3η(T)) of the band's rows and the row below.
+    mob: Vec<Vec<f64>>,
+    /// Per band: limiter factor in [0, 1] of the row below, the band's rows, the row above.
+    lim: Vec<Vec<f64>>,
     h_new: Grid2<f64>,
     t_new: Grid2<f64>,
 }
@@ -34,12 +39,12 @@ pub struct Scratch {
 impl Scratch {
     pub(crate) fn new(template: &Grid2<f64>) -> Self {
         let (nx, ny) = (template.nx(), template.ny());
-        let n = nx * ny;
+        let bands = ny.div_ceil(BAND_ROWS);
         Self {
-            mob: vec![0.0; n],
             fx: vec![0.0; (nx + 1) * ny],
             fy: vec![0.0; nx * (ny + 1)],
-            lim: vec![0.0; n],
+            mob: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 1) * nx]).collect(),
+            lim: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 2) * nx]).collect(),
             h_new: template.clone(),
             t_new: template.clone(),
         }
@@ -107,6 +112,124 @@ fn face_flux(
     (q, m, 3.0 * q.abs() / ha.max(hb))
 }
 
+/// Cell mobility `ρ g h³/(3η(T))` (m³/s per unit gradient) times the crust factor `fac`
+/// (`rg3` = ρ g/3). Zero where there is no lava.
+#[inline]
+fn mobility(model: ViscosityModel, rg3: f64, h: f64, t: f64, fac: f64) -> f64 {
+    match model {
+        ViscosityModel::Constant(eta) => rg3 / eta * fac * h * h * h,
+        model => {
+            if h > 0.0 {
+                rg3 * fac / model.viscosity(t) * h * h * h
+            } else {
+                0.0
+            }
+        }
+    }
+}
+
+/// Read-only inputs of a flux pass.
+struct FluxCtx<'a> {
+    nx: usize,
+    ny: usize,
+    inv_dx: f64,
+    yield_rg: f64,
+    rg3: f64,
+    viscosity: ViscosityModel,
+    edges: super::field::Edges,
+    g: &'a [f64],
+    h: &'a [f64],
+    t: &'a [f64],
+    fac: &'a [f64],
+}
+
+impl FluxCtx<'_> {
+    fn mob(&self, k: usize) -> f64 {
+        mobility(self.viscosity, self.rg3, self.h[k], self.t[k], self.fac[k])
+    }
+}
+
+/// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face fluxes
+/// of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face row
+/// `start` first; face row 0 is the south edge) and, for the last band, the north edge faces
+/// (`north`). Returns the band's largest face mobility and wave speed.
+fn band_fluxes(
+    c: &FluxCtx,
+    b: usize,
+    mob: &mut [f64],
+    fx: &mut [f64],
+    fy: &mut [f64],
+    north: Option<&mut [f64]>,
+) -> (f64, f64) {
+    let (nx, ny, g, h) = (c.nx, c.ny, c.g, c.h);
+    let rows = band_range(b, ny);
+    let lo = rows.start.saturating_sub(1);
+    for (m, k) in mob.iter_mut().zip(lo * nx..rows.end * nx) {
+        *m = c.mob(k);
+    }
+    let mob = |k: usize| mob[k - lo * nx];
+    let cell = |k: usize| (g[k], h[k], mob(k));
+    let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+    let mut take = |(q, m, w): (f64, f64, f64)| {
+        m_max = m_max.max(m);
+        c_max = c_max.max(w);
+        q
+    };
+    let nfx = nx + 1;
+    let open = |edge: Edge, e: usize, inner: usize| {
+        if edge != Edge::Open {
+            return (0.0, 0.0, 0.0);
+        }
+        let ghost = 2.0 * g[e] - g[inner];
+        let (q, m, w) = face_flux(c.inv_dx, c.yield_rg, cell(e), (ghost, h[e], mob(e)));
+        (q.max(0.0), m, w)
+    };
+    for (frow, j) in fx.chunks_mut(nfx).zip(rows.clone()) {
+        let row = j * nx;
+        for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
+            *f = take(face_flux(c.inv_dx, c.yield_rg, cell(row + i - 1), cell(row + i)));
+        }
+        let (w, e) = (row, row + nx - 1);
+        let (q0, qn) = if c.edges.west == Edge::Periodic {
+            let q = take(face_flux(c.inv_dx, c.yield_rg, cell(e), cell(w)));
+            (q, q)
+        } else {
+            let qw = take(open(c.edges.west, w, (w + 1).min(e)));
+            let qe = take(open(c.edges.east, e, if nx > 1 { e - 1 } else { e }));
+            (-qw, qe)
+        };
+        frow[0] = q0;
+        frow[nx] = qn;
+    }
+    // Face row j (≥ 1) lies between cell rows j−1 and j.
+    for (frow, j) in fy.chunks_mut(nx).zip(rows.clone()) {
+        if j == 0 {
+            continue; // the south edge, below
+        }
+        for (i, f) in frow.iter_mut().enumerate() {
+            *f = take(face_flux(c.inv_dx, c.yield_rg, cell((j - 1) * nx + i), cell(j * nx + i)));
+        }
+    }
+    // Open or wall edges south and north (periodic ones are done by the caller: they need
+    // the far row).
+    if c.edges.south != Edge::Periodic {
+        if rows.start == 0 {
+            for (i, f) in fy.iter_mut().take(nx).enumerate() {
+                let inner = if ny > 1 { i + nx } else { i };
+                *f = -take(open(c.edges.south, i, inner));
+            }
+        }
+        if let Some(north) = north {
+            for (i, f) in north.iter_mut().enumerate() {
+                let e = (ny - 1) * nx + i;
+                let inner = if ny > 1 { e - nx } else { e };
+                *f = take(open(c.edges.north, e, inner));
+            }
+        }
+    }
+    (m_max, c_max)
+}
+
 /// Advances the lava thickness and temperature of `field` by `dt` seconds with as many
 /// CFL-limited substeps as needed (at most `params.max_substeps`). Volume is conserved to
 /// round-off: only open edges remove lava (booked as outflow). The velocity field is the
@@ -114,108 +237,57 @@ fn face_flux(
 pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> FlowReport {
     let mut report = FlowReport::default();
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
-    let yield_rg = params.yield_strength / (params.density * GRAVITY);
-    let rg3 = params.density * GRAVITY / 3.0;
     let mut t_left = dt;
     while t_left > 0.0 && report.substeps < params.max_substeps {
         report.substeps += 1;
         let s = &mut field.scratch;
-        let (g, h, t) = (field.ground.data(), field.h.data(), field.temp.data());
-        // 1. cell mobility ρ g h³/(3η(T)), times the crust factor (row bands in parallel).
-        let band = BAND_ROWS * nx;
-        let mob_factor = &field.mob_factor;
-        let viscosity = params.viscosity;
-        let items: Vec<&mut [f64]> = s.mob.chunks_mut(band).collect();
-        par_bands(items, |b, mob| {
-            let o = b * band;
-            let (h, t, fac) = (&h[o..o + mob.len()], &t[o..o + mob.len()], &mob_factor[o..o + mob.len()]);
-            match viscosity {
-                ViscosityModel::Constant(eta) => {
-                    let c = rg3 / eta;
-                    for ((m, &hk), &fk) in mob.iter_mut().zip(h).zip(fac) {
-                        *m = c * fk * hk * hk * hk;
-                    }
-                }
-                model => {
-                    for (((m, &hk), &tk), &fk) in mob.iter_mut().zip(h).zip(t).zip(fac) {
-                        *m = if hk > 0.0 { rg3 * fk / model.viscosity(tk) * hk * hk * hk } else { 0.0 };
-                    }
-                }
-            }
-        });
-        // 2. face fluxes and stability limits (row bands in parallel; maxima are exact in any
-        // order).
-        let inv_dx = 1.0 / dx;
-        let nfx = nx + 1;
-        let mob = &s.mob;
-        let cell = |k: usize| (g[k], h[k], mob[k]);
-        let edges = field.edges;
-        let items: Vec<&mut [f64]> = s.fx.chunks_mut(BAND_ROWS * nfx).collect();
-        let x_limits = par_bands(items, |b, rows| {
-            let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
-            for (frow, j) in rows.chunks_mut(nfx).zip(band_range(b, ny)) {
-                let row = j * nx;
-                for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
-                    let (q, m, c) = face_flux(inv_dx, yield_rg, cell(row + i - 1), cell(row + i));
-                    *f = q;
-                    m_max = m_max.max(m);
-                    c_max = c_max.max(c);
-                }
-                let (w, e) = (row, row + nx - 1);
-                let (q0, qn) = if edges.west == Edge::Periodic {
-                    let (q, m, c) = face_flux(inv_dx, yield_rg, cell(e), cell(w));
-                    m_max = m_max.max(m);
-                    c_max = c_max.max(c);
-                    (q, q)
-                } else {
-                    let (mm, cm) = (&mut m_max, &mut c_max);
-                    let qw = open_flux(edges.west, inv_dx, yield_rg, w, w + 1, g, h, mob, mm, cm);
-                    let inner = if nx > 1 { e - 1 } else { e };
-                    let qe = open_flux(edges.east, inv_dx, yield_rg, e, inner, g, h, mob, mm, cm);
-                    (-qw, qe)
-                };
-                frow[0] = q0;
-                frow[nx] = qn;
-            }
-            (m_max, c_max)
-        });
-        // Interior y faces: face row j (1..ny) lies between cell rows j−1 and j.
-        let interior = &mut s.fy[nx..ny * nx];
-        let items: Vec<&mut [f64]> = interior.chunks_mut(BAND_ROWS * nx).collect();
-        let y_limits = par_bands(items, |b, rows| {
-            let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
-            for (frow, j) in rows.chunks_mut(nx).zip(band_range(b, ny - 1).map(|r| r + 1)) {
-                for (i, f) in frow.iter_mut().enumerate() {
-                    let (q, m, c) = face_flux(inv_dx, yield_rg, cell((j - 1) * nx + i), cell(j * nx + i));
-                    *f = q;
-                    m_max = m_max.max(m);
-                    c_max = c_max.max(c);
-                }
-            }
-            (m_max, c_max)
-        });
+        let c = FluxCtx {
+            nx,
+            ny,
+            inv_dx: 1.0 / dx,
+            yield_rg: params.yield_strength / (params.density * GRAVITY),
+            rg3: params.density * GRAVITY / 3.0,
+            viscosity: params.viscosity,
+            edges: field.edges,
+            g: field.ground.data(),
+            h: field.h.data(),
+            t: field.temp.data(),
+            fac: &field.mob_factor,
+        };
+        // 1. mobilities and face fluxes (row bands in parallel; maxima are exact in any order).
+        let (fy_rows, fy_north) = s.fy.split_at_mut(ny * nx);
+        let mut north = Some(fy_north);
+        let bands = s.mob.len();
+        let items: Vec<_> = s
+            .mob
+            .iter_mut()
+            .zip(s.fx.chunks_mut(BAND_ROWS * (nx + 1)))
+            .zip(fy_rows.chunks_mut(BAND_ROWS * nx))
+            .enumerate()
+            .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
+            .collect();
+        let limits = par_bands(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north));
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
-        for (m, c) in x_limits.into_iter().chain(y_limits) {
+        for (m, w) in limits {
             m_max = m_max.max(m);
-            c_max = c_max.max(c);
+            c_max = c_max.max(w);
         }
-        for i in 0..nx {
-            let (so, no) = (i, (ny - 1) * nx + i);
-            let (q0, qn) = if edges.south == Edge::Periodic {
-                let (q, m, c) = face_flux(inv_dx, yield_rg, cell(no), cell(so));
+        if c.edges.south == Edge::Periodic {
+            for i in 0..nx {
+                let (so, no) = (i, (ny - 1) * nx + i);
+                let (q, m, w) = face_flux(
+                    c.inv_dx,
+                    c.yield_rg,
+                    (c.g[no], c.h[no], c.mob(no)),
+                    (c.g[so], c.h[so], c.mob(so)),
+                );
                 m_max = m_max.max(m);
-                c_max = c_max.max(c);
-                (q, q)
-            } else {
-                let (si, ni) = if ny > 1 { (so + nx, no - nx) } else { (so, no) };
-                let qs = open_flux(edges.south, inv_dx, yield_rg, so, si, g, h, mob, &mut m_max, &mut c_max);
-                let qn = open_flux(edges.north, inv_dx, yield_rg, no, ni, g, h, mob, &mut m_max, &mut c_max);
-                (-qs, qn)
-            };
-            s.fy[i] = q0;
-            s.fy[ny * nx + i] = qn;
+                c_max = c_max.max(w);
+                s.fy[i] = q;
+                s.fy[ny * nx + i] = q;
+            }
         }
-        // 3. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
+        // 2. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
         let mut stable = f64::INFINITY;
         if m_max > 0.0 {
             stable = stable.min(dx * dx / (4.0 * m_max));
@@ -243,31 +315,19 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
     report
 }
 
-/// Flux (m²/s, positive = out of the grid) through an open edge next to cell `e`, whose
-/// inward neighbour is `inner` (ground extrapolated linearly outside, same thickness: the
-/// lava leaves at the ground slope, nothing comes in). Zero for walls.
+/// Limiter factors of cell row `j` into `out`: a cell's outgoing volume (`vol` = face length
+/// × substep) never exceeds what it holds.
 #[allow(clippy::too_many_arguments)]
-#[inline]
-fn open_flux(
-    edge: Edge,
-    inv_dx: f64,
-    yield_rg: f64,
-    e: usize,
-    inner: usize,
-    g: &[f64],
-    h: &[f64],
-    mob: &[f64],
-    m_max: &mut f64,
-    c_max: &mut f64,
-) -> f64 {
-    if edge != Edge::Open {
-        return 0.0;
+fn limiter_row(j: usize, nx: usize, fx: &[f64], fy: &[f64], h: &[f64], vol: f64, area: f64, out: &mut [f64]) {
+    let nfx = nx + 1;
+    for (i, l) in out.iter_mut().enumerate() {
+        let k = j * nx + i;
+        let (w, e) = (fx[j * nfx + i], fx[j * nfx + i + 1]);
+        let (so, no) = (fy[k], fy[k + nx]);
+        let out = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
+        let avail = h[k] * area;
+        *l = if out > avail { avail / out } else { 1.0 };
     }
-    let ghost = 2.0 * g[e] - g[inner];
-    let (q, m, c) = face_flux(inv_dx, yield_rg, (g[e], h[e], mob[e]), (ghost, h[e], mob[e]));
-    *m_max = m_max.max(m);
-    *c_max = c_max.max(c);
-    q.max(0.0)
 }
 
 /// Applies one substep's face fluxes (`vol` = face length × substep, so volume = q · vol) with
@@ -282,52 +342,58 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
     let s = &mut field.scratch;
     let (h, t) = (field.h.data(), field.temp.data());
     let (fx, fy) = (&s.fx, &s.fy);
-    // Limiter: a cell's outgoing volume never exceeds what it holds.
-    let items: Vec<&mut [f64]> = s.lim.chunks_mut(BAND_ROWS * nx).collect();
-    par_bands(items, |b, lim| {
-        for (lrow, j) in lim.chunks_mut(nx).zip(band_range(b, ny)) {
-            for (i, l) in lrow.iter_mut().enumerate() {
-                let k = j * nx + i;
-                let (w, e) = (fx[j * nfx + i], fx[j * nfx + i + 1]);
-                let (so, no) = (fy[k], fy[k + nx]);
-                let out = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
-                let avail = h[k] * area;
-                *l = if out > avail { avail / out } else { 1.0 };
-            }
-        }
-    });
-    let lim = &s.lim;
     // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature. Row bands
-    // in parallel; the round-off tally is summed in band order.
+    // in parallel, each with the limiter of its rows and the rows on either side (local row
+    // 0 is the row below, wrapping; the last local row the row above); the round-off tally
+    // is summed in band order.
     let (hn, tn) = (s.h_new.data_mut(), s.t_new.data_mut());
     let (u, v) = field.vel.split_at_mut(1);
     let (u, v) = (u[0].data_mut(), v[0].data_mut());
     let band = BAND_ROWS * nx;
-    let items: Vec<_> = hn
-        .chunks_mut(band)
-        .zip(tn.chunks_mut(band))
+    let items: Vec<_> = s
+        .lim
+        .iter_mut()
+        .zip(hn.chunks_mut(band).zip(tn.chunks_mut(band)))
         .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
         .collect();
-    let tallies = par_bands(items, |b, ((hn, tn), (u, v))| {
+    let tallies = par_bands(items, |b, ((lim, (hn, tn)), (u, v))| {
+        let rows = band_range(b, ny);
+        let (start, n) = (rows.start, rows.len());
+        let below = if start > 0 { start - 1 } else { ny - 1 };
+        let above = if rows.end < ny { rows.end } else { 0 };
+        for (r, out) in lim.chunks_mut(nx).enumerate() {
+            let j = if r == 0 {
+                below
+            } else if r > n {
+                above
+            } else {
+                start + r - 1
+            };
+            limiter_row(j, nx, fx, fy, h, vol, area, out);
+        }
+        let lim = &*lim;
         let mut rounding = 0.0;
-        let o = b * band;
-        for j in band_range(b, ny) {
+        let o = start * nx;
+        for j in rows {
+            let r = j - start + 1; // local row of j
+            let (here, down, up) = (r * nx, (r - 1) * nx, (r + 1) * nx);
             let jm = if j > 0 { j - 1 } else { ny - 1 };
             let jp = if j + 1 < ny { j + 1 } else { 0 };
             for i in 0..nx {
                 let k = j * nx + i;
-                let im = j * nx + if i > 0 { i - 1 } else { nx - 1 };
-                let ip = j * nx + if i + 1 < nx { i + 1 } else { 0 };
+                let (iw, ie) = (if i > 0 { i - 1 } else { nx - 1 }, if i + 1 < nx { i + 1 } else { 0 });
+                let (im, ip) = (j * nx + iw, j * nx + ie);
                 let (sm, sp) = (jm * nx + i, jp * nx + i);
+                let lk = lim[here + i];
                 // Signed face volumes, +x / +y positive, each scaled by its donor's factor.
                 let qw = fx[j * nfx + i] * vol;
                 let qe = fx[j * nfx + i + 1] * vol;
                 let qs = fy[k] * vol;
                 let qn = fy[k + nx] * vol;
-                let vw = qw * if qw > 0.0 { lim[im] } else { lim[k] };
-                let ve = qe * if qe > 0.0 { lim[k] } else { lim[ip] };
-                let vs = qs * if qs > 0.0 { lim[sm] } else { lim[k] };
-                let vn = qn * if qn > 0.0 { lim[k] } else { lim[sp] };
+                let vw = qw * if qw > 0.0 { lim[here + iw] } else { lk };
+                let ve = qe * if qe > 0.0 { lk } else { lim[here + ie] };
+                let vs = qs * if qs > 0.0 { lim[down + i] } else { lk };
+                let vn = qn * if qn > 0.0 { lk } else { lim[up + i] };
                 let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
                 let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
                 let ein =
@@ -351,24 +417,28 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
         rounding
     });
     let rounding: f64 = tallies.iter().sum();
-    // Volume through open edges (same expressions as above).
+    // Volume through open edges (same expressions as above; the limiter of cell (i, j) is in
+    // its band's buffer at local row j − start + 1).
+    let lim_at = |i: usize, j: usize| {
+        let b = j / BAND_ROWS;
+        s.lim[b][(j - b * BAND_ROWS + 1) * nx + i]
+    };
     let mut outflow = 0.0;
     let e = field.edges;
     for j in 0..ny {
-        let (w, east) = (j * nx, j * nx + nx - 1);
         if e.west == Edge::Open {
-            outflow -= (fx[j * nfx] * vol * lim[w]).min(0.0);
+            outflow -= (fx[j * nfx] * vol * lim_at(0, j)).min(0.0);
         }
         if e.east == Edge::Open {
-            outflow += (fx[j * nfx + nx] * vol * lim[east]).max(0.0);
+            outflow += (fx[j * nfx + nx] * vol * lim_at(nx - 1, j)).max(0.0);
         }
     }
     for i in 0..nx {
         if e.south == Edge::Open {
-            outflow -= (fy[i] * vol * lim[i]).min(0.0);
+            outflow -= (fy[i] * vol * lim_at(i, 0)).min(0.0);
         }
         if e.north == Edge::Open {
-            outflow += (fy[ny * nx + i] * vol * lim[(ny - 1) * nx + i]).max(0.0);
+            outflow += (fy[ny * nx + i] * vol * lim_at(i, ny - 1)).max(0.0);
         }
     }
     std::mem::swap(&mut field.h, &mut s.h_new);
