@@ -52,6 +52,8 @@ pub struct SurfaceState {
     /// Lagrangian samples that carry the crust (thesis §5.4.2).
     pub samples: SurfaceSamples,
     old: [Vec<f64>; 2],
+    /// Per row band: horizontal 3-sums for the smoothed surface velocity (kept allocated).
+    hsum: Vec<Vec<[f64; 3]>>,
 }
 
 impl SurfaceState {
@@ -67,6 +69,7 @@ impl SurfaceState {
             divergence: z.clone(),
             samples: SurfaceSamples::default(),
             old: [z.clone(), z],
+            hsum: Vec::new(),
         }
     }
 
@@ -118,14 +121,15 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     // 1. surface velocity, smoothed by crust thickness (row bands in parallel).
     let crust = &s.crust;
     let [vsx, vsy] = &mut s.vsurf;
-    let items: Vec<_> = vsx.chunks_mut(band).zip(vsy.chunks_mut(band)).collect();
-    par_bands(items, |b, (vsx, vsy)| {
+    s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Vec::new);
+    let items: Vec<_> = vsx.chunks_mut(band).zip(vsy.chunks_mut(band)).zip(s.hsum.iter_mut()).collect();
+    par_bands(items, |b, ((vsx, vsy), hsum)| {
         let o = b * band;
         let rows = band_range(b, ny);
         // Horizontal 3-sums of (u, v, 1) over wet cells for the band's rows and the rows
         // above and below, then vertical 3-sums: the 3×3 wet mean without 9 branchy reads.
         let (r0, r1) = (rows.start.saturating_sub(1), (rows.end + 1).min(ny));
-        let mut hsum = vec![[0.0f64; 3]; (r1 - r0) * nx];
+        hsum.resize((r1 - r0) * nx, [0.0; 3]);
         for j in r0..r1 {
             let row = j * nx;
             let wet = |i: usize| {
@@ -202,8 +206,10 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
                 let (jm, jp) = (if j > 0 { k - nx } else { k }, if j + 1 < ny { k + nx } else { k });
                 // Divergence by central differences; a dry neighbour counts as this cell.
                 let pick = |c: usize, a: &[f64]| if h[c] >= min_h { a[c] } else { a[k] };
-                let ddx = (pick(ip, vx) - pick(im, vx)) * inv_dx / ((ip - im).max(1) as f64);
-                let ddy = (pick(jp, vy) - pick(jm, vy)) * inv_dx / (((jp - jm) / nx).max(1) as f64);
+                // One-sided (span 1) at the grid edges, central (span 2) inside: × 1/span.
+                let span = |d: usize| if d == 2 { 0.5 } else { 1.0 };
+                let ddx = (pick(ip, vx) - pick(im, vx)) * inv_dx * span(ip - im);
+                let ddy = (pick(jp, vy) - pick(jm, vy)) * inv_dx * span((jp - jm) / nx);
                 let div = ddx + ddy;
                 divergence[l] = div;
                 // Upwind advection of crust and contact time (dry upwind cells carry none).
@@ -211,10 +217,16 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
                 let cy = (vy[k] * dt * inv_dx).clamp(-1.0, 1.0);
                 let (ux, uy) = (if cx > 0.0 { im } else { ip }, if cy > 0.0 { jm } else { jp });
                 let (ax, ay) = (cx.abs(), cy.abs());
-                let keep = (1.0 - ax - ay).max(0.0);
-                let norm = keep + ax + ay;
-                let c0 = (keep * crust[k] + ax * crust[ux] + ay * crust[uy]) / norm;
-                let t0 = (keep * contact[k] + ax * contact[ux] + ay * contact[uy]) / norm;
+                // Weights (1 − ax − ay, ax, ay); when ax + ay > 1 (a diagonal Courant number
+                // near 1) the cell keeps nothing and the two upwind weights are normalised.
+                let (keep, ax, ay) = if ax + ay <= 1.0 {
+                    (1.0 - ax - ay, ax, ay)
+                } else {
+                    let inv = 1.0 / (ax + ay);
+                    (0.0, ax * inv, ay * inv)
+                };
+                let c0 = keep * crust[k] + ax * crust[ux] + ay * crust[uy];
+                let t0 = keep * contact[k] + ax * contact[ux] + ay * contact[uy];
                 // Radiation (eq 5.1, incremental) and divergence (eq 5.3).
                 let mut t_c = t0 + dt;
                 let mut c = (c0 * c0 + four_kdt).sqrt();
