@@ -7,7 +7,8 @@
 use super::{Fold, FoldSystem};
 
 /// Marks every particle whose centre lies within `depth` × `(ℓ + ℓ')/2` of a particle of an
-/// older fold (lower index) as overridden, and removes them with [`remove`]. Returns how many
+/// older fold (lower index) as overridden (distance in 3D with the rolling heights of eq 5.5,
+/// so a rope that rolled over or under another one is not buried), and removes them with [`remove`]. Returns how many
 /// were removed. Among folds piled on one spot only the oldest survives, so after this pass
 /// no two particles of different folds are closer than `depth (ℓ + ℓ')/2`.
 pub(crate) fn bury_overridden(sys: &mut FoldSystem, depth: f64) -> u32 {
@@ -24,7 +25,9 @@ pub(crate) fn bury_overridden(sys: &mut FoldSystem, depth: f64) -> u32 {
             sys.hash.near(pk.pos, &mut near);
             near.iter().any(|&o| {
                 let po = &sys.particles[o as usize];
-                po.fold < pk.fold && po.pos.distance(pk.pos) < depth * 0.5 * (pk.thickness + po.thickness)
+                let dz = pk.roll_height - po.roll_height;
+                let reach = depth * 0.5 * (pk.thickness + po.thickness);
+                po.fold < pk.fold && po.pos.distance_squared(pk.pos) + dz * dz < reach * reach
             })
         })
         .collect();
@@ -179,6 +182,12 @@ mod tests {
             }
         }
         assert_eq!(bury_overridden(&mut sys, 0.5), 0, "a second pass has nothing left to do");
+        // A fold that rolled over another (eq 5.5: 0.39 m up at 0.05 m apart) is not buried.
+        let mut rolled = folds(&[(0.0, 0.0), (0.0, 0.05)]);
+        for q in rolled.particles.iter_mut().filter(|q| q.fold == 1) {
+            q.roll_height = (0.4f64 * 0.4 - 0.05 * 0.05).sqrt();
+        }
+        assert_eq!(bury_overridden(&mut rolled, 0.5), 0);
         assert_eq!(bury_overridden(&mut folds(&[(0.0, 0.0), (0.0, 0.05)]), 0.0), 0, "depth 0 keeps all");
     }
 }
