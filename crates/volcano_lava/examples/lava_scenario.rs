@@ -1,7 +1,8 @@
 //! Runs one lava scenario headless and prints its summary as JSON.
 //! `cargo run -p volcano_lava --example lava_scenario -- obstacle [seconds] [map_dir]`
 //! With `LAVA_PROGRESS=S` in the environment it prints, every S simulated seconds, the wall
-//! time of that slice and the fold counts (how the fold layer's cost grows).
+//! time of that slice and the fold counts (how the fold layer's cost grows). `LAVA_ROLLING=1`
+//! switches the folds to rolling collisions (thesis §5.5.2.3).
 
 use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
 
@@ -25,6 +26,7 @@ fn main() {
             std::process::exit(2);
         }
     };
+    scenario.fold_params.rolling = std::env::var("LAVA_ROLLING").is_ok_and(|v| v == "1");
     let start = std::time::Instant::now();
     let every: f64 = std::env::var("LAVA_PROGRESS").ok().and_then(|s| s.parse().ok()).unwrap_or(0.0);
     if every > 0.0 {
