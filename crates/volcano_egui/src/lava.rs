@@ -28,11 +28,21 @@ pub struct LavaPanel {
     pub slope_deg: f64,
     /// Rate (m³/s) of sources placed by Ctrl + click.
     pub new_source_rate: f64,
+    /// The Fig 5.10 table last chosen; "restart" rebuilds it (the scene starts on the long
+    /// obstacle).
+    #[reflect(ignore)]
+    pub table: ScenarioKind,
 }
 
 impl Default for LavaPanel {
     fn default() -> Self {
-        Self { visible: true, error: None, slope_deg: 3.0, new_source_rate: 1.0 }
+        Self {
+            visible: true,
+            error: None,
+            slope_deg: 3.0,
+            new_source_rate: 1.0,
+            table: ScenarioKind::Obstacle,
+        }
     }
 }
 
@@ -202,17 +212,23 @@ fn lava_window(
                 ] {
                     if ui.button(name).clicked()
                         && let Some(t) = terrains.iter().next()
-                        && let Err(e) =
-                            switch_terrain(&mut commands, kind, panel.slope_deg, t, (entity, &field))
                     {
-                        error = Some(e);
+                        match switch_terrain(&mut commands, kind, panel.slope_deg, t, (entity, &field)) {
+                            Ok(()) => panel.table = kind,
+                            Err(e) => error = Some(e),
+                        }
                     }
                 }
             });
             ui.horizontal(|ui| {
                 ui.add(egui::Slider::new(&mut panel.slope_deg, 0.0..=20.0).text("slope (°)"));
-                if ui.button("restart").clicked() {
-                    restart(&mut commands, (entity, &field));
+                // Frozen lava is written into the terrain, so a restart rebuilds the table too.
+                if ui.button("restart").on_hover_text("fresh table, no lava").clicked()
+                    && let Some(t) = terrains.iter().next()
+                    && let Err(e) =
+                        switch_terrain(&mut commands, panel.table, panel.slope_deg, t, (entity, &field))
+                {
+                    error = Some(e);
                 }
             });
             egui::ScrollArea::vertical().max_height(380.0).show(ui, |ui| {

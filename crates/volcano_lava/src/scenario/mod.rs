@@ -19,10 +19,11 @@ use crate::model::step;
 use crate::model::surface::{SurfaceState, update_surface};
 
 /// Which scenario to run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum ScenarioKind {
     /// Fig 5.10 left: slope with a long obstacle.
+    #[default]
     Obstacle,
     /// Fig 5.10 middle: slope with a small obstacle that splits the flow.
     Split,
