@@ -190,4 +190,57 @@ mod tests {
         assert_eq!(bury_overridden(&mut rolled, 0.5), 0);
         assert_eq!(bury_overridden(&mut folds(&[(0.0, 0.0), (0.0, 0.05)]), 0.0), 0, "depth 0 keeps all");
     }
+
+    /// Random fold systems and removal masks: the bookkeeping stays consistent, survivors
+    /// keep their order and positions, and each chain keeps its survivors in chain order.
+    #[test]
+    fn removal_keeps_the_bookkeeping_consistent() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for _ in 0..300 {
+            let mut sys = FoldSystem::new(0);
+            for f in 0..rng.random_range(1..8u32) {
+                let mut chain = Vec::new();
+                for _ in 0..rng.random_range(1..12) {
+                    let p = DVec2::new(rng.random_range(0.0..10.0), rng.random_range(0.0..10.0));
+                    sys.particles.push(particle(p, f));
+                    chain.push(sys.particles.len() as u32 - 1);
+                }
+                sys.folds.push(Fold { chain, follower: None, first: f == 0 });
+            }
+            let (nf, np) = (sys.folds.len() as u32, sys.particles.len() as u32);
+            for fold in &mut sys.folds {
+                fold.follower = rng.random_bool(0.5).then(|| rng.random_range(0..nf));
+            }
+            for q in &mut sys.particles {
+                q.blocked_by = rng.random_bool(0.3).then(|| rng.random_range(0..np));
+            }
+            assert!(consistent(&sys));
+            let dead: Vec<bool> = (0..np).map(|_| rng.random_bool(0.3)).collect();
+            let survivors: Vec<DVec2> =
+                sys.particles.iter().zip(&dead).filter(|(_, d)| !**d).map(|(q, _)| q.pos).collect();
+            let chains: Vec<Vec<DVec2>> = sys
+                .folds
+                .iter()
+                .map(|f| {
+                    f.chain
+                        .iter()
+                        .filter(|&&k| !dead[k as usize])
+                        .map(|&k| sys.particles[k as usize].pos)
+                        .collect()
+                })
+                .filter(|c: &Vec<DVec2>| !c.is_empty())
+                .collect();
+            let removed = remove(&mut sys, &dead);
+            assert_eq!(removed as usize, dead.iter().filter(|d| **d).count());
+            assert!(consistent(&sys));
+            assert_eq!(sys.particles.iter().map(|q| q.pos).collect::<Vec<_>>(), survivors);
+            let after: Vec<Vec<DVec2>> = sys
+                .folds
+                .iter()
+                .map(|f| f.chain.iter().map(|&k| sys.particles[k as usize].pos).collect())
+                .collect();
+            assert_eq!(after, chains);
+        }
+    }
 }
