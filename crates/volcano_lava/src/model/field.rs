@@ -142,9 +142,6 @@ pub struct FlowField {
     pub(crate) scratch: super::flow::Scratch,
     /// Per-cell mobility multiplier from the crust (1 = free surface, 1/4 = rigid crust).
     pub(crate) mob_factor: Vec<f64>,
-    /// Cells whose ground changed (frozen lava) since the flow last refreshed its per-face
-    /// slope factors.
-    pub(crate) ground_changed: Vec<u32>,
 }
 
 impl FlowField {
@@ -174,7 +171,6 @@ impl FlowField {
             time: 0.0,
             scratch,
             mob_factor: vec![1.0; nx * ny],
-            ground_changed: Vec::new(),
         })
     }
 

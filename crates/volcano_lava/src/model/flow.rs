@@ -32,12 +32,6 @@ pub struct Scratch {
     mob: Vec<Vec<f64>>,
     /// Per band: limiter factor in [0, 1] of the row below, the band's rows, the row above.
     lim: Vec<Vec<f64>>,
-    /// Slope factor [`slope_factor`] of every interior x face (layout of `fx`) and y face
-    /// (layout of `fy`): the ground changes only where lava freezes, so they are refreshed
-    /// there instead of recomputed (a division each) every substep.
-    sx: Vec<f64>,
-    sy: Vec<f64>,
-    slopes_valid: bool,
     h_new: Grid2<f64>,
     t_new: Grid2<f64>,
 }
@@ -51,9 +45,6 @@ impl Scratch {
             fy: vec![0.0; nx * (ny + 1)],
             mob: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 1) * nx]).collect(),
             lim: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 2) * nx]).collect(),
-            sx: vec![1.0; (nx + 1) * ny],
-            sy: vec![1.0; nx * (ny + 1)],
-            slopes_valid: false,
             h_new: template.clone(),
             t_new: template.clone(),
         }
@@ -95,59 +86,30 @@ pub fn bingham_factor(h: f64, plug: f64) -> f64 {
 }
 
 /// Lubrication (Jeffreys) flux per unit width (m²/s) across one face, from cell `a` to cell
-/// `b` (positive = a → b), and its stability measures `(q, mobility, h_max)`:
+/// `b` (positive = a → b), and its stability measures `(q, mobility, wave speed)`:
 /// `q = −M_f · ∂s/∂n · cos⁴θ · bingham`, with the face mobility `M_f` the mean of the two cells'
 /// mobilities `ρ g h³/(3η(T))` (second-order in the interior; at a front it is half the wet
-/// cell's, so lava advances into dry cells) and `sf` = cos⁴θ of the face ([`slope_factor`]).
-/// The kinematic wave speed is `∂q/∂h ≈ 3|q|/h_max`, with the thickness that dominates the
-/// mobility ([`Wave`] keeps the largest without dividing per face). A face whose donor
-/// (higher surface) cell is dry carries no lava: the limiter of [`transfer`] scales it to zero.
+/// cell's, so lava advances into dry cells). A face whose donor (higher surface) cell is dry
+/// carries no lava: the limiter of [`transfer`] scales it to zero.
 #[inline]
 fn face_flux(
     inv_dx: f64,
     yield_over_rho_g: f64,
-    sf: f64,
     (ga, ha, ma): (f64, f64, f64),
     (gb, hb, mb): (f64, f64, f64),
 ) -> (f64, f64, f64) {
     let grad = ((gb + hb) - (ga + ha)) * inv_dx;
     let hd = if grad < 0.0 { ha } else { hb };
     if hd <= 0.0 || grad == 0.0 {
-        return (0.0, 0.0, 1.0);
+        return (0.0, 0.0, 0.0);
     }
-    let mut m = 0.5 * (ma + mb) * sf;
+    let mut m = 0.5 * (ma + mb) * slope_factor((gb - ga) * inv_dx);
     if yield_over_rho_g > 0.0 {
         m *= bingham_factor(hd, yield_over_rho_g / grad.abs());
     }
-    (-m * grad, m, ha.max(hb))
-}
-
-/// The largest kinematic wave speed `3|q|/h` over faces, kept as the fraction `(3|q|, h)`
-/// with the largest value (compared by cross-multiplication: no division per face).
-#[derive(Clone, Copy, Debug)]
-struct Wave {
-    num: f64,
-    den: f64,
-}
-
-impl Wave {
-    const ZERO: Self = Self { num: 0.0, den: 1.0 };
-
-    #[inline]
-    fn add(&mut self, q: f64, h: f64) {
-        let num = 3.0 * q.abs();
-        if num * self.den > self.num * h {
-            (self.num, self.den) = (num, h);
-        }
-    }
-
-    fn max(self, o: Self) -> Self {
-        if o.num * self.den > self.num * o.den { o } else { self }
-    }
-
-    fn speed(self) -> f64 {
-        self.num / self.den
-    }
+    let q = -m * grad;
+    // Kinematic wave speed ∂q/∂h ≈ 3q/h with the thickness that dominates the mobility.
+    (q, m, 3.0 * q.abs() / ha.max(hb))
 }
 
 /// Cell mobility `ρ g h³/(3η(T))` (m³/s per unit gradient) times the crust factor `fac`
@@ -179,59 +141,12 @@ struct FluxCtx<'a> {
     h: &'a [f64],
     t: &'a [f64],
     fac: &'a [f64],
-    sx: &'a [f64],
-    sy: &'a [f64],
 }
 
 impl FluxCtx<'_> {
     fn mob(&self, k: usize) -> f64 {
         mobility(self.viscosity, self.rg3, self.h[k], self.t[k], self.fac[k])
     }
-
-    /// Slope factor of a face from ground `ga` to ground `gb` (edge faces, not cached).
-    fn slope(&self, ga: f64, gb: f64) -> f64 {
-        slope_factor((gb - ga) * self.inv_dx)
-    }
-}
-
-/// Refreshes the cached slope factors of the faces around cells whose ground changed (all
-/// faces the first time).
-fn refresh_slopes(field: &mut FlowField) {
-    let (nx, ny) = (field.nx(), field.ny());
-    let inv_dx = 1.0 / field.cell();
-    let g = field.ground.data();
-    let s = &mut field.scratch;
-    let nfx = nx + 1;
-    let x_face = |i: usize, j: usize| slope_factor((g[j * nx + i] - g[j * nx + i - 1]) * inv_dx);
-    let y_face = |i: usize, j: usize| slope_factor((g[j * nx + i] - g[(j - 1) * nx + i]) * inv_dx);
-    if !s.slopes_valid {
-        for j in 0..ny {
-            for i in 1..nx {
-                s.sx[j * nfx + i] = x_face(i, j);
-            }
-        }
-        for j in 1..ny {
-            for i in 0..nx {
-                s.sy[j * nx + i] = y_face(i, j);
-            }
-        }
-        s.slopes_valid = true;
-    } else {
-        for &k in &field.ground_changed {
-            let (i, j) = (k as usize % nx, k as usize / nx);
-            for fi in [i, i + 1] {
-                if fi >= 1 && fi < nx {
-                    s.sx[j * nfx + fi] = x_face(fi, j);
-                }
-            }
-            for fj in [j, j + 1] {
-                if fj >= 1 && fj < ny {
-                    s.sy[fj * nx + i] = y_face(i, fj);
-                }
-            }
-        }
-    }
-    field.ground_changed.clear();
 }
 
 /// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face fluxes
@@ -245,7 +160,7 @@ fn band_fluxes(
     fx: &mut [f64],
     fy: &mut [f64],
     north: Option<&mut [f64]>,
-) -> (f64, Wave) {
+) -> (f64, f64) {
     let (nx, ny, g, h) = (c.nx, c.ny, c.g, c.h);
     let rows = band_range(b, ny);
     let lo = rows.start.saturating_sub(1);
@@ -254,31 +169,29 @@ fn band_fluxes(
     }
     let mob = |k: usize| mob[k - lo * nx];
     let cell = |k: usize| (g[k], h[k], mob(k));
-    let (mut m_max, mut wave) = (0.0f64, Wave::ZERO);
-    let mut take = |(q, m, hm): (f64, f64, f64)| {
+    let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+    let mut take = |(q, m, w): (f64, f64, f64)| {
         m_max = m_max.max(m);
-        wave.add(q, hm);
+        c_max = c_max.max(w);
         q
     };
     let nfx = nx + 1;
     let open = |edge: Edge, e: usize, inner: usize| {
         if edge != Edge::Open {
-            return (0.0, 0.0, 1.0);
+            return (0.0, 0.0, 0.0);
         }
         let ghost = 2.0 * g[e] - g[inner];
-        let (q, m, hm) =
-            face_flux(c.inv_dx, c.yield_rg, c.slope(g[e], ghost), cell(e), (ghost, h[e], mob(e)));
-        (q.max(0.0), m, hm)
+        let (q, m, w) = face_flux(c.inv_dx, c.yield_rg, cell(e), (ghost, h[e], mob(e)));
+        (q.max(0.0), m, w)
     };
     for (frow, j) in fx.chunks_mut(nfx).zip(rows.clone()) {
         let row = j * nx;
-        let srow = &c.sx[j * nfx..(j + 1) * nfx];
         for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
-            *f = take(face_flux(c.inv_dx, c.yield_rg, srow[i], cell(row + i - 1), cell(row + i)));
+            *f = take(face_flux(c.inv_dx, c.yield_rg, cell(row + i - 1), cell(row + i)));
         }
         let (w, e) = (row, row + nx - 1);
         let (q0, qn) = if c.edges.west == Edge::Periodic {
-            let q = take(face_flux(c.inv_dx, c.yield_rg, c.slope(g[e], g[w]), cell(e), cell(w)));
+            let q = take(face_flux(c.inv_dx, c.yield_rg, cell(e), cell(w)));
             (q, q)
         } else {
             let qw = take(open(c.edges.west, w, (w + 1).min(e)));
@@ -293,9 +206,8 @@ fn band_fluxes(
         if j == 0 {
             continue; // the south edge, below
         }
-        let srow = &c.sy[j * nx..(j + 1) * nx];
         for (i, f) in frow.iter_mut().enumerate() {
-            *f = take(face_flux(c.inv_dx, c.yield_rg, srow[i], cell((j - 1) * nx + i), cell(j * nx + i)));
+            *f = take(face_flux(c.inv_dx, c.yield_rg, cell((j - 1) * nx + i), cell(j * nx + i)));
         }
     }
     // Open or wall edges south and north (periodic ones are done by the caller: they need
@@ -315,7 +227,7 @@ fn band_fluxes(
             }
         }
     }
-    (m_max, wave)
+    (m_max, c_max)
 }
 
 /// Advances the lava thickness and temperature of `field` by `dt` seconds with as many
@@ -325,7 +237,6 @@ fn band_fluxes(
 pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> FlowReport {
     let mut report = FlowReport::default();
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
-    refresh_slopes(field);
     let mut t_left = dt;
     while t_left > 0.0 && report.substeps < params.max_substeps {
         report.substeps += 1;
@@ -342,8 +253,6 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             h: field.h.data(),
             t: field.temp.data(),
             fac: &field.mob_factor,
-            sx: &s.sx,
-            sy: &s.sy,
         };
         // 1. mobilities and face fluxes (row bands in parallel; maxima are exact in any order).
         let (fy_rows, fy_north) = s.fy.split_at_mut(ny * nx);
@@ -358,29 +267,26 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
             .collect();
         let limits = par_bands(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north));
-        let (mut m_max, mut wave) = (0.0f64, Wave::ZERO);
+        let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
             m_max = m_max.max(m);
-            wave = wave.max(w);
+            c_max = c_max.max(w);
         }
         if c.edges.south == Edge::Periodic {
             for i in 0..nx {
                 let (so, no) = (i, (ny - 1) * nx + i);
-                let sf = c.slope(c.g[no], c.g[so]);
-                let (q, m, hm) = face_flux(
+                let (q, m, w) = face_flux(
                     c.inv_dx,
                     c.yield_rg,
-                    sf,
                     (c.g[no], c.h[no], c.mob(no)),
                     (c.g[so], c.h[so], c.mob(so)),
                 );
                 m_max = m_max.max(m);
-                wave.add(q, hm);
+                c_max = c_max.max(w);
                 s.fy[i] = q;
                 s.fy[ny * nx + i] = q;
             }
         }
-        let c_max = wave.speed();
         // 2. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
         let mut stable = f64::INFINITY;
         if m_max > 0.0 {

@@ -38,7 +38,6 @@ pub fn cool_and_freeze(field: &mut FlowField, params: &LavaParams, dt: f64) -> T
     let t = field.temp.data_mut();
     let ground = field.ground.data_mut();
     let solid = field.solid.data_mut();
-    let changed = &mut field.ground_changed;
     for k in 0..h.len() {
         if h[k] <= 0.0 {
             continue;
@@ -50,7 +49,6 @@ pub fn cool_and_freeze(field: &mut FlowField, params: &LavaParams, dt: f64) -> T
             report.frozen_cells += 1;
             solid[k] += h[k];
             ground[k] += h[k];
-            changed.push(k as u32);
             h[k] = 0.0;
             t[k] = te;
         }

@@ -8,14 +8,15 @@ use super::{Fold, FoldSystem};
 
 /// Marks every particle whose centre lies within `depth` × `(ℓ + ℓ')/2` of a particle of an
 /// older fold (lower index) as overridden (distance in 3D with the rolling heights of eq 5.5,
-/// so a rope that rolled over or under another one is not buried), and removes them with [`remove`]. Returns how many
-/// were removed. Among folds piled on one spot only the oldest survives, so after this pass
-/// no two particles of different folds are closer than `depth (ℓ + ℓ')/2`.
+/// so a rope that rolled over or under another one is not buried), and removes them with
+/// [`remove`]. Returns how many were removed. Among folds piled on one spot only the oldest
+/// survives, so after this pass no two particles of different folds are closer than
+/// `depth (ℓ + ℓ')/2`.
 pub(crate) fn bury_overridden(sys: &mut FoldSystem, depth: f64) -> u32 {
     if sys.particles.is_empty() || depth <= 0.0 {
         return 0;
     }
-    let lmax = sys.particles.iter().map(|q| q.thickness).fold(0.0, f64::max);
+    let lmax = sys.max_thickness();
     sys.hash.rebuild(lmax.max(0.25), sys.particles.iter().map(|q| q.pos));
     let mut near = Vec::new();
     let dead: Vec<bool> = sys
@@ -104,22 +105,11 @@ mod tests {
     use bevy::math::DVec2;
 
     use super::*;
-    use crate::model::folds::FoldParticle;
+    use crate::model::folds::{FoldParticle, create};
 
+    /// A particle of diameter 0.4 m along x.
     fn particle(pos: DVec2, fold: u32) -> FoldParticle {
-        FoldParticle {
-            pos,
-            spring_vel: DVec2::ZERO,
-            vel: DVec2::ZERO,
-            tangent: DVec2::X,
-            thickness: 0.4,
-            age: 0.0,
-            offset: 0.0,
-            roll_height: 0.0,
-            roll_angle: 0.0,
-            fold,
-            blocked_by: None,
-        }
+        create::particle(pos, DVec2::X, 0.4, fold, DVec2::ZERO)
     }
 
     /// Folds of 6 particles along x at the given y (and x shift), in order.

@@ -50,7 +50,7 @@ pub(crate) fn collide(sys: &mut FoldSystem, field: &FlowField, p: &FoldParams) -
     if n == 0 {
         return 0;
     }
-    let lmax = sys.particles.iter().map(|q| q.thickness).fold(0.0, f64::max);
+    let lmax = sys.max_thickness();
     sys.hash.rebuild(lmax.max(0.25), sys.particles.iter().map(|q| q.pos));
     // Chain neighbours of every particle.
     let mut links = vec![[u32::MAX; 2]; n];

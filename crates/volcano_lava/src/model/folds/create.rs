@@ -87,7 +87,7 @@ fn next_position(c: &Ctx, sys: &FoldSystem, pos: DVec2, d: DVec2, ell: f64, fold
     (mid + d2 * half, d2)
 }
 
-fn particle(pos: DVec2, tangent: DVec2, ell: f64, fold: u32, vel: DVec2) -> FoldParticle {
+pub(super) fn particle(pos: DVec2, tangent: DVec2, ell: f64, fold: u32, vel: DVec2) -> FoldParticle {
     FoldParticle {
         pos,
         spring_vel: DVec2::ZERO,
@@ -181,7 +181,7 @@ pub(crate) fn detect_and_extend(
     lava: &LavaParams,
     p: &FoldParams,
 ) -> (u32, u32) {
-    let lmax = sys.particles.iter().map(|q| q.thickness).fold(0.0, f64::max).min(2.0);
+    let lmax = sys.max_thickness().min(2.0);
     let c = Ctx { field, surface, p, lmax };
     sys.hash.rebuild((2.0 * lmax).max(p.particle_length).max(1.0), sys.particles.iter().map(|q| q.pos));
     let (mut folds, mut parts) = (0u32, 0u32);

@@ -212,6 +212,12 @@ impl FoldSystem {
     pub fn buried_count(&self) -> u64 {
         self.buried
     }
+
+    /// Largest particle diameter ℓ (m), 0 without particles: the neighbour grids' bucket
+    /// sizes follow it.
+    pub(crate) fn max_thickness(&self) -> f64 {
+        self.particles.iter().map(|q| q.thickness).fold(0.0, f64::max)
+    }
 }
 
 /// Advances the folds by `dt`: motion (surface velocity + springs, kept inside the flow),
