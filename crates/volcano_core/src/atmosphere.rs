@@ -41,6 +41,11 @@ pub trait AtmosphereProfile: Send + Sync {
     fn pressure(&self, z: f64) -> f64 {
         self.sample(z).pressure
     }
+    /// Absolute humidity (water vapour, g/m³) at `z`. The standard profiles are dry; a profile
+    /// sampled from a simulated atmosphere (the coupled volcano) overrides this.
+    fn humidity(&self, _z: f64) -> f64 {
+        0.0
+    }
 }
 
 /// Which profile a preset selects.

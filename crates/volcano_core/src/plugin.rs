@@ -33,6 +33,7 @@ impl Plugin for VolcanoCorePlugin {
                 (
                     SimSystems::Begin,
                     SimSystems::Plume,
+                    SimSystems::Pyroclastic,
                     SimSystems::BeforeWeather,
                     SimSystems::Weather,
                     SimSystems::AfterWeather,
@@ -45,6 +46,7 @@ impl Plugin for VolcanoCorePlugin {
                 FixedUpdate,
                 (
                     SimSystems::Plume,
+                    SimSystems::Pyroclastic,
                     SimSystems::BeforeWeather,
                     SimSystems::Weather,
                     SimSystems::AfterWeather,

@@ -2,10 +2,11 @@
 
 use bevy::ecs::entity::Entity;
 use bevy::math::DVec3;
-use bevy::prelude::{Component, Message, Vec3};
+use bevy::prelude::{Component, Message, ReflectComponent, Vec3};
 use bevy::reflect::Reflect;
 use volcano_core::error::ConfigError;
 
+use crate::model::ambient::LayeredAmbient;
 use crate::model::params::PlumeParams;
 use crate::model::pyroclastic::PyroclasticParams;
 use crate::model::slice::Slice;
@@ -15,7 +16,7 @@ use crate::model::umbrella::UmbrellaSphere;
 /// An explosive eruption on a [`volcano_core::Volcano`]: emits a slice every `r₀ / (2 v₀)`
 /// seconds while `active`. Edits to the parameters apply to new slices.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
-#[require(EmissionState)]
+#[require(EmissionState, PlumeAshBudget)]
 pub struct Eruption {
     /// Slice model parameters (validated on construction; re-checked before each emission).
     pub params: PlumeParams,
@@ -26,6 +27,10 @@ pub struct Eruption {
     /// Umbrella spheres older than this are removed (s, in [0, 3600]). At the Plinian preset's
     /// 24 s1 spheres per second, 300 s keeps about 7,000 umbrella spheres alive.
     pub umbrella_lifetime: f64,
+    /// Time constant (s, in [1, 10⁵]) of the ash fallout from umbrella spheres: each sphere
+    /// releases `1 − exp(−Δt/τ)` of the ash it carries per step into the atmosphere (when
+    /// coupled); what is left when it expires is released at once ([`AshReleased`]).
+    pub umbrella_fallout_s: f64,
     /// Pyroclastic particles of collapsing slices (§3.6).
     pub pyroclastic: PyroclasticParams,
 }
@@ -33,8 +38,14 @@ pub struct Eruption {
 impl Eruption {
     /// An eruption with validated parameters.
     pub fn new(params: PlumeParams, spheres: SphereParams) -> Result<Self, ConfigError> {
-        let e =
-            Self { params, spheres, active: true, umbrella_lifetime: 300.0, pyroclastic: Default::default() };
+        let e = Self {
+            params,
+            spheres,
+            active: true,
+            umbrella_lifetime: 300.0,
+            umbrella_fallout_s: 600.0,
+            pyroclastic: Default::default(),
+        };
         e.validate()?;
         Ok(e)
     }
@@ -44,6 +55,7 @@ impl Eruption {
         self.params.validate()?;
         self.spheres.validate()?;
         volcano_core::error::in_range("umbrella_lifetime", self.umbrella_lifetime, 0.0, 3_600.0)?;
+        volcano_core::error::in_range("umbrella_fallout_s", self.umbrella_fallout_s, 1.0, 1e5)?;
         self.pyroclastic.validate()?;
         Ok(())
     }
@@ -55,6 +67,7 @@ impl Eruption {
             spheres: SphereParams::default(),
             active: true,
             umbrella_lifetime: 900.0,
+            umbrella_fallout_s: 600.0,
             pyroclastic: Default::default(),
         }
     }
@@ -82,6 +95,30 @@ pub struct EmissionState {
     pub emitted: u64,
 }
 
+/// Where the solid (ash) mass an eruption emitted went, as far as the plume knows (kg). The
+/// rest is in live slices and umbrella spheres, or was handed to the atmosphere by the
+/// coupling (which keeps its own books from there on).
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct PlumeAshBudget {
+    /// Solid mass of every slice emitted at the vent.
+    pub emitted_kg: f64,
+    /// Solid mass of slices that collapsed into pyroclastic flows (booked there from then on).
+    pub to_flows_kg: f64,
+    /// Solid mass of slices or spheres removed without a place to put it (non-finite state,
+    /// a sphere whose slice had no ring, a sphere whose eruption is gone).
+    pub lost_kg: f64,
+    /// Ash released as [`AshReleased`] messages by expiring umbrella spheres.
+    pub released_kg: f64,
+}
+
+/// The ambient air of a coupled column, written by the coupling after each weather step.
+/// While present on a volcano, its slices and umbrella read it instead of the eruption's
+/// `PlumeParams::atmosphere` and `wind`.
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct PlumeAmbient(pub LayeredAmbient);
+
 /// A live column slice. Its model state is in the plume frame (z up above the vent, x/y
 /// horizontal); the entity's `Transform` is kept in world space (y up).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
@@ -98,6 +135,8 @@ pub struct PlumeSlice {
     /// size factor `f` has turned by `ring_phase / f` (Ω = v / r_s, §3.5.1). One sum per slice
     /// instead of one per sphere.
     pub ring_phase: f64,
+    /// Ash this slice has shed (σ_col, eq 3.9) and not yet handed to an atmosphere (kg).
+    pub ash_pending: f64,
 }
 
 /// An s1 sphere riding on a slice's vortex ring.
@@ -131,6 +170,22 @@ pub struct Umbrella {
     pub vent: Vec3,
     /// Stable id (as for [`S1`]).
     pub id: u64,
+    /// Ash still carried (kg): its share of the slice's solid mass at detachment.
+    pub ash: f64,
+    /// Ash fallen out of it and not yet handed to an atmosphere (kg).
+    pub ash_pending: f64,
+}
+
+/// An expiring umbrella sphere released the ash it still held (sent once per sphere; the
+/// coupling puts it into the air layer at `position`).
+#[derive(Message, Debug, Clone, Copy, PartialEq)]
+pub struct AshReleased {
+    /// Emitting volcano.
+    pub volcano: Entity,
+    /// World position.
+    pub position: Vec3,
+    /// Ash mass (kg).
+    pub mass: f64,
 }
 
 /// A slice's vertical velocity turned negative before it became buoyant (§3.6): the slice and

@@ -13,9 +13,10 @@ pub mod pyroclastic;
 pub mod view;
 
 pub use components::{
-    EmissionState, Eruption, NeutralBuoyancyReached, PlumeCollapsed, PlumeSlice, S1, Umbrella,
-    UmbrellaSpreading,
+    AshReleased, EmissionState, Eruption, NeutralBuoyancyReached, PlumeAmbient, PlumeAshBudget,
+    PlumeCollapsed, PlumeSlice, S1, Umbrella, UmbrellaSpreading,
 };
+pub use model::ambient::{AmbientLevel, LayeredAmbient};
 pub use model::params::{PlumeParams, Preset};
 pub use model::pyroclastic::PyroclasticParams;
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};

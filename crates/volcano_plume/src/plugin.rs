@@ -29,7 +29,10 @@ impl Plugin for PlumePlugin {
             .add_message::<PlumeCollapsed>()
             .add_message::<NeutralBuoyancyReached>()
             .add_message::<UmbrellaSpreading>()
+            .add_message::<AshReleased>()
             .register_type::<Eruption>()
+            .register_type::<PlumeAshBudget>()
+            .register_type::<PlumeAmbient>()
             .register_type::<PlumeSlice>()
             .register_type::<S1>()
             .register_type::<Umbrella>()
@@ -41,10 +44,17 @@ impl Plugin for PlumePlugin {
 fn emit_slices(
     time: Res<Time>,
     mut commands: Commands,
-    mut volcanoes: Query<(Entity, &Eruption, &mut EmissionState, &VentPosition, &VolcanoRng)>,
+    mut volcanoes: Query<(
+        Entity,
+        &Eruption,
+        &mut EmissionState,
+        &mut PlumeAshBudget,
+        &VentPosition,
+        &VolcanoRng,
+    )>,
 ) {
     let dt = time.delta_secs_f64();
-    for (entity, eruption, mut emission, vent, rng) in &mut volcanoes {
+    for (entity, eruption, mut emission, mut ash, vent, rng) in &mut volcanoes {
         if !eruption.active || eruption.validate().is_err() {
             continue;
         }
@@ -58,7 +68,9 @@ fn emit_slices(
             let index = emission.emitted;
             emission.emitted += 1;
             let state = Slice::at_vent(&eruption.params);
-            let slice = PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0 };
+            ash.emitted_kg += state.solid_mass;
+            let slice =
+                PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0, ash_pending: 0.0 };
             spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Plume slice {index}"));
         }
         if emission.since_last >= interval {
@@ -89,7 +101,7 @@ pub(crate) fn spawn_slice(
 fn step_slices(
     time: Res<Time>,
     mut commands: Commands,
-    eruptions: Query<(Entity, &Eruption)>,
+    mut eruptions: Query<(Entity, &Eruption, Option<&PlumeAmbient>, &mut PlumeAshBudget)>,
     mut slices: Query<(Entity, &mut PlumeSlice, &mut Transform), Without<S1>>,
     spheres: Query<(Entity, &S1)>,
     mut collapsed: MessageWriter<PlumeCollapsed>,
@@ -99,14 +111,14 @@ fn step_slices(
     let dt = time.delta_secs_f64();
     // Validate each eruption once per step, not once per slice.
     let invalid: EntityHashSet =
-        eruptions.iter().filter(|(_, e)| e.validate().is_err()).map(|(e, _)| e).collect();
+        eruptions.iter().filter(|(_, e, _, _)| e.validate().is_err()).map(|(e, ..)| e).collect();
     let mut finished: Vec<(Entity, Phase, PlumeSlice)> = Vec::new();
     for (entity, mut slice, mut transform) in &mut slices {
         if slice.state.phase == Phase::Collapsed {
             // Waiting for the pyroclastic hand-over (once per base tick).
             continue;
         }
-        let Ok((_, eruption)) = eruptions.get(slice.volcano) else {
+        let Ok((_, eruption, ambient, _)) = eruptions.get(slice.volcano) else {
             // Its volcano is gone: the hand-over will find no eruption and remove it.
             slice.state.phase = Phase::Collapsed;
             finished.push((entity, Phase::Collapsed, slice.clone()));
@@ -117,9 +129,19 @@ fn step_slices(
             continue;
         }
         let p = &eruption.params;
-        let wind = |z: f64| p.wind.at(z);
-        let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: slice.vent.y as f64, wind: &wind };
-        let report = slice.state.step(p, &env, dt);
+        let vent_altitude = slice.vent.y as f64;
+        let report = match ambient {
+            // Coupled: the layers' air and wind around the column (§4.3.3).
+            Some(PlumeAmbient(a)) => {
+                let wind = |z: f64| a.wind_at(vent_altitude + z);
+                slice.state.step(p, &SliceEnv { air: a, vent_altitude, wind: &wind }, dt)
+            }
+            None => {
+                let wind = |z: f64| p.wind.at(z);
+                slice.state.step(p, &SliceEnv { air: p.atmosphere.profile(), vent_altitude, wind: &wind }, dt)
+            }
+        };
+        slice.ash_pending += report.sedimented;
         // Spin of the ring spheres: Ω = v / r_s about the ring tangent (mean size r_s = r/2).
         slice.ring_phase += slice.state.velocity.length() / (0.5 * slice.state.r).max(1e-9) * dt;
         if report.reached_neutral {
@@ -133,6 +155,9 @@ fn step_slices(
         transform.rotation = orientation(slice.state.velocity);
         if !slice.state.is_finite() {
             warn!("plume slice {} became non-finite and was removed", slice.index);
+            if let Ok((.., mut ash)) = eruptions.get_mut(slice.volcano) {
+                ash.lost_kg += slice.ash_pending + slice.state.solid_mass.max(0.0);
+            }
             commands.entity(entity).despawn();
             for (sphere_entity, s1) in spheres.iter() {
                 if s1.slice == entity {
@@ -157,7 +182,18 @@ fn step_slices(
         } else {
             collapsed.write(PlumeCollapsed { volcano: slice.volcano, position: world, mass: s.mass });
         }
-        for (sphere_entity, s1) in spheres.iter().filter(|(_, s1)| s1.slice == entity) {
+        let ring: Vec<(Entity, &S1)> = spheres.iter().filter(|(_, s1)| s1.slice == entity).collect();
+        // The slice's ash: shared among its umbrella spheres, or handed to the flows.
+        let solid = s.solid_mass.max(0.0);
+        if let Ok((.., mut ash)) = eruptions.get_mut(slice.volcano) {
+            if phase == Phase::Collapsed {
+                ash.to_flows_kg += solid + slice.ash_pending;
+            } else if ring.is_empty() {
+                ash.lost_kg += solid + slice.ash_pending;
+            }
+        }
+        let share = 1.0 / ring.len().max(1) as f64;
+        for (k, &(sphere_entity, s1)) in ring.iter().enumerate() {
             if phase == Phase::Umbrella {
                 // Spread radially around the column axis in the direction of the sphere's place
                 // on the vortex ring, starting from the ring radius r/2 where it sat (the
@@ -182,6 +218,9 @@ fn step_slices(
                     age: 0.0,
                     vent: slice.vent,
                     id: s1.id,
+                    ash: solid * share,
+                    // What the slice shed and the coupling has not taken yet rides on the first.
+                    ash_pending: if k == 0 { slice.ash_pending } else { 0.0 },
                 });
             } else {
                 commands.entity(sphere_entity).despawn();
@@ -197,25 +236,40 @@ fn step_slices(
 fn step_umbrella(
     time: Res<Time>,
     mut commands: Commands,
-    eruptions: Query<&Eruption>,
+    mut eruptions: Query<(&Eruption, Option<&PlumeAmbient>, &mut PlumeAshBudget)>,
     mut spheres: Query<(Entity, &mut Umbrella, &mut Transform)>,
+    mut released: MessageWriter<AshReleased>,
 ) {
     let dt = time.delta_secs_f64();
     for (entity, mut u, mut transform) in &mut spheres {
-        let Ok(eruption) = eruptions.get(u.volcano) else {
+        let Ok((eruption, ambient, mut budget)) = eruptions.get_mut(u.volcano) else {
+            // Its eruption is gone: nobody books its ash any more.
             commands.entity(entity).despawn();
             continue;
         };
         u.sphere.step(dt);
         // The spreading cloud drifts with the wind at its altitude (the column axis moves).
-        let drift = eruption.params.wind.at(u.sphere.altitude()) * dt;
-        u.sphere.axis += drift;
+        let altitude = u.sphere.altitude();
+        let wind = match ambient {
+            Some(PlumeAmbient(a)) => a.wind_at(u.vent.y as f64 + altitude),
+            None => eruption.params.wind.at(altitude),
+        };
+        u.sphere.axis += wind * dt;
         u.age += dt;
+        // Ash fallout from the spreading cloud, exact for any step: a share 1 − exp(−Δt/τ).
+        let fallout = u.ash * (1.0 - (-dt / eruption.umbrella_fallout_s).exp());
+        u.ash -= fallout;
+        u.ash_pending += fallout;
         let lifetime = eruption.umbrella_lifetime;
         let h = u.sphere.horizontal();
         transform.translation = u.vent + plume_to_world(DVec3::new(h.x, h.y, u.sphere.altitude()));
         transform.scale = Vec3::splat(u.radius as f32);
         if u.age > lifetime {
+            let mass = u.ash + u.ash_pending;
+            if mass > 0.0 {
+                budget.released_kg += mass;
+                released.write(AshReleased { volcano: u.volcano, position: transform.translation, mass });
+            }
             commands.entity(entity).despawn();
         }
     }

@@ -108,6 +108,20 @@ impl DepositMap {
             self.surface = Some(h.clone());
         }
     }
+    /// Adds `mass` kg at world `(x, z)` = `p` on `terrain`'s deposit (creating the map over it
+    /// if needed; `bulk_density` kg/m³ is used if the map has none yet). Returns false, adding
+    /// nothing, where `p` is off the terrain. Used for ash fall from the coupled atmosphere.
+    pub fn add_on(&mut self, terrain: &Terrain, p: Vec2, mass: f64, bulk_density: f64) -> bool {
+        if !(mass > 0.0) || !terrain.contains(p.x, p.y) {
+            return false;
+        }
+        self.ensure(terrain);
+        if self.bulk_density <= 0.0 {
+            self.bulk_density = bulk_density;
+        }
+        self.add(p, mass);
+        true
+    }
     /// Adds mass to the nearest node and raises the surface there.
     fn add(&mut self, p: Vec2, mass: f64) {
         let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return };
@@ -146,7 +160,7 @@ pub struct PyroclasticPlugin;
 
 impl Plugin for PyroclasticPlugin {
     fn build(&self, app: &mut App) {
-        app.add_sim_domain::<PyroclasticStep>(SimSystems::BeforeWeather, Cadence::Substeps(1))
+        app.add_sim_domain::<PyroclasticStep>(SimSystems::Pyroclastic, Cadence::Substeps(1))
             .add_message::<PyroclasticFlowStarted>()
             .add_message::<SecondaryColumnFormed>()
             .init_resource::<DepositMap>()
@@ -377,7 +391,7 @@ fn lift_secondary_columns(
                 mass: state.mass,
                 particles: members.len(),
             });
-            let slice = PlumeSlice { volcano, index, vent, state, ring_phase: 0.0 };
+            let slice = PlumeSlice { volcano, index, vent, state, ring_phase: 0.0, ash_pending: 0.0 };
             spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Secondary column {index}"));
         }
     }

@@ -268,6 +268,9 @@ pub struct Ground {
     pub sunlit_for: Option<[f32; 3]>,
     /// ℓ(p): index of the lowest layer with air at each cell (`u8::MAX` if none).
     pub lowest: Vec<u8>,
+    /// Ash fallen on the ground (g/m²) since it was last collected (the coupling moves it to
+    /// the terrain's deposit after each step; without coupling it accumulates here).
+    pub ash: Grid2<f64>,
 }
 
 impl Default for Ground {
@@ -281,6 +284,7 @@ impl Default for Ground {
             sunlit: Grid2::new(1, 1, 1.0, Vec2::ZERO, 1.0).expect("1×1 grid is valid"),
             sunlit_for: None,
             lowest: vec![0],
+            ash: Grid2::new(1, 1, 1.0, Vec2::ZERO, 0.0).expect("1×1 grid is valid"),
         }
     }
 }
@@ -377,7 +381,7 @@ impl AtmosphereState {
                 return Err(bad("ground field size", s));
             }
         }
-        if g.sunlit.data().len() != n * n || g.lowest.len() != n * n {
+        if g.sunlit.data().len() != n * n || g.lowest.len() != n * n || g.ash.data().len() != n * n {
             return Err(bad("ground field size", g.lowest.len()));
         }
         Ok(())
@@ -388,6 +392,7 @@ impl AtmosphereState {
         self.layers.iter().all(|l| l.is_valid())
             && self.ground.t.data().iter().all(|t| t.is_finite() && *t > 0.0)
             && self.ground.water.data().iter().all(|w| w.is_finite() && *w >= 0.0)
+            && self.ground.ash.data().iter().all(|a| a.is_finite() && *a >= 0.0)
     }
 }
 

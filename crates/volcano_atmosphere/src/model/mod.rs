@@ -3,6 +3,7 @@
 //! where one applies.
 
 pub mod advection;
+pub mod ash;
 pub mod clouds;
 pub mod fields;
 pub mod maps;

@@ -75,6 +75,13 @@ pub struct AtmosphereParams {
     pub wind_advection: AdvectionScheme,
     /// Condensed water content (g/m³) above which a cell counts as cloud. 0.05.
     pub cloud_threshold: f64,
+    /// Settling speed of volcanic ash (m/s) through the layers and onto the ground, standing
+    /// for one grain size: ≈ 0.1 m/s fine ash (tens of µm), ≈ 1 m/s coarse ash (≈ 0.5 mm).
+    /// 0.5.
+    pub ash_settling_speed: f64,
+    /// Ash leaves through the domain's rim instead of wrapping around the torus (booked as
+    /// outflow). true.
+    pub ash_open_rim: bool,
 }
 
 impl Default for AtmosphereParams {
@@ -99,6 +106,8 @@ impl Default for AtmosphereParams {
             advection: AdvectionScheme::MacCormack,
             wind_advection: AdvectionScheme::SemiLagrangian,
             cloud_threshold: 0.05,
+            ash_settling_speed: 0.5,
+            ash_open_rim: true,
         }
     }
 }
@@ -123,6 +132,7 @@ impl AtmosphereParams {
         in_range("multigrid_cycles", self.multigrid_cycles as f64, 1.0, 50.0)?;
         in_range("multigrid_tolerance", self.multigrid_tolerance, 0.0, 1.0)?;
         in_range("cloud_threshold", self.cloud_threshold, 0.0, 100.0)?;
+        in_range("ash_settling_speed", self.ash_settling_speed, 0.0, 50.0)?;
         Ok(())
     }
 }

@@ -444,6 +444,7 @@ impl Scenario {
             sunlit: g.grid(1.0),
             sunlit_for: None,
             lowest: vec![0; g.cells()],
+            ash: g.grid(0.0),
         };
         ground.height.data_mut().copy_from_slice(&height);
         ground.cover.data_mut().copy_from_slice(&cover);

@@ -10,6 +10,7 @@ use serde::Serialize;
 use volcano_core::ConfigError;
 
 use super::advection::{Staggering, advect_conservative, advect_field, apertures};
+use super::ash::{AshReport, step_ash};
 use super::fields::{AtmosphereState, LayerFields};
 use super::params::AtmosphereParams;
 use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
@@ -89,6 +90,8 @@ pub struct StepReport {
     pub flux_substeps: u32,
     /// Wall time (ms) of the phases: ground, phase change, vertical exchange, dynamics.
     pub phase_ms: [f64; 4],
+    /// Ash settled onto the ground and blown out through the rim this step.
+    pub ash: AshReport,
 }
 
 /// Checks a step length: finite, in (0, 3600] s.
@@ -177,6 +180,17 @@ pub fn step(
         let t_ref = layer.t_ref;
         layer.t.data_mut().iter_mut().for_each(|t| *t += (t_ref - *t) * relax);
     }
+
+    // 6. Ash: settling to the ground and the open rim.
+    report.ash = step_ash(
+        &mut state.layers,
+        state.ground.ash.data_mut(),
+        n,
+        dx,
+        params.ash_settling_speed,
+        params.ash_open_rim,
+        dt,
+    );
     state.time_s += dt;
     Ok(report)
 }

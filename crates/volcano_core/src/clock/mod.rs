@@ -148,6 +148,16 @@ impl<D> DomainClock<D> {
     pub fn steps_run(&self) -> u64 {
         self.steps_run
     }
+    /// How many steps the driver will run at the next simulated base tick (0 while paused
+    /// with no single step requested). Coupling systems that run just before a domain use it
+    /// to act only on the ticks where the domain steps.
+    pub fn steps_at_next_tick(&self) -> u32 {
+        if self.paused {
+            u32::from(self.pending_steps > 0)
+        } else {
+            self.cadence.steps_at_tick(self.ticks_seen + 1)
+        }
+    }
     /// Length of one step of this domain, time scale included.
     pub fn step_duration(&self, base: Duration) -> Duration {
         let d = self.cadence.step_duration(base);
@@ -161,8 +171,10 @@ impl<D> DomainClock<D> {
 pub enum SimSystems {
     /// Decides whether this base tick runs (pause / single step) and counts it.
     Begin,
-    /// Plume and pyroclastic domain.
+    /// Plume domain (column slices, s1 spheres, umbrella).
     Plume,
+    /// Pyroclastic domain (collapsed slices become particles; deposits; secondary columns).
+    Pyroclastic,
     /// Coupling transfers just before the weather step (thesis §4.3.3).
     BeforeWeather,
     /// Layered atmosphere domain.

@@ -1,6 +1,7 @@
 //! Model layer: plain structs and functions, each physical law beside the thesis equation it
 //! implements.
 
+pub mod ambient;
 pub mod deposit;
 pub mod params;
 pub mod pyroclastic;

@@ -43,6 +43,10 @@ pub struct PlumeParams {
     pub vent_altitude: f64,
     /// Wind by altitude above the vent.
     pub wind: WindProfile,
+    /// Magmatic gas (water vapour) mass fraction n of the erupted mixture. The rest, `1 − n`,
+    /// is solid (ash) that the column sheds into the atmosphere when coupled. The thesis has
+    /// no gas fraction; 0.03 (3 wt%, the usual Plinian value, e.g. Woods 1988) is the default.
+    pub gas_fraction: f64,
 }
 
 impl Default for PlumeParams {
@@ -63,6 +67,7 @@ impl Default for PlumeParams {
             atmosphere: AtmosphereModel::Thesis,
             vent_altitude: 0.0,
             wind: WindProfile::Calm,
+            gas_fraction: 0.03,
         }
     }
 }
@@ -134,6 +139,7 @@ impl PlumeParams {
         positive("dt", self.dt)?;
         in_range("dt", self.dt, 1e-5, 0.1)?;
         in_range("vent_altitude", self.vent_altitude, -1_000.0, 9_000.0)?;
+        in_range("gas_fraction", self.gas_fraction, 0.0, 0.99)?;
         self.wind.validate()
     }
 

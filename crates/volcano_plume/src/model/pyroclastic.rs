@@ -378,5 +378,9 @@ pub fn secondary_column(particles: &[Particle], members: &[usize]) -> Option<Sli
         initial_mass: m,
         entrained_mass: 0.0,
         sedimented_mass: 0.0,
+        // The ash of pyroclastic flows is booked by the pyroclastic budget (deposited,
+        // lifted); a secondary column carries no separate solid or water account.
+        solid_mass: 0.0,
+        water_mass: 0.0,
     })
 }

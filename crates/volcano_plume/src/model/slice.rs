@@ -66,6 +66,10 @@ pub struct Slice {
     pub entrained_mass: f64,
     /// Mass lost by sedimentation so far (kg).
     pub sedimented_mass: f64,
+    /// Solid (ash) mass carried (kg): `(1 − n) M₀` at the vent, less what sedimented.
+    pub solid_mass: f64,
+    /// Water carried (kg): the magmatic gas `n M₀` plus the vapour of the entrained air.
+    pub water_mass: f64,
 }
 
 /// What one step changed, for budgets and messages.
@@ -116,7 +120,14 @@ impl Slice {
             initial_mass: mass,
             entrained_mass: 0.0,
             sedimented_mass: 0.0,
+            solid_mass: (1.0 - p.gas_fraction) * mass,
+            water_mass: p.gas_fraction * mass,
         }
+    }
+
+    /// Water vapour concentration of the slice (g/m³): its water over its volume.
+    pub fn vapour_concentration(&self) -> f64 {
+        1e3 * self.water_mass / self.volume().max(1e-12)
     }
 
     /// Volume `V = π r³` (m³).
@@ -157,8 +168,14 @@ impl Slice {
         let v_air = ring * t_new / t_a;
         let volume = v_slice + v_air;
         // Sedimentation, eq 3.9 with σ_col as a density decrement rate (kg/m³/s), never taking
-        // the slice below a density floor (ash cannot sediment out of pure gas forever).
-        let sed = (p.sigma_col * self.volume() * dt).min((m_before - MIN_DENSITY * self.volume()).max(0.0));
+        // the slice below a density floor nor more solid than it carries (ash cannot sediment
+        // out of pure gas).
+        let sed = (p.sigma_col * self.volume() * dt)
+            .min((m_before - MIN_DENSITY * self.volume()).max(0.0))
+            .min(self.solid_mass.max(0.0));
+        // Water vapour of the entrained air (g/m³ → kg), kept apart from the dry air so the
+        // coupled atmosphere receives the column's moisture (§4.3.3).
+        let vapour = 1e-3 * env.air.humidity(env.vent_altitude + self.position.z).max(0.0) * ring;
         let mass = m_before + m_air - sed;
 
         self.temperature = t_new;
@@ -167,6 +184,8 @@ impl Slice {
         self.density = mass / volume;
         self.entrained_mass += m_air;
         self.sedimented_mass += sed;
+        self.solid_mass -= sed;
+        self.water_mass += vapour;
         report.entrained = m_air;
         report.sedimented = sed;
 

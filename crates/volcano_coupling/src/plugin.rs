@@ -1,0 +1,412 @@
+//! [`CouplingPlugin`]: the plume ↔ atmosphere transfers around each weather step (thesis
+//! §4.3.3). Plume → air runs in `SimSystems::BeforeWeather` on the ticks where the weather is
+//! about to step; air → plume and the ash deposit run in `SimSystems::AfterWeather` on the
+//! ticks where it stepped. Systems gather slices, spheres and layers, call [`crate::model`],
+//! write back.
+
+use bevy::math::DVec2;
+use bevy::prelude::*;
+use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
+use volcano_atmosphere::plugin::AtmosphereGround;
+use volcano_atmosphere::{AirLayer, Atmosphere, WeatherStep, WeatherStepped};
+use volcano_core::prelude::*;
+use volcano_plume::{
+    AshReleased, DepositMap, Eruption, LayeredAmbient, PlumeAmbient, PlumeAshBudget, PlumeSlice, Umbrella,
+};
+
+use crate::model::column::{ColumnSlice, TransferReport, ambient_levels, impose, nearest_slice_per_layer};
+use crate::model::inject::{Delivered, inject_ash};
+
+/// Public sets of the coupling, so games can order their own systems against the transfers.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum CouplingSystems {
+    /// Plume → air (in `SimSystems::BeforeWeather`).
+    PlumeToAir,
+    /// Air → plume and the ash deposit (in `SimSystems::AfterWeather`).
+    AirToPlume,
+}
+
+/// Which transfers a volcano takes part in (optional; all on when absent).
+#[derive(Component, Debug, Clone, Copy, PartialEq, Eq, Reflect)]
+#[reflect(Component)]
+pub struct CouplingSettings {
+    /// The column reads the layers' air and wind.
+    pub air_to_plume: bool,
+    /// The column imposes its temperature and moisture on the layers.
+    pub plume_to_air: bool,
+    /// The ash the column sheds goes into the layers.
+    pub ash: bool,
+}
+
+impl Default for CouplingSettings {
+    fn default() -> Self {
+        Self { air_to_plume: true, plume_to_air: true, ash: true }
+    }
+}
+
+/// Books of one atmosphere's coupling (kg for ash, g for water): ash received from columns =
+/// airborne in the layers + deposited + outflow.
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct CouplingBudget {
+    /// Ash handed to this atmosphere by slices and umbrella spheres (kg).
+    pub ash_received_kg: f64,
+    /// Ash that settled onto the ground (kg), whether or not a terrain was there to show it.
+    pub ash_deposited_kg: f64,
+    /// Ash that left through the rim, or was handed over outside the grid (kg).
+    pub ash_outflow_kg: f64,
+    /// Of the deposited ash, what fell off every terrain's map (kg).
+    pub ash_off_terrain_kg: f64,
+    /// Net water the plume → air transfer wrote into the layers (g).
+    pub water_written_g: f64,
+    /// The last plume → air transfer.
+    #[reflect(ignore)]
+    pub last_transfer: TransferReport,
+}
+
+/// Ash released by expiring umbrella spheres since the last weather step, in message order.
+#[derive(Resource, Debug, Clone, Default)]
+pub struct AshInbox(pub Vec<AshReleased>);
+
+/// The coupling: add after the plume and atmosphere plugins (as `VolcanoSimPlugins` does).
+#[derive(Debug, Default, Clone)]
+pub struct CouplingPlugin;
+
+impl Plugin for CouplingPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<AshInbox>()
+            .register_type::<CouplingSettings>()
+            .register_type::<CouplingBudget>()
+            .register_required_components::<Atmosphere, CouplingBudget>()
+            .configure_sets(FixedUpdate, CouplingSystems::PlumeToAir.in_set(SimSystems::BeforeWeather))
+            .configure_sets(FixedUpdate, CouplingSystems::AirToPlume.in_set(SimSystems::AfterWeather))
+            .add_systems(
+                FixedUpdate,
+                (collect_released, plume_to_air.run_if(weather_steps_this_tick))
+                    .chain()
+                    .in_set(CouplingSystems::PlumeToAir),
+            )
+            .add_systems(FixedUpdate, air_to_plume.in_set(CouplingSystems::AirToPlume));
+    }
+}
+
+fn weather_steps_this_tick(clock: Option<Res<Time<DomainClock<WeatherStep>>>>) -> bool {
+    clock.is_some_and(|c| c.context().steps_at_next_tick() > 0)
+}
+
+/// Every tick: keeps what expiring umbrella spheres released until the next weather step.
+fn collect_released(mut inbox: ResMut<AshInbox>, mut released: MessageReader<AshReleased>) {
+    inbox.0.extend(released.read().copied());
+}
+
+/// An atmosphere's layers moved out of their components (sorted by index) and back.
+struct Gathered<'a> {
+    handles: Vec<Mut<'a, AirLayer>>,
+    layers: Vec<LayerFields>,
+}
+
+impl<'a> Gathered<'a> {
+    fn new(atmosphere: Entity, query: &'a mut Query<&mut AirLayer>, n: usize) -> Option<Self> {
+        let mut handles: Vec<Mut<AirLayer>> =
+            query.iter_mut().filter(|l| l.atmosphere == atmosphere).collect();
+        handles.sort_by_key(|l| l.index);
+        if handles.len() < 2 || handles.iter().any(|l| l.fields.t.nx() != n) {
+            return None;
+        }
+        let layers = handles.iter_mut().map(|l| std::mem::take(&mut l.fields)).collect();
+        Some(Self { handles, layers })
+    }
+    fn restore(mut self) {
+        for (h, f) in self.handles.iter_mut().zip(self.layers.drain(..)) {
+            h.fields = f;
+        }
+    }
+}
+
+/// Atmospheres by entity order, with their grids.
+fn grids<'a>(atmospheres: impl Iterator<Item = (Entity, &'a Atmosphere)>) -> Vec<(Entity, GridSpec)> {
+    let mut v: Vec<(Entity, GridSpec)> =
+        atmospheres.filter_map(|(e, a)| GridSpec::new(a.n, a.dx).ok().map(|g| (e, g))).collect();
+    v.sort_by_key(|(e, _)| *e);
+    v
+}
+
+/// The first atmosphere (in entity order) whose grid contains world `(x, z)`.
+fn atmosphere_over(grids: &[(Entity, GridSpec)], x: f32, z: f32) -> Option<(Entity, GridSpec)> {
+    grids.iter().copied().find(|(_, g)| {
+        let half = 0.5 * g.extent() as f32;
+        x.abs() < half && z.abs() < half
+    })
+}
+
+/// The column slices of `volcano`, sorted by emission index, as the layers see them.
+fn column_of(volcano: Entity, slices: &[(Entity, &PlumeSlice)]) -> Vec<ColumnSlice> {
+    let mut mine: Vec<&PlumeSlice> =
+        slices.iter().map(|(_, s)| *s).filter(|s| s.volcano == volcano).collect();
+    mine.sort_by_key(|s| s.index);
+    mine.iter()
+        .filter(|s| matches!(s.state.phase, volcano_plume::Phase::Jet | volcano_plume::Phase::Buoyant))
+        .map(|s| {
+            let p = s.state.position;
+            ColumnSlice {
+                centre: DVec2::new(s.vent.x as f64 + p.x, s.vent.z as f64 - p.y),
+                altitude: s.vent.y as f64 + p.z,
+                radius: s.state.r,
+                temperature: s.state.temperature,
+                vapour: s.state.vapour_concentration(),
+            }
+        })
+        .collect()
+}
+
+/// Plume → air, just before a weather step: impose each layer's nearest slice, then hand the
+/// shed ash of slices, umbrella spheres and expired spheres to the layers.
+#[allow(clippy::type_complexity)]
+fn plume_to_air(
+    mut inbox: ResMut<AshInbox>,
+    mut atmospheres: Query<(Entity, &Atmosphere, &mut AtmosphereGround, &mut CouplingBudget)>,
+    mut layer_query: Query<&mut AirLayer>,
+    volcanoes: Query<(Entity, &VentPosition, Option<&CouplingSettings>), With<Eruption>>,
+    mut slices: Query<(Entity, &mut PlumeSlice)>,
+    mut spheres: Query<(&mut Umbrella, &Transform)>,
+) {
+    let grids = grids(atmospheres.iter().map(|(e, a, ..)| (e, a)));
+    let settings_of = |v: Entity| volcanoes.get(v).ok().map(|(_, _, s)| s.copied().unwrap_or_default());
+    for (atmo, grid) in grids.iter().copied() {
+        let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
+        let Some(mut g) = Gathered::new(atmo, &mut layer_query, grid.n) else { continue };
+        // Heat and moisture, volcano by volcano (entity order).
+        let mut coupled: Vec<(Entity, Vec3)> = volcanoes
+            .iter()
+            .filter(|(_, vent, _)| {
+                atmosphere_over(&grids, vent.0.x, vent.0.z).is_some_and(|(a, _)| a == atmo)
+            })
+            .map(|(e, vent, _)| (e, vent.0))
+            .collect();
+        coupled.sort_by_key(|(e, _)| *e);
+        {
+            let all: Vec<(Entity, &PlumeSlice)> = slices.iter().collect();
+            for &(volcano, _) in &coupled {
+                if !settings_of(volcano).is_some_and(|s| s.plume_to_air) {
+                    continue;
+                }
+                let column = column_of(volcano, &all);
+                let nearest = nearest_slice_per_layer(&g.layers, &column);
+                let r = impose(&mut g.layers, grid, &column, &nearest);
+                budget.water_written_g += r.water_written_g;
+                budget.last_transfer = r;
+            }
+        }
+        // Ash: slices (emission order), umbrella spheres (id order), expired spheres.
+        let wants_ash =
+            |v: Entity| settings_of(v).is_some_and(|s| s.ash) && coupled.iter().any(|(c, _)| *c == v);
+        let mut parcels: Vec<((u64, u64), Vec3, f64)> = Vec::new();
+        for (_, mut s) in slices.iter_mut() {
+            if s.ash_pending > 0.0 && wants_ash(s.volcano) {
+                let p = s.state.position;
+                let at = s.vent + Vec3::new(p.x as f32, p.z as f32, -p.y as f32);
+                parcels.push(((s.volcano.to_bits(), s.index), at, s.ash_pending));
+                s.ash_pending = 0.0;
+            }
+        }
+        for (mut u, transform) in spheres.iter_mut() {
+            if u.ash_pending > 0.0 && wants_ash(u.volcano) {
+                parcels.push(((u.volcano.to_bits(), u.id | 1 << 63), transform.translation, u.ash_pending));
+                u.ash_pending = 0.0;
+            }
+        }
+        parcels.sort_by_key(|p| p.0);
+        let mut keep = Vec::new();
+        for m in inbox.0.drain(..) {
+            if wants_ash(m.volcano) {
+                parcels.push(((m.volcano.to_bits(), u64::MAX), m.position, m.mass));
+            } else {
+                keep.push(m);
+            }
+        }
+        inbox.0 = keep;
+        for (_, at, kg) in parcels {
+            budget.ash_received_kg += kg;
+            let to = inject_ash(
+                &mut g.layers,
+                ground.0.ash.data_mut(),
+                grid,
+                (at.x as f64, at.y as f64, at.z as f64),
+                kg * 1e3,
+            );
+            if to == Delivered::Outside {
+                budget.ash_outflow_kg += kg;
+            }
+        }
+        g.restore();
+    }
+    // Released ash of volcanoes under no atmosphere is not kept.
+    inbox.0.retain(|m| atmosphere_over(&grids, m.position.x, m.position.z).is_some());
+}
+
+/// Air → plume and the ash books, just after a weather step (or on the first tick a coupled
+/// volcano has no ambient yet).
+#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+fn air_to_plume(
+    mut commands: Commands,
+    clock: Option<Res<Time<DomainClock<WeatherStep>>>>,
+    mut seen_steps: Local<u64>,
+    mut stepped: MessageReader<WeatherStepped>,
+    mut atmospheres: Query<(Entity, &Atmosphere, &mut AtmosphereGround, &mut CouplingBudget)>,
+    mut layer_query: Query<&mut AirLayer>,
+    volcanoes: Query<(Entity, &VentPosition, &Eruption, Option<&CouplingSettings>, Has<PlumeAmbient>)>,
+    slices: Query<(Entity, &PlumeSlice)>,
+    terrains: Query<&Terrain>,
+    mut deposit: ResMut<DepositMap>,
+) {
+    let steps = clock.map_or(0, |c| c.context().steps_run());
+    let stepped_now = steps != *seen_steps;
+    *seen_steps = steps;
+    for m in stepped.read() {
+        if let Ok((.., mut budget)) = atmospheres.get_mut(m.atmosphere) {
+            budget.ash_outflow_kg += m.report.ash.outflow * 1e-3;
+        }
+    }
+    let grids = grids(atmospheres.iter().map(|(e, a, ..)| (e, a)));
+    // Volcanoes: their atmosphere (if any) and whether they need an ambient now.
+    let mut by_atmo: Vec<(Entity, Entity)> = Vec::new();
+    for (v, vent, _, settings, has) in volcanoes.iter() {
+        let settings = settings.copied().unwrap_or_default();
+        match atmosphere_over(&grids, vent.0.x, vent.0.z) {
+            Some((a, _)) if settings.air_to_plume => {
+                if stepped_now || !has {
+                    by_atmo.push((a, v));
+                }
+            }
+            _ => {
+                if has {
+                    commands.entity(v).remove::<PlumeAmbient>();
+                }
+            }
+        }
+    }
+    if !stepped_now && by_atmo.is_empty() {
+        return;
+    }
+    by_atmo.sort();
+    let all: Vec<(Entity, &PlumeSlice)> = slices.iter().collect();
+    let terrain = terrains.iter().next();
+    let bulk = volcanoes.iter().next().map_or(1_000.0, |(_, _, e, ..)| e.pyroclastic.deposit_density);
+    for (atmo, grid) in grids.iter().copied() {
+        let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
+        if stepped_now {
+            // Ash fallen this step: into the books and the terrain's deposit.
+            let area = grid.dx * grid.dx;
+            for (k, a) in ground.0.ash.data_mut().iter_mut().enumerate() {
+                if *a > 0.0 {
+                    let kg = *a * area * 1e-3;
+                    *a = 0.0;
+                    budget.ash_deposited_kg += kg;
+                    let (x, z) = grid.centre(k);
+                    let on =
+                        terrain.is_some_and(|t| deposit.add_on(t, Vec2::new(x as f32, z as f32), kg, bulk));
+                    if !on {
+                        budget.ash_off_terrain_kg += kg;
+                    }
+                }
+            }
+        }
+        let mine: Vec<Entity> = by_atmo.iter().filter(|(a, _)| *a == atmo).map(|(_, v)| *v).collect();
+        if mine.is_empty() {
+            continue;
+        }
+        let Some(g) = Gathered::new(atmo, &mut layer_query, grid.n) else { continue };
+        for v in mine {
+            let Ok((_, vent, eruption, ..)) = volcanoes.get(v) else { continue };
+            let column = column_of(v, &all);
+            let nearest = nearest_slice_per_layer(&g.layers, &column);
+            let centre = DVec2::new(vent.0.x as f64, vent.0.z as f64);
+            let levels = ambient_levels(&g.layers, grid, &column, &nearest, centre, eruption.params.r0);
+            match LayeredAmbient::new(eruption.params.atmosphere, levels) {
+                Ok(a) => {
+                    commands.entity(v).insert(PlumeAmbient(a));
+                }
+                Err(e) => {
+                    warn_once!(
+                        "volcano {v}: no ambient from its atmosphere ({e}); the plume keeps its profile"
+                    );
+                    commands.entity(v).remove::<PlumeAmbient>();
+                }
+            }
+        }
+        g.restore();
+    }
+}
+
+/// The ash books of one atmosphere and the volcanoes over it (kg).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct AshLedger {
+    /// Solid mass emitted at the vents.
+    pub emitted: f64,
+    /// Still in live slices (carried and shed-but-pending).
+    pub in_slices: f64,
+    /// Still in umbrella spheres (carried and pending).
+    pub in_spheres: f64,
+    /// Released by expired spheres, waiting for the next weather step.
+    pub in_inbox: f64,
+    /// In the layers' ash fields.
+    pub in_air: f64,
+    /// Deposited on the ground (including what is on the ground grid, not yet collected).
+    pub deposited: f64,
+    /// Left through the rim or handed over outside the grid.
+    pub outflow: f64,
+    /// Handed to pyroclastic flows with collapsing slices.
+    pub to_flows: f64,
+    /// Removed without a place (see [`PlumeAshBudget::lost_kg`]).
+    pub lost: f64,
+}
+
+impl AshLedger {
+    /// `emitted − (everything it went to)`: zero to rounding when the books close.
+    pub fn imbalance(&self) -> f64 {
+        self.emitted
+            - (self.in_slices
+                + self.in_spheres
+                + self.in_inbox
+                + self.in_air
+                + self.deposited
+                + self.outflow
+                + self.to_flows
+                + self.lost)
+    }
+}
+
+/// Adds up the ash books of atmosphere `atmosphere` and every eruption in the world (tests,
+/// summaries; one atmosphere per world is assumed for the volcano side).
+pub fn ash_ledger(world: &mut World, atmosphere: Entity) -> AshLedger {
+    let mut l = AshLedger::default();
+    for b in world.query::<&PlumeAshBudget>().iter(world) {
+        l.emitted += b.emitted_kg;
+        l.to_flows += b.to_flows_kg;
+        l.lost += b.lost_kg;
+    }
+    for s in world.query::<&PlumeSlice>().iter(world) {
+        l.in_slices += s.state.solid_mass.max(0.0) + s.ash_pending;
+    }
+    for u in world.query::<&Umbrella>().iter(world) {
+        l.in_spheres += u.ash + u.ash_pending;
+    }
+    l.in_inbox = world.resource::<AshInbox>().0.iter().map(|m| m.mass).sum();
+    let dx = world.get::<Atmosphere>(atmosphere).map_or(1.0, |a| a.dx);
+    let mut layers: Vec<(usize, f64)> = world
+        .query::<&AirLayer>()
+        .iter(world)
+        .filter(|l| l.atmosphere == atmosphere)
+        .map(|l| (l.index, volcano_atmosphere::model::ash::airborne(std::slice::from_ref(&l.fields), dx)))
+        .collect();
+    layers.sort_by_key(|x| x.0);
+    l.in_air = layers.iter().map(|x| x.1).sum::<f64>() * 1e-3;
+    let on_ground: f64 = world
+        .get::<AtmosphereGround>(atmosphere)
+        .map_or(0.0, |g| g.0.ash.data().iter().sum::<f64>() * dx * dx * 1e-3);
+    if let Some(b) = world.get::<CouplingBudget>(atmosphere) {
+        l.deposited = b.ash_deposited_kg + on_ground;
+        l.outflow = b.ash_outflow_kg;
+    }
+    l
+}
