@@ -20,7 +20,8 @@
 //! ```
 //!
 //! Crates: [`volcano_core`] (units, atmosphere profiles, grids, terrain, RNG, multi-rate
-//! clock), [`volcano_plume`] (eruption columns), `volcano_render` (feature `render`) and
+//! clock), [`volcano_plume`] (eruption columns), [`volcano_atmosphere`] (layered atmosphere),
+//! [`volcano_coupling`] (plume ↔ atmosphere, ash), [`volcano_lava`] (pahoehoe lava), `volcano_render` (feature `render`) and
 //! `volcano_egui` (feature `egui`).
 
 pub mod lava_scene;
@@ -30,6 +31,7 @@ use bevy::app::{PluginGroup, PluginGroupBuilder};
 
 pub use volcano_atmosphere as atmosphere;
 pub use volcano_core as core;
+pub use volcano_coupling as coupling;
 #[cfg(feature = "egui")]
 pub use volcano_egui as egui;
 pub use volcano_lava as lava;
@@ -49,6 +51,8 @@ impl PluginGroup for VolcanoSimPlugins {
             .add(volcano_lava::LavaPlugin)
             // Costs one empty query every 50 ticks when no `Atmosphere` entity exists.
             .add(volcano_atmosphere::AtmospherePlugin::default())
+            // A volcano inside an atmosphere's grid couples to it (thesis §4.3.3).
+            .add(volcano_coupling::CouplingPlugin)
     }
 }
 
@@ -78,6 +82,7 @@ pub mod prelude {
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_core::prelude::*;
+    pub use volcano_coupling::{CouplingBudget, CouplingSettings, CouplingSystems};
     pub use volcano_plume::{
         Eruption, NeutralBuoyancyReached, PlumeCollapsed, PlumeParams, PlumeSlice, UmbrellaSpreading,
         WindProfile,
