@@ -1,7 +1,7 @@
 //! Layer 1, the flow: a mass-exact explicit finite-volume scheme for the lubrication
 //! (Jeffreys) equation of a viscous sheet over a heightfield,
-//! `∂h/∂t = ∇·(ρ g h³/(3η(T)) ∇s)`, `s = ground + h` (DESIGN.md §5; the thesis used a closed
-//! virtual-pipes simulator, §5.4, whose role this replaces).
+//! `∂h/∂t = ∇·(ρ g h³/(3η(T)) ∇s)`, `s = ground + h` (docs/ARCHITECTURE.md §6.1; the thesis
+//! used a closed virtual-pipes simulator, §5.4, whose role this replaces).
 //!
 //! Per substep: (1) a flux per face from the surface gradient, with the upwind (donor)
 //! thickness and the donor's viscosity; (2) a stable substep from the explicit diffusion and
