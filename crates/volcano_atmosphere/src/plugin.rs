@@ -1,7 +1,7 @@
-//! [`AtmospherePlugin`]: the weather domain (`WeatherStep`, `EveryNthTick(50)` = 1 s per
-//! step by default, DESIGN.md §2). An [`Atmosphere`] entity carries the grid, coefficients,
-//! clock and ground; each [`AirLayer`] entity holds one layer's fields in one component.
-//! Systems gather, call [`crate::model::step::step`], write back.
+//! [`AtmospherePlugin`]: the weather domain (`WeatherStep`, `EveryNthTick(50)` = 1 s per step
+//! by default, docs/ARCHITECTURE.md §3.4). An [`Atmosphere`] entity carries the grid,
+//! coefficients, clock and ground; each [`AirLayer`] entity holds one layer's fields in one
+//! component. Systems gather, call [`crate::model::step::step`], write back.
 
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
@@ -229,7 +229,8 @@ fn step_weather(
             }
         }
         let result = step(&mut state, &atmo.params, &mut work.0, dt);
-        // DESIGN.md §6: debug builds check that the state stays finite and non-negative.
+        // docs/ARCHITECTURE.md §7.1: debug builds check that the state stays finite and
+        // non-negative.
         debug_assert!(state.is_valid(), "atmosphere {entity} produced a non-finite or negative field");
         for (layer, fields) in mine.iter_mut().zip(state.layers) {
             layer.fields = fields;

@@ -4,7 +4,7 @@
 //! [`Volcano`] entity.
 //!
 //! The crate depends on Bevy without its render stack, so its tests build in about a minute.
-//! Modules follow the two-layer rule of the project's design notes: *model* modules are plain
+//! Modules follow the two-layer rule of docs/ARCHITECTURE.md §2: *model* modules are plain
 //! data and functions ([`atmosphere`], [`grid`], [`terrain`], [`rng`]); *plugin* modules hold
 //! the ECS glue ([`clock`], [`volcano`], [`plugin`]).
 

@@ -18,7 +18,7 @@ pub const EARTH_RADIUS: f64 = 6_356_766.0;
 pub const P_SEA: f64 = 101_325.0;
 /// Sea-level standard temperature (K).
 pub const T_SEA: f64 = 288.15;
-/// Base simulation tick: 50 Hz (DESIGN.md §2).
+/// Base simulation tick: 50 Hz (docs/ARCHITECTURE.md §3.1).
 pub const BASE_TICK_HZ: f64 = 50.0;
 /// Base simulation tick length in seconds.
 pub const BASE_TICK_SECONDS: f64 = 1.0 / BASE_TICK_HZ;

@@ -1,6 +1,6 @@
-//! Pahoehoe lava (thesis chapter 5, DESIGN.md §5): a mass-exact viscous heightfield flow with
-//! temperature-dependent viscosity, cooling and solidification (layer 1), the crust (layer 2)
-//! and folds of oriented particles that collide and roll (layer 3).
+//! Pahoehoe lava (thesis chapter 5, docs/ARCHITECTURE.md §6): a mass-exact viscous heightfield
+//! flow with temperature-dependent viscosity, cooling and solidification (layer 1), the crust
+//! (layer 2) and folds of oriented particles that collide and roll (layer 3).
 //!
 //! [`model`] holds plain data and functions, testable without ECS; [`plugin`] runs them in
 //! the `LavaStep` domain: spawn a [`LavaField`] (a grid placed on the terrain) and

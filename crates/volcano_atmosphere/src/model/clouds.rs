@@ -1,7 +1,7 @@
-//! Cloud cover and per-cell cloud forms (thesis Table 4.3, Fig 4.5) with the thresholds of
-//! the later implementation (DESIGN.md §4): vertical motion below 0.15 m/s is stratiform,
-//! above 0.5 m/s cumuliform; height bands at 2 km and 6 km. The k-means++ coherence pass and
-//! the 3D density volume are in [`super::volume`].
+//! Cloud cover and per-cell cloud forms (thesis Table 4.3, Fig 4.5) with the thresholds of the
+//! later implementation (docs/ARCHITECTURE.md §5.6): vertical motion below 0.15 m/s is
+//! stratiform, above 0.5 m/s cumuliform; height bands at 2 km and 6 km. The k-means++ coherence
+//! pass and the 3D density volume are in [`super::volume`].
 
 use std::collections::BTreeMap;
 

@@ -218,8 +218,8 @@ impl Default for LayerFields {
     }
 }
 
-/// Surface properties of a land cover (DESIGN.md §4 numbers; snow and vegetation heat
-/// capacity are estimates: ice 2100, wet soil ≈ soil).
+/// Surface properties of a land cover (docs/ARCHITECTURE.md §5.5 numbers; snow and vegetation
+/// heat capacity are estimates: ice 2100, wet soil ≈ soil).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoverProps {
     /// B, albedo.
@@ -233,7 +233,8 @@ pub struct CoverProps {
 }
 
 /// Properties of each land cover: water 0.1/0.952/4000, soil 0.2/0.91/800, vegetation
-/// 0.2/0.94/800 (DESIGN.md §4), snow 0.8/0.98/2100 (fresh snow albedo, ice heat capacity).
+/// 0.2/0.94/800 (docs/ARCHITECTURE.md §5.5), snow 0.8/0.98/2100 (fresh snow albedo, ice heat
+/// capacity).
 pub fn cover_props(cover: LandCover) -> CoverProps {
     match cover {
         LandCover::Water => {

@@ -1,6 +1,6 @@
 //! Pressure projection of a layer's wind (thesis eq. 4.1) with the continuity target of
-//! DESIGN.md §4: `∇·V_i = −(D_i − D_{i−1}) / h_i`, so air leaving a layer through its top
-//! draws air in horizontally (and the pressure coupling of eq. 4.7 is not erased).
+//! docs/ARCHITECTURE.md §5.3: `∇·V_i = −(D_i − D_{i−1}) / h_i`, so air leaving a layer through
+//! its top draws air in horizontally (and the pressure coupling of eq. 4.7 is not erased).
 //!
 //! On the staggered grid the discrete divergence of the corrected wind equals the target up to
 //! the multigrid residual. On a torus a net gain or loss of air in a layer is not

@@ -1,7 +1,7 @@
 //! Terrain–atmosphere interaction (thesis §4.2.5): orographic damping (4.8), terrain
 //! self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴ per the erratum), heat
 //! (4.11) and water (4.12) exchange with the lowest free layer, all with a ground heat
-//! capacity per m² (DESIGN.md §4 erratum: C_p × density × active depth).
+//! capacity per m² (docs/ARCHITECTURE.md §5.3 erratum: C_p × density × active depth).
 
 use rayon::prelude::*;
 use volcano_core::{LandCover, Terrain};
@@ -134,7 +134,8 @@ pub fn cloud_transmission(lwp: f64) -> f64 {
     1.0 / (1.0 + 0.75 * tau * (1.0 - 0.85))
 }
 
-/// Grey-body emission (W/m²), eq. (4.10) with the DESIGN erratum (T⁴, not T⁸): `ε σ_B T⁴`.
+/// Grey-body emission (W/m²), eq. (4.10) with the erratum of docs/ARCHITECTURE.md §5.3
+/// (T⁴, not T⁸): `ε σ_B T⁴`.
 pub fn grey_body(emissivity: f64, t: f64) -> f64 {
     emissivity * STEFAN_BOLTZMANN * t.powi(4)
 }

@@ -17,17 +17,17 @@
 //!   1979): `U_i = ν (V_i · ∇Θ_T) exp(−max(0, Θ_top,i − Θ_T) / H_o)`, the terrain-following
 //!   vertical wind of layer i at its top boundary, fading with height above the ground over
 //!   `H_o`. Windward (V·∇Θ_T > 0): up; lee: down. ν is dimensionless here.
-//! - Transfers (4.6) move *amounts* (concentration × free volume), DESIGN.md §4: the moved
-//!   air volume per m² is `V_src (1 − exp(−|D| Δt / V_src))`, the printed exponential with
-//!   the source's free air column `V_src = σ h` in place of `ΔΘ_i`: ≈ `|D| Δt` (what
-//!   continuity moves) for small steps, never more than the source holds, and consistent
-//!   with the horizontal inflow of partly blocked cells. H, W and ash move with the air
-//!   (conserved exactly); temperature mixes as potential temperature into the destination
-//!   (rising air cools adiabatically).
+//! - Transfers (4.6) move *amounts* (concentration × free volume), docs/ARCHITECTURE.md §5.3:
+//!   the moved air volume per m² is `V_src (1 − exp(−|D| Δt / V_src))`, the printed exponential
+//!   with the source's free air column `V_src = σ h` in place of `ΔΘ_i`: ≈ `|D| Δt` (what
+//!   continuity moves) for small steps, never more than the source holds, and consistent with
+//!   the horizontal inflow of partly blocked cells. H, W and ash move with the air (conserved
+//!   exactly); temperature mixes as potential temperature into the destination (rising air
+//!   cools adiabatically).
 //! - Pressure coupling (4.7), `P_i ← P_i + μ D_i`, is not applied: P is re-solved from the
 //!   wind every step, so an increment would only change the multigrid's starting guess. Its
 //!   purpose (vertical motion acting on the horizontal flow) is served by the continuity
-//!   target of the projection (DESIGN.md §4), see [`divergence_target`].
+//!   target of the projection (docs/ARCHITECTURE.md §5.3), see [`divergence_target`].
 
 use rayon::prelude::*;
 
@@ -211,8 +211,8 @@ pub fn precipitate(
     total
 }
 
-/// Divergence targets of the projection (DESIGN.md §4 continuity): `−(D_i − D_{i−1}) / h_i`
-/// with `D_{−1} = 0` (ground) and the top layer's `D = 0` (lid).
+/// Divergence targets of the projection (docs/ARCHITECTURE.md §5.3, continuity):
+/// `−(D_i − D_{i−1}) / h_i` with `D_{−1} = 0` (ground) and the top layer's `D = 0` (lid).
 pub fn divergence_target(layers: &[LayerFields], i: usize, out: &mut [f64]) {
     let layer = &layers[i];
     let inv_h = 1.0 / layer.thickness;

@@ -1,4 +1,4 @@
-//! The multi-rate simulation clock (DESIGN.md §2).
+//! The multi-rate simulation clock (docs/ARCHITECTURE.md §3).
 //!
 //! Bevy's `Time<Fixed>` at 50 Hz is the *base tick*. Each simulation domain (plume, weather,
 //! lava, …) has its own [`ScheduleLabel`](bevy::ecs::schedule::ScheduleLabel), its own clock

@@ -1,14 +1,14 @@
 //! Layer 1, the flow: a mass-exact explicit finite-volume scheme for the lubrication
 //! (Jeffreys) equation of a viscous sheet over a heightfield,
-//! `∂h/∂t = ∇·(ρ g h³/(3η(T)) ∇s)`, `s = ground + h` (DESIGN.md §5; the thesis used a closed
-//! virtual-pipes simulator, §5.4, whose role this replaces).
+//! `∂h/∂t = ∇·(ρ g h³/(3η(T)) ∇s)`, `s = ground + h` (docs/ARCHITECTURE.md §6.1; the thesis
+//! used a closed virtual-pipes simulator, §5.4, whose role this replaces).
 //!
-//! Per substep: (1) a flux per face from the surface gradient, with the upwind (donor)
-//! thickness and the donor's viscosity; (2) a stable substep from the explicit diffusion and
-//! kinematic-wave limits; (3) each cell's outgoing volume scaled so it never exceeds what the
-//! cell holds; (4) every face volume is subtracted from its donor and added to its receiver
-//! as the same f64 number, so the total changes only by round-off, and heat (h·T) moves with
-//! it at the donor temperature.
+//! Per substep: (1) a flux per face from the surface gradient, with the face mobility the mean
+//! of the two cells' `ρ g h³/(3η(T))` (none out of a dry donor; see `face_flux`); (2) a stable
+//! substep from the explicit diffusion and kinematic-wave limits; (3) each cell's outgoing
+//! volume scaled so it never exceeds what the cell holds; (4) every face volume is subtracted
+//! from its donor and added to its receiver as the same f64 number, so the total changes only
+//! by round-off, and heat (h·T) moves with it at the donor temperature.
 //!
 //! The work runs in two passes over fixed row bands (see [`super::bands`]): mobilities and
 //! fluxes, then the global substep, then limiter and cell update. Each band computes what it

@@ -1,8 +1,8 @@
-//! Frozen lava written back into the large terrain (DESIGN.md §5: "below the solidus lava
-//! freezes into terrain height"). Inside a field the ground already includes the frozen layer;
-//! this carries it to the world's `Terrain` heights, so a field built later (or moved), the
-//! pyroclastic particles and gameplay height queries see the new ground: later lava flows over
-//! earlier lava.
+//! Frozen lava written back into the large terrain (docs/ARCHITECTURE.md §6.1: lava colder
+//! than the solidus freezes into the ground). Inside a field the ground already includes the
+//! frozen layer; this carries it to the world's `Terrain` heights, so a field built later (or
+//! moved), the pyroclastic particles and gameplay height queries see the new ground: later
+//! lava flows over earlier lava.
 
 use bevy::math::Vec2;
 use volcano_core::Grid2;

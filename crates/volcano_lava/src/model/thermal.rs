@@ -1,13 +1,13 @@
-//! Cooling and solidification of the flow (DESIGN.md §5): heat leaves through the top by
-//! radiation and convection (and optionally through the base); lava colder than the solidus
-//! freezes into the ground, so later lava flows over it.
+//! Cooling and solidification of the flow (docs/ARCHITECTURE.md §6.1–6.2): heat leaves through
+//! the top by radiation and convection (and optionally through the base); lava colder than the
+//! solidus freezes into the ground, so later lava flows over it.
 
 use super::field::FlowField;
 use super::params::{LavaParams, STEFAN_BOLTZMANN};
 
 /// Heat flux out of a lava surface at temperature `t` (W/m²): grey-body radiation
 /// `εσ(T⁴ − T_e⁴)` plus convection `h_c (T − T_e)` (thesis Table 5.2 σ and T_e; ε = 0.95 and
-/// h_c ≈ 60 W/m²/K from DESIGN.md §5).
+/// h_c ≈ 60 W/m²/K from docs/ARCHITECTURE.md §6.3).
 pub fn top_heat_loss(params: &LavaParams, t: f64) -> f64 {
     let te = params.air_temperature;
     params.emissivity * STEFAN_BOLTZMANN * (t.powi(4) - te.powi(4)) + params.convection * (t - te)

@@ -35,7 +35,7 @@ pub struct PlumeParams {
     /// Time step of the slice integration (s); Table 3.1: 0.002 s.
     pub dt: f64,
     /// Contraction on mixing (`V' = V T^{i+1}/T^i`, as in the text). Off reproduces the
-    /// authors' released prototype (DESIGN.md §3.1).
+    /// authors' released prototype (docs/ARCHITECTURE.md §4.1).
     pub contraction: bool,
     /// Ambient air profile.
     pub atmosphere: AtmosphereModel,
@@ -77,7 +77,7 @@ impl Default for PlumeParams {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect, Serialize, Deserialize)]
 pub enum Preset {
     /// The thesis as written: Table 3.1, v₀ = 150 m/s, contraction on, the printed ISA law.
-    /// With these values the column collapses at ≈1.9 km (DESIGN.md §3.1).
+    /// With these values the column collapses at ≈1.9 km (docs/ARCHITECTURE.md §4.1).
     Thesis,
     /// Table 3.1 at v₀ = 200 m/s with a light wind: a Plinian column with an umbrella (Fig 3.4).
     PlinianShowcase,

@@ -1,4 +1,4 @@
-//! Lava rendering (thesis chapter 5, DESIGN.md §5).
+//! Lava rendering (thesis chapter 5, docs/ARCHITECTURE.md §6).
 //!
 //! - **Surface**: one mesh per [`LavaState`] (a child of the field entity, vertices at the cell
 //!   centres on the lava surface, see [`surface_mesh`]), rebuilt at most every
