@@ -230,12 +230,13 @@ fn default_sea_water() -> f64 {
 }
 
 /// Built-in scenarios (the five), shipped as RON assets.
-pub const BUILTIN: [(&str, &str); 5] = [
+pub const BUILTIN: [(&str, &str); 6] = [
     ("convection", include_str!("../../scenarios/convection.ron")),
     ("island", include_str!("../../scenarios/island.ron")),
     ("sea-breeze", include_str!("../../scenarios/sea-breeze.ron")),
     ("orographic", include_str!("../../scenarios/orographic.ron")),
     ("mixed", include_str!("../../scenarios/mixed.ron")),
+    ("eruption", include_str!("../../scenarios/eruption.ron")),
 ];
 
 fn check_noise(n: &Option<NoiseSpec>) -> Result<(), ConfigError> {
