@@ -158,7 +158,9 @@ mod tests {
     #[test]
     fn levels_from_the_standard_give_back_the_standard() {
         // Levels inside one linear segment of the standard (the troposphere) and beyond it:
-        // inside, linear interpolation is exact; outside, the base shape is kept.
+        // inside, linear interpolation is exact up to the standard being linear in
+        // geopotential rather than geometric altitude (≈ 3 mK at 2 km); outside, the base
+        // shape is kept exactly.
         let a = LayeredAmbient::new(
             AtmosphereModel::UsStandard1976,
             standard_levels(&[1_000.0, 5_000.0, 9_000.0]),
@@ -166,7 +168,7 @@ mod tests {
         .unwrap();
         for z in [0.0, 2_000.0, 7_500.0, 15_000.0] {
             let (got, want) = (a.sample(z), UsStandard1976.sample(z));
-            assert!((got.temperature - want.temperature).abs() < 1e-6, "{z}: {got:?} vs {want:?}");
+            assert!((got.temperature - want.temperature).abs() < 1e-2, "{z}: {got:?} vs {want:?}");
             assert!((got.density - want.density).abs() / want.density < 1e-4, "{z}");
         }
     }
