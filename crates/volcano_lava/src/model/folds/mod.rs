@@ -10,6 +10,8 @@ mod bury;
 mod collide;
 mod create;
 mod hash;
+#[cfg(test)]
+mod rules_tests;
 mod sample;
 
 use bevy::math::DVec2;
