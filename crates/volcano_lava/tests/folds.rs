@@ -90,3 +90,56 @@ fn breakouts_tear_the_crust_where_lava_inflates_in_front_of_the_obstacle() {
     assert_eq!(without.breakouts, Some(0));
     assert!(with_drag.volume_error_rel < 1e-12 && without.volume_error_rel < 1e-12);
 }
+
+/// Folds feed back on the surface (thesis §5.1: folds thicken the crust where they lie): the
+/// cells under a fold's particles carry two layers of the crust their contact time grew
+/// (`2 · 2√(κt)`, at least rigid), so they are stiffer (full crust drag); the crust elsewhere
+/// is untouched.
+#[test]
+fn a_fold_thickens_and_stiffens_the_crust_under_it() {
+    use volcano_lava::model::breakout::{BreakoutState, crust_drag_factor};
+    use volcano_lava::model::folds::{Fold, FoldParticle};
+    use volcano_lava::model::surface::crust_from_contact;
+    use volcano_lava::{FlowField, SurfaceState};
+    let mut c = ScenarioConfig::new(ScenarioKind::Spread);
+    c.grid = 16;
+    let mut s = Scenario::build(&c).unwrap();
+    let mut f = FlowField::flat(16, 16, 0.5).unwrap();
+    f.place_volume(bevy::math::Vec2::new(3.75, 3.75), 100.0, 64.0, 1400.0).unwrap(); // 1 m
+    s.field = f;
+    s.surface = SurfaceState::new(16, 16);
+    s.breakouts = BreakoutState::new(256);
+    let kappa = s.params.kappa();
+    s.surface.crust.fill(0.02);
+    s.surface.contact.fill(100.0);
+    // One fold of 5 particles along x at y = 4.25 m (row 8), x = 2.75 … 4.75 m.
+    let ell = 0.45;
+    for n in 0..5u32 {
+        s.folds.particles.push(FoldParticle {
+            pos: bevy::math::DVec2::new(2.75 + 0.5 * n as f64, 4.25),
+            spring_vel: bevy::math::DVec2::ZERO,
+            vel: bevy::math::DVec2::ZERO,
+            tangent: bevy::math::DVec2::X,
+            thickness: ell,
+            age: 10.0,
+            offset: 0.0,
+            roll_height: 0.0,
+            roll_angle: 0.0,
+            fold: 0,
+            blocked_by: None,
+        });
+    }
+    s.folds.folds.push(Fold { chain: (0..5).collect(), follower: None, first: true });
+    s.step();
+    s.step();
+    let rigid = s.params.rigid_crust;
+    let under = 8 * 16 + 7; // (7, 8): x = 3.5–4 m, y = 4–4.5 m
+    let away = 3 * 16 + 7;
+    let (cu, ca) = (s.surface.crust[under], s.surface.crust[away]);
+    let layer = crust_from_contact(kappa, s.surface.contact[under]);
+    println!("crust under the fold {cu:.4} m (contact crust {layer:.4} m), away {ca:.4} m");
+    assert!(cu >= (2.0 * layer).max(rigid) - 1e-9, "under the fold: {cu} m");
+    assert!((ca - (0.02f64.powi(2) + 4.0 * kappa * 0.04).sqrt()).abs() < 1e-9, "away: {ca} m");
+    assert_eq!(crust_drag_factor(cu, rigid), 0.25, "rigid under the fold");
+    assert!(crust_drag_factor(ca, rigid) > 0.4);
+}
