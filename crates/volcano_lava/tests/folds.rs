@@ -112,11 +112,11 @@ fn a_fold_thickens_and_stiffens_the_crust_under_it() {
     let kappa = s.params.kappa();
     s.surface.crust.fill(0.02);
     s.surface.contact.fill(100.0);
-    // One fold of 5 particles along x at y = 4.25 m (row 8), x = 2.75 … 4.75 m.
+    // One fold of 5 particles along x at y = 4 m (row 8), x = 2.5 … 4.5 m (cells 5 … 9).
     let ell = 0.45;
     for n in 0..5u32 {
         s.folds.particles.push(FoldParticle {
-            pos: bevy::math::DVec2::new(2.75 + 0.5 * n as f64, 4.25),
+            pos: bevy::math::DVec2::new(2.5 + 0.5 * n as f64, 4.0),
             spring_vel: bevy::math::DVec2::ZERO,
             vel: bevy::math::DVec2::ZERO,
             tangent: bevy::math::DVec2::X,
@@ -133,7 +133,7 @@ fn a_fold_thickens_and_stiffens_the_crust_under_it() {
     s.step();
     s.step();
     let rigid = s.params.rigid_crust;
-    let under = 8 * 16 + 7; // (7, 8): x = 3.5–4 m, y = 4–4.5 m
+    let under = 8 * 16 + 7; // cell (7, 8), centred on (3.5, 4) m
     let away = 3 * 16 + 7;
     let (cu, ca) = (s.surface.crust[under], s.surface.crust[away]);
     let layer = crust_from_contact(kappa, s.surface.contact[under]);

@@ -13,9 +13,9 @@ use volcano_core::error::{in_range, positive};
 
 use crate::model::breakout::{BreakoutState, update_breakouts};
 use crate::model::field::{Edge, Edges, FlowField, Source};
-use crate::model::folds::{FoldParams, FoldSystem, update_folds};
+use crate::model::folds::{FoldParams, FoldSystem, thicken_crust_under_folds, update_folds};
 use crate::model::params::{GRAVITY, LavaParams, ViscosityModel};
-use crate::model::step;
+use crate::model::step_under_crust;
 use crate::model::surface::{SurfaceState, update_surface};
 
 /// Which scenario to run.
@@ -291,13 +291,21 @@ impl Scenario {
         })
     }
 
-    /// Advances one domain step (flow + surface).
+    /// Advances one domain step: flow and cooling under the crust, surface (crust), breakouts,
+    /// folds, and the folds' thickening of the crust under them.
     pub fn step(&mut self) {
         let dt = self.config.dt;
-        let r = step(&mut self.field, &self.params, &self.sources, dt);
+        let r = step_under_crust(&mut self.field, &self.params, &self.sources, &self.surface.crust, dt);
         update_surface(&mut self.surface, &self.field, &self.params, dt);
         update_breakouts(&mut self.breakouts, &mut self.field, &mut self.surface, &self.params);
         update_folds(&mut self.folds, &self.field, &self.surface, &self.params, &self.fold_params, dt);
+        thicken_crust_under_folds(
+            &self.folds,
+            &self.field,
+            &mut self.surface,
+            &self.params,
+            &self.fold_params,
+        );
         self.steps += 1;
         self.substeps += r.substeps as u64;
         self.max_substeps = self.max_substeps.max(r.substeps);

@@ -121,7 +121,12 @@ fn following_fold_is_one_wavelength_behind() {
     // The follower's seed is its first-created particle (lowest index).
     let seed = sys.particles[*follower.chain.iter().min().unwrap() as usize];
     let d: DVec2 = seed.pos - centre.pos;
-    println!("follower seed {:?} from centre {:?}: distance {:.4} m, ℓ = {ell:.4} m", seed.pos, centre.pos, d.length());
+    println!(
+        "follower seed {:?} from centre {:?}: distance {:.4} m, ℓ = {ell:.4} m",
+        seed.pos,
+        centre.pos,
+        d.length()
+    );
     // Particles moved 0.1 mm in the 1 ms since the leader formed.
     assert!((d.length() - ell).abs() < 1e-3, "spacing {} vs ℓ {ell}", d.length());
     assert!(d.y < -0.99 * ell, "behind = against the +y surface velocity: {d:?}");
