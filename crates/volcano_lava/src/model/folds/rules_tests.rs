@@ -15,6 +15,9 @@ use crate::model::surface::SurfaceState;
 
 const N: usize = 32;
 
+/// A threshold's name, its setter, and the value the set-up has.
+type Threshold = (&'static str, fn(&mut FoldParams, f64), f64);
+
 fn setup(h_low: f64, crust: f64) -> (FlowField, SurfaceState) {
     let mut f = FlowField::flat(N, N, 0.5).unwrap();
     for j in 0..N {
@@ -52,7 +55,7 @@ fn first_fold_needs_crust_lava_and_height_difference() {
     let (f, s) = setup(0.7, 0.02);
     let base = FoldParams::default();
     assert!(first_folds(&run(&f, &s, &base, 1)) > 0, "thesis thresholds: a fold at the step");
-    let cases: [(&str, fn(&mut FoldParams, f64), f64); 3] = [
+    let cases: [Threshold; 3] = [
         ("first_min_crust", |p, v| p.first_min_crust = v, 0.02),
         ("first_min_lava", |p, v| p.first_min_lava = v, 1.0),
         ("first_min_height_diff", |p, v| p.first_min_height_diff = v, 0.3),
@@ -83,7 +86,7 @@ fn following_fold_and_chain_thresholds() {
     let base = FoldParams::default();
     let followers = |p: &FoldParams| run(&f, &s, p, 2).folds.iter().filter(|f| !f.first).count();
     assert_eq!(followers(&base), 1, "a follower behind the first fold");
-    let cases: [(&str, fn(&mut FoldParams, f64), f64); 2] = [
+    let cases: [Threshold; 2] = [
         ("next_min_crust", |p, v| p.next_min_crust = v, 0.02),
         ("next_min_lava", |p, v| p.next_min_lava = v, 1.0),
     ];
