@@ -8,7 +8,7 @@ use volcano_core::prelude::*;
 use crate::components::*;
 use crate::model::breakout::{BreakoutState, update_breakouts};
 use crate::model::field::{FlowField, Source};
-use crate::model::folds::{FoldSystem, update_folds};
+use crate::model::folds::{FoldSystem, thicken_crust_under_folds, update_folds};
 use crate::model::imprint::TerrainImprint;
 use crate::model::surface::{SurfaceState, update_surface};
 
@@ -128,7 +128,8 @@ fn step_fields(
         }
         let srcs: Vec<Source> = feeds.iter().filter(|(f, _)| *f == entity).map(|(_, s)| s.clone()).collect();
         let state = &mut *state;
-        let report = crate::model::step(&mut state.flow, &field.params, &srcs, dt);
+        let report =
+            crate::model::step_under_crust(&mut state.flow, &field.params, &srcs, &state.surface.crust, dt);
         update_surface(&mut state.surface, &state.flow, &field.params, dt);
         for tear in update_breakouts(&mut state.breakouts, &mut state.flow, &mut state.surface, &field.params)
         {
@@ -139,6 +140,7 @@ fn step_fields(
             });
         }
         update_folds(&mut state.folds, &state.flow, &state.surface, &field.params, &field.folds, dt);
+        thicken_crust_under_folds(&state.folds, &state.flow, &mut state.surface, &field.params, &field.folds);
         state.last_substeps = report.substeps;
         state.mobility_capped = report.mobility_capped;
     }

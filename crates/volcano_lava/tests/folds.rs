@@ -69,10 +69,20 @@ fn folds_do_not_pile_up_as_the_pond_keeps_converging() {
     assert!(worst >= 0.5 - 1e-9, "closest pair at {worst} × contact distance");
 }
 
+/// Inflation and breakouts (thesis §5.1, Fig 5.2-right: lava keeps arriving under a crust
+/// that no longer moves, the sheet swells, and the crust tears where the pressure is highest).
+/// The obstacle scenario at a high-supply effusion rate, 3 m³/s (Kīlauea's long-term mean is
+/// a few m³/s): the sheet reaches the face between 40 and 60 s, more lava arrives than can
+/// flow around the obstacle, the converging surface thickens the crust past rigid (eq 5.3)
+/// and the pond inflates under it. At the default 1 m³/s the lava, cooling through its crust
+/// and near the liquidus (~53 Pa·s), drains sideways along the face about as fast as it
+/// arrives (inflation under rigid crust 8 cm at 480 s: no breakout). Every tear must sit in
+/// front of the obstacle, where the lava ponds and inflates; without crust drag there are none.
 #[test]
 fn breakouts_tear_the_crust_where_lava_inflates_in_front_of_the_obstacle() {
     let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);
-    c.seconds = 240.0;
+    c.rate = 3.0;
+    c.seconds = 130.0;
     let mut s = Scenario::build(&c).unwrap();
     s.fold_params.enabled = false;
     s.run_until(c.seconds);
@@ -87,6 +97,79 @@ fn breakouts_tear_the_crust_where_lava_inflates_in_front_of_the_obstacle() {
         with_drag.breakouts, with_drag.front_distance_m, without.breakouts, without.front_distance_m
     );
     assert!(with_drag.breakouts.unwrap() > 0);
+    assert_eq!(with_drag.breakouts, Some(s.breakout_log.len() as u64));
     assert_eq!(without.breakouts, Some(0));
     assert!(with_drag.volume_error_rel < 1e-12 && without.volume_error_rel < 1e-12);
+    // The obstacle spans x = 15–85 % of the width and starts at y = 60 % of the length.
+    let o = s.field.ground().origin();
+    let (o, len) = ((o.x as f64, o.y as f64), 127.0 * 0.5);
+    let face = o.1 + 0.6 * len;
+    let (x0, x1) = (o.0 + 0.15 * len, o.0 + 0.85 * len);
+    let mut worst_gap = 0.0f64;
+    for b in &s.breakout_log {
+        let (x, y) = (b.position.x as f64, b.position.y as f64);
+        println!(
+            "tear at x {:5.1} m, {:4.1} m before the face, inflation {:.3} m",
+            x - o.0,
+            face - y,
+            b.inflation
+        );
+        assert!(b.inflation > s.params.breakout_inflation);
+        assert!(y < face && x > x0 && x < x1, "tear at ({x}, {y}) not in front of the obstacle");
+        worst_gap = worst_gap.max(face - y);
+    }
+    assert!(worst_gap < 8.0, "a tear {worst_gap:.1} m upstream of the face");
+}
+
+/// Folds feed back on the surface (thesis §5.1: folds thicken the crust where they lie): the
+/// cells under a fold's particles carry two layers of the crust their contact time grew
+/// (`2 · 2√(κt)`, at least rigid), so they are stiffer (full crust drag); the crust elsewhere
+/// is untouched.
+#[test]
+fn a_fold_thickens_and_stiffens_the_crust_under_it() {
+    use volcano_lava::model::breakout::{BreakoutState, crust_drag_factor};
+    use volcano_lava::model::folds::{Fold, FoldParticle};
+    use volcano_lava::model::surface::crust_from_contact;
+    use volcano_lava::{FlowField, SurfaceState};
+    let mut c = ScenarioConfig::new(ScenarioKind::Spread);
+    c.grid = 16;
+    let mut s = Scenario::build(&c).unwrap();
+    let mut f = FlowField::flat(16, 16, 0.5).unwrap();
+    f.place_volume(bevy::math::Vec2::new(3.75, 3.75), 100.0, 64.0, 1400.0).unwrap(); // 1 m
+    s.field = f;
+    s.surface = SurfaceState::new(16, 16);
+    s.breakouts = BreakoutState::new(256);
+    let kappa = s.params.kappa();
+    s.surface.crust.fill(0.02);
+    s.surface.contact.fill(100.0);
+    // One fold of 5 particles along x at y = 4 m (row 8), x = 2.5 … 4.5 m (cells 5 … 9).
+    let ell = 0.45;
+    for n in 0..5u32 {
+        s.folds.particles.push(FoldParticle {
+            pos: bevy::math::DVec2::new(2.5 + 0.5 * n as f64, 4.0),
+            spring_vel: bevy::math::DVec2::ZERO,
+            vel: bevy::math::DVec2::ZERO,
+            tangent: bevy::math::DVec2::X,
+            thickness: ell,
+            age: 10.0,
+            offset: 0.0,
+            roll_height: 0.0,
+            roll_angle: 0.0,
+            fold: 0,
+            blocked_by: None,
+        });
+    }
+    s.folds.folds.push(Fold { chain: (0..5).collect(), follower: None, first: true });
+    s.step();
+    s.step();
+    let rigid = s.params.rigid_crust;
+    let under = 8 * 16 + 7; // cell (7, 8), centred on (3.5, 4) m
+    let away = 3 * 16 + 7;
+    let (cu, ca) = (s.surface.crust[under], s.surface.crust[away]);
+    let layer = crust_from_contact(kappa, s.surface.contact[under]);
+    println!("crust under the fold {cu:.4} m (contact crust {layer:.4} m), away {ca:.4} m");
+    assert!(cu >= (2.0 * layer).max(rigid) - 1e-9, "under the fold: {cu} m");
+    assert!((ca - (0.02f64.powi(2) + 4.0 * kappa * 0.04).sqrt()).abs() < 1e-9, "away: {ca} m");
+    assert_eq!(crust_drag_factor(cu, rigid), 0.25, "rigid under the fold");
+    assert!(crust_drag_factor(ca, rigid) > 0.4);
 }

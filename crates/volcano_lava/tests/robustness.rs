@@ -33,18 +33,27 @@ proptest! {
         let viscosity = if vft { ViscosityModel::FLOWGO_BASALT } else { ViscosityModel::Constant(eta) };
         let p = LavaParams { viscosity, yield_strength, cooling, max_substeps: 64, ..Default::default() };
         p.validate().unwrap();
+        let mut fed = 0.0;
         for &(x, y, v, t) in &spots {
             f.place_volume(Vec2::new(x, y), 1.0, v, t).unwrap();
+            fed += v;
         }
         let src = f.point_source(Vec2::new(5.0, 5.0), 0.0, 0.5, 1473.0).unwrap();
         for _ in 0..40 {
             step(&mut f, &p, std::slice::from_ref(&src), dt);
+            fed += 0.5 * dt;
             prop_assert!(f.thickness().data().iter().all(|&h| h >= 0.0 && h.is_finite()));
             prop_assert!(f.temperature().data().iter().all(|t| t.is_finite() && *t >= 299.0));
         }
         prop_assert!(f.is_valid());
-        let err = f.budget().error_rel(f.lava_volume());
+        let b = f.budget();
+        let err = b.error_rel(f.lava_volume());
         prop_assert!(err < 1e-12, "budget error {}", err);
+        // The clamps must not hide a real loss: what they added stays at round-off, and the
+        // volume on the grid + frozen + drained equals what the test fed, counted here.
+        prop_assert!(b.rounding.abs() < 1e-12 * fed, "clamped negatives {} m³ of {} fed", b.rounding, fed);
+        let held = f.lava_volume() + b.solidified + b.outflow;
+        prop_assert!((held - fed).abs() < 1e-12 * fed, "held {} m³ vs fed {} m³", held, fed);
     }
 }
 

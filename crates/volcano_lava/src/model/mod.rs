@@ -31,10 +31,24 @@ pub struct StepReport {
     pub outflow: f64,
 }
 
-/// Advances `field` by `dt` seconds: sources emit, the flow moves lava (mass-exact, CFL
-/// substeps), the lava cools and freezes. A non-positive or non-finite `dt` does nothing.
-/// Parameters must have passed [`LavaParams::validate`]; sources are validated at creation.
+/// Advances `field` by `dt` seconds with no crust (bare lava radiates at its temperature):
+/// [`step_under_crust`] with an empty crust.
 pub fn step(field: &mut FlowField, params: &LavaParams, sources: &[Source], dt: f64) -> StepReport {
+    step_under_crust(field, params, sources, &[], dt)
+}
+
+/// Advances `field` by `dt` seconds: sources emit, the flow moves lava (mass-exact, CFL
+/// substeps), the lava cools through `crust` (per cell, m: the crust model's
+/// [`surface::SurfaceState::crust`]; empty = none) and freezes. A non-positive or
+/// non-finite `dt` does nothing. Parameters must have passed [`LavaParams::validate`];
+/// sources are validated at creation.
+pub fn step_under_crust(
+    field: &mut FlowField,
+    params: &LavaParams,
+    sources: &[Source],
+    crust: &[f64],
+    dt: f64,
+) -> StepReport {
     let mut report = StepReport::default();
     if !(dt.is_finite() && dt > 0.0) {
         return report;
@@ -51,6 +65,6 @@ pub fn step(field: &mut FlowField, params: &LavaParams, sources: &[Source], dt: 
     report.substeps = flow.substeps;
     report.mobility_capped = flow.mobility_capped;
     report.outflow = flow.outflow;
-    report.frozen = thermal::cool_and_freeze(field, params, dt).frozen;
+    report.frozen = thermal::cool_and_freeze(field, params, crust, dt).frozen;
     report
 }

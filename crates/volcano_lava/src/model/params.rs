@@ -80,6 +80,9 @@ pub struct LavaParams {
     pub emissivity: f64,
     /// Convective heat-transfer coefficient at the top (W/m²/K).
     pub convection: f64,
+    /// Latent heat of crystallisation (J/kg), released between liquidus and solidus
+    /// (basalt: 3.5–4.2·10⁵); 0 = none, as in the thesis.
+    pub latent_heat: f64,
     /// Heat-transfer coefficient through the base into the ground (W/m²/K); 0 = insulated.
     pub base_heat_transfer: f64,
     /// Whether the lava cools at all (false = isothermal run).
@@ -131,6 +134,7 @@ impl Default for LavaParams {
             solidus: 1273.0,
             emissivity: 0.95,
             convection: 60.0,
+            latent_heat: 4.0e5,
             base_heat_transfer: 0.0,
             cooling: true,
             viscosity: ViscosityModel::FLOWGO_BASALT,
@@ -178,6 +182,7 @@ impl LavaParams {
         in_range("solidus", self.solidus, self.air_temperature, self.liquidus)?;
         in_range("emissivity", self.emissivity, 0.0, 1.0)?;
         in_range("convection", self.convection, 0.0, 1e4)?;
+        in_range("latent_heat", self.latent_heat, 0.0, 1e7)?;
         in_range("base_heat_transfer", self.base_heat_transfer, 0.0, 1e4)?;
         self.viscosity.validate()?;
         in_range("yield_strength", self.yield_strength, 0.0, 1e6)?;

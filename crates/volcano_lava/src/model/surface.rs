@@ -19,6 +19,10 @@ pub const MOVING_SPEED: f64 = 1e-3;
 pub const SURFACE_TO_MEAN: f64 = 1.5;
 
 /// Crust thickness after `t` seconds of contact with the air, `2√(κt)` (thesis eq 5.1).
+///
+/// Its rate of change is `(1/h_crust) ∂h_crust/∂t = 1/(2t)`. Eq 5.2 as printed
+/// (`(1/h) ∂h_crust/∂t = 1/t`) is inconsistent with 5.1; see docs/ARCHITECTURE.md §6. The code
+/// follows eq 5.1 (integrated exactly in [`update_surface`] as `h ← √(h² + 4κ dt)`).
 pub fn crust_from_contact(kappa: f64, t: f64) -> f64 {
     2.0 * (kappa * t.max(0.0)).sqrt()
 }

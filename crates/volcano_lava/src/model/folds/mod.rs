@@ -9,7 +9,10 @@
 mod bury;
 mod collide;
 mod create;
+mod feedback;
 mod hash;
+#[cfg(test)]
+mod rules_tests;
 mod sample;
 
 use bevy::math::DVec2;
@@ -24,6 +27,7 @@ use super::params::LavaParams;
 use super::surface::SurfaceState;
 
 pub use bury::consistent;
+pub use feedback::{fold_crust, thicken_crust_under_folds};
 pub use hash::SpatialHash;
 
 /// Parameters of the fold layer (thesis §5.4.3, §5.5 and Table 5.2).
