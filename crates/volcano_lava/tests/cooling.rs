@@ -135,8 +135,8 @@ fn still_sheet_cools_through_its_crust_like_hon_1994() {
     }
 }
 
-/// A still 10 cm sheet keeps a molten core for tens of minutes (DESIGN.md §5: "radiating at
-/// the core temperature freezes a 10 cm lobe in a few minutes — wrong") and is solid by
+/// A still 10 cm sheet keeps a molten core for tens of minutes (docs/ARCHITECTURE.md §6.2:
+/// radiating at the core temperature would freeze a 10 cm lobe within minutes) and is solid by
 /// ~1.5 h, when its crust has reached its whole thickness.
 #[test]
 fn ten_cm_sheet_stays_molten_for_tens_of_minutes() {
