@@ -3,6 +3,7 @@
 //! validation experiment.
 
 mod domains;
+mod eruption;
 mod export;
 mod plots;
 mod plume;
@@ -100,6 +101,24 @@ enum Command {
     /// Layered atmosphere scenario (thesis §4.2): writes DIR/summary.json and a PNG map of
     /// every field of every layer.
     Atmosphere(domains::AtmosphereArgs),
+    /// The coupled volcano (thesis §4.3): a Plinian column from the `eruption` scene's volcano
+    /// under a layered atmosphere; writes DIR/summary.json (apex, ash books and bearings, cloud
+    /// cover near and far, vent-layer warming) and PNG maps of ash, temperature and condensed
+    /// water at the layer the plume reaches.
+    Eruption {
+        /// Which atmosphere.
+        #[arg(long, value_enum)]
+        scenario: eruption::EruptionScenario,
+        /// Simulated seconds.
+        #[arg(long, default_value_t = 600.0, allow_negative_numbers = true)]
+        seconds: f64,
+        /// Atmosphere cells per side (power of two) over the 25.6 km domain.
+        #[arg(long, default_value_t = 64)]
+        grid: usize,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Run a collapsing eruption on the `pyroclastic_flow` scene's terrain (thesis §3.6):
     /// writes DIR/summary.json (particles, runout, secondary columns, mass budget) and
     /// DIR/deposit.png (top view: terrain, deposit, particle tracks).
@@ -137,6 +156,7 @@ fn main() -> ExitCode {
         Command::Lava(args) => domains::lava(&args),
         Command::Atmosphere(args) => domains::atmosphere(&args),
         Command::Pyroclastic { params, seconds, out } => pyroclastic::run(&params.params(), seconds, &out),
+        Command::Eruption { scenario, seconds, grid, out } => eruption::run(scenario, seconds, grid, &out),
         Command::Render { scene, ticks, out, width, height, min_stddev, plume_view, lava_view } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
             render(&scene, ticks, out, (width, height), min_stddev, (plume_view.into(), lava))
