@@ -34,9 +34,11 @@ impl EruptionScenario {
         let (rh, winds, settling) = match self {
             Self::CloudCap => ([0.95, 0.9, 0.8, 0.6, 0.4], [(2.0, 0.0); 5], 0.5),
             Self::AshRain => ([0.6, 0.5, 0.4, 0.3, 0.2], [(12.0, 0.0); 5], 10.0),
-            Self::Sheared => {
-                ([0.7, 0.5, 0.3, 0.2, 0.2], [(10.0, 0.0), (10.0, 0.0), (0.0, -15.0), (0.0, -15.0), (0.0, -15.0)], 10.0)
-            }
+            Self::Sheared => (
+                [0.7, 0.5, 0.3, 0.2, 0.2],
+                [(10.0, 0.0), (10.0, 0.0), (0.0, -15.0), (0.0, -15.0), (0.0, -15.0)],
+                10.0,
+            ),
         };
         let alts = [700.0, 2000.0, 4500.0, 8000.0, 12000.0];
         let layers: Vec<String> = (0..5)
@@ -214,7 +216,8 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
             }
         }
     }
-    let (dc, db) = if dm > 0.0 { ((de * de + dn * dn).sqrt() / dm, bearing(de, dn)) } else { (0.0, f64::NAN) };
+    let (dc, db) =
+        if dm > 0.0 { ((de * de + dn * dn).sqrt() / dm, bearing(de, dn)) } else { (0.0, f64::NAN) };
     // Layers: the one holding the apex, and the vent's.
     let (dx, threshold) = atmo
         .and_then(|a| world.get::<Atmosphere>(a))
@@ -222,9 +225,13 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
     let mut layers: Vec<&AirLayer> = world.query::<&AirLayer>().iter(world).collect();
     layers.sort_by_key(|l| l.index);
     let layer_of = |z: f64| {
-        layers.iter().position(|l| z < l.fields.bottom + l.fields.thickness).unwrap_or(layers.len().saturating_sub(1))
+        layers
+            .iter()
+            .position(|l| z < l.fields.bottom + l.fields.thickness)
+            .unwrap_or(layers.len().saturating_sub(1))
     };
-    let top = layer_of(vent.y as f64 + apex.max(slices.iter().map(|s| s.1 - vent.y as f64).fold(0.0, f64::max)));
+    let top =
+        layer_of(vent.y as f64 + apex.max(slices.iter().map(|s| s.1 - vent.y as f64).fold(0.0, f64::max)));
     let (mut near_cover, mut far_cover, mut rise) = (0.0, 0.0, 0.0);
     if let Some(l) = layers.get(top) {
         let f = &l.fields;
@@ -304,7 +311,11 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
         ash_deposited_kg: ledger.deposited,
         ash_outflow_kg: ledger.outflow,
         ash_to_flows_kg: ledger.to_flows,
-        ash_budget_rel_error: if ledger.emitted > 0.0 { (ledger.emitted - accounted).abs() / ledger.emitted } else { 0.0 },
+        ash_budget_rel_error: if ledger.emitted > 0.0 {
+            (ledger.emitted - accounted).abs() / ledger.emitted
+        } else {
+            0.0
+        },
         deposit_centroid_downwind_m: dc,
         deposit_centroid_bearing_deg: db,
         umbrella_centroid_bearing_deg: umbrella_bearing,

@@ -167,6 +167,7 @@ fn plume_to_air(
     mut atmospheres: Query<(Entity, &Atmosphere, &mut AtmosphereGround, &mut CouplingBudget)>,
     mut layer_query: Query<&mut AirLayer>,
     volcanoes: Query<(Entity, &VentPosition, Option<&CouplingSettings>), With<Eruption>>,
+    mut plume_books: Query<&mut PlumeAshBudget>,
     mut slices: Query<(Entity, &mut PlumeSlice)>,
     mut spheres: Query<(&mut Umbrella, &Transform)>,
 ) {
@@ -216,15 +217,12 @@ fn plume_to_air(
             }
         }
         parcels.sort_by_key(|p| p.0);
-        let mut keep = Vec::new();
-        for m in inbox.0.drain(..) {
-            if wants_ash(m.volcano) {
-                parcels.push(((m.volcano.to_bits(), u64::MAX), m.position, m.mass));
-            } else {
-                keep.push(m);
-            }
+        let (mine, others): (Vec<AshReleased>, Vec<AshReleased>) =
+            inbox.0.drain(..).partition(|m| wants_ash(m.volcano));
+        inbox.0 = others;
+        for m in mine {
+            parcels.push(((m.volcano.to_bits(), u64::MAX), m.position, m.mass));
         }
-        inbox.0 = keep;
         for (_, at, kg) in parcels {
             budget.ash_received_kg += kg;
             let to = inject_ash(
@@ -240,8 +238,13 @@ fn plume_to_air(
         }
         g.restore();
     }
-    // Released ash of volcanoes under no atmosphere is not kept.
-    inbox.0.retain(|m| atmosphere_over(&grids, m.position.x, m.position.z).is_some());
+    // Released ash no atmosphere took (its volcano is under none, or does not hand over ash):
+    // booked as lost by its volcano instead of piling up here.
+    for m in inbox.0.drain(..) {
+        if let Ok(mut books) = plume_books.get_mut(m.volcano) {
+            books.lost_kg += m.mass;
+        }
+    }
 }
 
 /// Air → plume and the ash books, just after a weather step (or on the first tick a coupled

@@ -106,7 +106,7 @@ pub struct PlumeAshBudget {
     /// Solid mass of slices that collapsed into pyroclastic flows (booked there from then on).
     pub to_flows_kg: f64,
     /// Solid mass of slices or spheres removed without a place to put it (non-finite state,
-    /// a sphere whose slice had no ring, a sphere whose eruption is gone).
+    /// a slice with no ring spheres, an expired sphere's ash that no atmosphere took).
     pub lost_kg: f64,
     /// Ash released as [`AshReleased`] messages by expiring umbrella spheres.
     pub released_kg: f64,

@@ -112,7 +112,7 @@ impl DepositMap {
     /// if needed; `bulk_density` kg/m³ is used if the map has none yet). Returns false, adding
     /// nothing, where `p` is off the terrain. Used for ash fall from the coupled atmosphere.
     pub fn add_on(&mut self, terrain: &Terrain, p: Vec2, mass: f64, bulk_density: f64) -> bool {
-        if !(mass > 0.0) || !terrain.contains(p.x, p.y) {
+        if mass.is_nan() || mass <= 0.0 || !terrain.contains(p.x, p.y) {
             return false;
         }
         self.ensure(terrain);

@@ -50,7 +50,7 @@ pub fn inject_ash(
     (x, altitude, z): (f64, f64, f64),
     grams: f64,
 ) -> Delivered {
-    if !(grams > 0.0) || layers.is_empty() {
+    if grams.is_nan() || grams <= 0.0 || layers.is_empty() {
         return Delivered::Outside;
     }
     let Some(cell) = cell_at(grid, x, z) else { return Delivered::Outside };
