@@ -111,9 +111,8 @@ fn projected_wind_does_not_blow_into_a_block_of_terrain() {
             (0..n * n).map(|k| -(l.d.data()[k] as f64 - d_below(k)) / l.thickness).collect();
         let east = |k: usize| (k / n) * n + (k % n + 1) % n;
         let north = |k: usize| ((k / n + 1) % n) * n + k % n;
-        let open: Vec<usize> = (0..n * n)
-            .filter(|&k| ax[k] + ax[east(k)] + ay[k] + ay[north(k)] > 0.0)
-            .collect();
+        let open: Vec<usize> =
+            (0..n * n).filter(|&k| ax[k] + ax[east(k)] + ay[k] + ay[north(k)] > 0.0).collect();
         let mean = open.iter().map(|&k| target[k]).sum::<f64>() / open.len() as f64;
         let mut worst = 0.0f64;
         for &k in &open {
@@ -145,7 +144,15 @@ fn a_plume_hot_spot_drives_an_updraft_of_tens_of_m_s() {
     }
     let dx = st.grid.dx;
     let ash = |st: &AtmosphereState| {
-        st.layers.iter().map(|l| l.ash.data().iter().zip(l.sigma.data()).map(|(a, &s)| a * s as f64).sum::<f64>() * l.thickness * dx * dx).sum::<f64>()
+        st.layers
+            .iter()
+            .map(|l| {
+                l.ash.data().iter().zip(l.sigma.data()).map(|(a, &s)| a * s as f64).sum::<f64>()
+                    * l.thickness
+                    * dx
+                    * dx
+            })
+            .sum::<f64>()
     };
     let (water0, ash0) = (st.water_total(), ash(&st));
     let mut work = Workspace::new(&st).unwrap();

@@ -1,7 +1,11 @@
-//! Terrain–atmosphere interaction (thesis §4.2.5): orographic damping (4.8), terrain
-//! self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴ per the erratum), heat
-//! (4.11) and water (4.12) exchange with the lowest free layer, all with a ground heat
-//! capacity per m² (DESIGN.md §4 erratum: C_p × density × active depth).
+//! Terrain–atmosphere interaction (thesis §4.2.5): the free fraction σ of each layer (4.8),
+//! terrain self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴
+//! per the erratum), heat (4.11) and water (4.12) exchange with the lowest layer with air, all
+//! with a ground heat capacity per m² (DESIGN.md §4 erratum: C_p × density × active depth).
+//!
+//! σ has one definition, used for the amounts (free volume), the face apertures of transport
+//! and projection, the damping and ℓ(p): the free fraction of the layer's slab
+//! `[bottom, bottom + thickness]` above the ground.
 
 use rayon::prelude::*;
 use volcano_core::{LandCover, Terrain};
@@ -13,35 +17,33 @@ use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
 
 /// Stefan–Boltzmann constant (W/(m²·K⁴)).
 pub const STEFAN_BOLTZMANN: f64 = 5.670_374e-8;
-/// A layer takes part in ground exchange when at least this fraction of its slab is air.
-pub const MIN_FREE_FRACTION: f32 = 0.1;
-
-/// Orographic damping σ_i(p), thesis eq. (4.8) as printed:
-/// `σ_i = 1 − min(1, max(0, (Θ_T − Θ_i) / ΔΘ_i))`, with `ΔΘ_i` the layer's thickness: a layer
-/// is untouched while the terrain stays below its altitude and closed once the terrain rises a
-/// thickness above it. σ also scales the layer's air volume for the water budget and the face
-/// apertures for transport.
-pub fn orographic_damping(terrain: f64, altitude: f64, thickness: f64) -> f32 {
-    (1.0 - ((terrain - altitude) / thickness).clamp(0.0, 1.0)) as f32
+/// Free fraction σ_i(p) of layer i's slab `[bottom, bottom + thickness]` above terrain of
+/// height `terrain`: `σ_i = clamp((bottom + thickness − Θ_T) / thickness, 0, 1)`. This is
+/// thesis eq. (4.8), `σ_i = 1 − min(1, max(0, (Θ_T − Θ_i) / ΔΘ_i))`, with Θ_i read as the
+/// layer's lower boundary: the printed form with Θ_i the layer's (centre) altitude makes σ the
+/// free fraction of a slab that does not exist (a layer over ground at 1,100 m with its slab
+/// at 0–800 m and centre at 400 m kept σ = 0.125) and disagrees with the volume σ scales
+/// (docs/ARCHITECTURE.md §5). σ is the layer's damping (4.8), its free volume for the
+/// amounts, the source of the face apertures, and picks ℓ(p).
+pub fn free_fraction(terrain: f64, bottom: f64, thickness: f64) -> f32 {
+    ((bottom + thickness - terrain) / thickness).clamp(0.0, 1.0) as f32
 }
 
-/// Fills every layer's σ from the terrain and the ground's `lowest` index ℓ(p) (the lowest
-/// layer with at least [`MIN_FREE_FRACTION`] of air). Water and heat in cells that become
-/// solid (σ = 0) are cleared by the caller's initialisation, not here.
+/// Fills every layer's σ ([`free_fraction`]) from the terrain, and the ground's `lowest`
+/// index ℓ(p): the lowest layer with air (σ > 0), i.e. the layer whose slab contains the
+/// ground (the thesis' `argmin_{Θ_i > Θ_T} i` with Θ_i the layer's top). Water and heat in
+/// cells that become solid (σ = 0) are cleared by the caller's initialisation, not here.
 pub fn update_masks(state: &mut AtmosphereState) {
     let heights = state.ground.height.data();
     for layer in state.layers.iter_mut() {
-        let (b, h) = (layer.altitude, layer.thickness);
+        let (b, h) = (layer.bottom, layer.thickness);
         for (s, &t) in layer.sigma.data_mut().iter_mut().zip(heights) {
-            *s = orographic_damping(t as f64, b, h);
+            *s = free_fraction(t as f64, b, h);
         }
     }
     let layers = &state.layers;
     for (k, l) in state.ground.lowest.iter_mut().enumerate() {
-        *l = layers
-            .iter()
-            .position(|layer| layer.sigma.data()[k] >= MIN_FREE_FRACTION)
-            .map_or(u8::MAX, |i| i as u8);
+        *l = layers.iter().position(|layer| layer.sigma.data()[k] > 0.0).map_or(u8::MAX, |i| i as u8);
     }
 }
 
@@ -254,11 +256,14 @@ mod tests {
     use crate::model::sun::sun_position;
 
     #[test]
-    fn damping_follows_eq_4_8() {
-        assert_eq!(orographic_damping(0.0, 100.0, 200.0), 1.0);
-        assert_eq!(orographic_damping(100.0, 100.0, 200.0), 1.0);
-        assert_eq!(orographic_damping(200.0, 100.0, 200.0), 0.5);
-        assert_eq!(orographic_damping(300.0, 100.0, 200.0), 0.0);
+    fn free_fraction_is_the_slab_share_above_the_ground() {
+        // Slab 100–300 m.
+        assert_eq!(free_fraction(0.0, 100.0, 200.0), 1.0);
+        assert_eq!(free_fraction(100.0, 100.0, 200.0), 1.0);
+        assert_eq!(free_fraction(150.0, 100.0, 200.0), 0.75);
+        assert_eq!(free_fraction(200.0, 100.0, 200.0), 0.5);
+        assert_eq!(free_fraction(300.0, 100.0, 200.0), 0.0);
+        assert_eq!(free_fraction(900.0, 100.0, 200.0), 0.0);
     }
 
     #[test]
