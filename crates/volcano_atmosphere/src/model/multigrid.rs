@@ -1,17 +1,69 @@
 //! Geometric multigrid for the pressure Poisson equation (thesis eq. 4.1, `∇²P = ∇·V`) on a
-//! toroidal, cell-centred `n × n` grid (n a power of two).
+//! toroidal, cell-centred `n × n` grid (n a power of two), optionally with face weights:
+//! `∇·(a ∇P) = rhs` with `a ∈ [0, 1]` the open fraction (aperture) of each cell face, so the
+//! terrain closes faces (`a = 0`) and narrows partly cut ones (issue 17 item 6).
 //!
 //! V-cycle: red-black Gauss–Seidel smoothing (2 pre, 2 post), residual restricted by averaging
 //! the four children, bilinear cell-centred prolongation (weights 9/16, 3/16, 3/16, 1/16), the
-//! coarse operator rediscretised at twice the spacing, and a 4 × 4 coarsest grid smoothed to
-//! convergence. On a torus the Laplacian has the constants as null space: right-hand sides
-//! must have zero mean and solutions are returned with zero mean.
+//! coarse operator rediscretised at twice the spacing — with face weights, each coarse face
+//! weight is the mean of the two fine faces it covers — and a 4 × 4 coarsest grid smoothed to
+//! convergence. A cell whose faces are all closed has no equation (its φ is left alone). On a
+//! torus the operator has the constants (per connected open region) as null space:
+//! right-hand sides must sum to zero over each region, and solutions are returned with zero
+//! mean.
 //!
 //! Hand-written: no maintained Rust crate offers a periodic geometric multigrid for a 2D
 //! Poisson problem (the sparse-solver crates are algebraic/Krylov and far slower here).
 
 use rayon::prelude::*;
 use volcano_core::ConfigError;
+
+/// Face weights of one level: `ax` on the west face of each cell, `ay` on its south face.
+#[derive(Debug, Clone, PartialEq)]
+struct Faces {
+    ax: Vec<f64>,
+    ay: Vec<f64>,
+    /// 1 for a cell with at least one open face, else 0.
+    live: Vec<f64>,
+}
+
+impl Faces {
+    /// Faces of an `n × n` level and which cells they leave open.
+    fn new(ax: Vec<f64>, ay: Vec<f64>, n: usize) -> Faces {
+        let mask = n - 1;
+        let live = (0..n * n)
+            .map(|k| {
+                let (i, j) = (k % n, k / n);
+                let open = ax[k] + ay[k] + ax[j * n + ((i + 1) & mask)] + ay[((j + 1) & mask) * n + i];
+                if open > 0.0 { 1.0 } else { 0.0 }
+            })
+            .collect();
+        Faces { ax, ay, live }
+    }
+
+    /// The faces of the `n/2` level: each coarse face is the mean of the two fine faces that
+    /// make it up.
+    fn coarsen(&self, n: usize) -> Faces {
+        let m = n / 2;
+        let mut ax = vec![0.0; m * m];
+        let mut ay = vec![0.0; m * m];
+        for jc in 0..m {
+            for ic in 0..m {
+                let (i, j) = (2 * ic, 2 * jc);
+                ax[jc * m + ic] = 0.5 * (self.ax[j * n + i] + self.ax[(j + 1) * n + i]);
+                ay[jc * m + ic] = 0.5 * (self.ay[j * n + i] + self.ay[j * n + i + 1]);
+            }
+        }
+        Faces::new(ax, ay, m)
+    }
+
+    /// Weights (west, east, south, north) of cell `(i, j)`; `right`/`up` are the east and
+    /// north neighbours' indices.
+    #[inline]
+    fn around(&self, k: usize, right: usize, up: usize) -> (f64, f64, f64, f64) {
+        (self.ax[k], self.ax[right], self.ay[k], self.ay[up])
+    }
+}
 
 /// One coarse level's storage.
 #[derive(Debug, Clone)]
@@ -20,6 +72,7 @@ struct Level {
     h2: f64,
     phi: Vec<f64>,
     rhs: Vec<f64>,
+    faces: Option<Faces>,
 }
 
 /// Reusable multigrid workspace for one grid size.
@@ -31,6 +84,8 @@ pub struct Poisson {
     res: Vec<f64>,
     /// Coarse levels, finest first (level 1 is n/2).
     coarse: Vec<Level>,
+    /// Face weights of the finest level (`None`: all faces open, the plain Laplacian).
+    faces: Option<Faces>,
 }
 
 /// Outcome of [`Poisson::solve`].
@@ -69,11 +124,64 @@ impl Poisson {
         let mut m = n / 2;
         let mut h = 2.0 * dx;
         while m >= 4 {
-            coarse.push(Level { n: m, h2: h * h, phi: vec![0.0; m * m], rhs: vec![0.0; m * m] });
+            coarse.push(Level { n: m, h2: h * h, phi: vec![0.0; m * m], rhs: vec![0.0; m * m], faces: None });
             m /= 2;
             h *= 2.0;
         }
-        Ok(Self { n, h2: dx * dx, res: vec![0.0; n * n], coarse })
+        Ok(Self { n, h2: dx * dx, res: vec![0.0; n * n], coarse, faces: None })
+    }
+
+    /// Sets the face weights (apertures in [0, 1]: `ax` on west faces, `ay` on south faces)
+    /// of the operator `∇·(a∇φ)` and derives the coarse levels' weights. All-ones weights
+    /// select the plain Laplacian (the faster path).
+    pub fn set_face_weights(&mut self, ax: &[f32], ay: &[f32]) -> Result<(), ConfigError> {
+        let n = self.n;
+        for (name, w) in [("face weights x", ax), ("face weights y", ay)] {
+            if w.len() != n * n {
+                return Err(ConfigError::InvalidParameter {
+                    name,
+                    value: w.len() as f64,
+                    reason: format!("must hold one weight per cell ({})", n * n),
+                });
+            }
+            if let Some(&bad) = w.iter().find(|a| !(0.0..=1.0).contains(*a)) {
+                return Err(ConfigError::InvalidParameter {
+                    name,
+                    value: bad as f64,
+                    reason: "face weights are open fractions in [0, 1]".into(),
+                });
+            }
+        }
+        if ax.iter().chain(ay).all(|&a| a == 1.0) {
+            self.clear_face_weights();
+            return Ok(());
+        }
+        let fine =
+            Faces::new(ax.iter().map(|&a| a as f64).collect(), ay.iter().map(|&a| a as f64).collect(), n);
+        let mut prev = fine.coarsen(n);
+        let mut m = n / 2;
+        for level in self.coarse.iter_mut() {
+            let next = if level.n > 4 { Some(prev.coarsen(m)) } else { None };
+            level.faces = Some(prev);
+            match next {
+                Some(f) => prev = f,
+                None => break,
+            }
+            m /= 2;
+        }
+        self.faces = Some(fine);
+        Ok(())
+    }
+
+    /// Back to the plain Laplacian (every face open).
+    pub fn clear_face_weights(&mut self) {
+        self.faces = None;
+        self.coarse.iter_mut().for_each(|l| l.faces = None);
+    }
+
+    /// Whether face weights are set.
+    pub fn has_face_weights(&self) -> bool {
+        self.faces.is_some()
     }
 
     /// Grid size.
@@ -83,7 +191,7 @@ impl Poisson {
 
     /// RMS of the residual `rhs − ∇²φ`.
     pub fn residual_rms(&mut self, phi: &[f64], rhs: &[f64]) -> f64 {
-        residual(self.n, self.h2, phi, rhs, &mut self.res);
+        residual(self.n, self.h2, self.faces.as_ref(), phi, rhs, &mut self.res);
         rms(&self.res)
     }
 
@@ -92,7 +200,7 @@ impl Poisson {
         let n = self.n;
         assert_eq!(phi.len(), n * n, "phi has the wrong size");
         assert_eq!(rhs.len(), n * n, "rhs has the wrong size");
-        cycle(n, self.h2, phi, rhs, &mut self.coarse);
+        cycle(n, self.h2, self.faces.as_ref(), phi, rhs, &mut self.coarse);
         remove_mean(phi);
     }
 
@@ -111,37 +219,66 @@ impl Poisson {
             report.cycles += 1;
             r = self.residual_rms(phi, rhs);
         }
-        report.final_residual = r;
-        if report.cycles > 0 && r > 0.0 {
-            report.reduction_per_cycle = (initial / r).powf(1.0 / report.cycles as f64);
-        } else if report.cycles > 0 {
-            report.reduction_per_cycle = f64::INFINITY;
-        }
+        report.finish(r);
         report
     }
 }
 
-fn cycle(n: usize, h2: f64, phi: &mut [f64], rhs: &[f64], coarse: &mut [Level]) {
+impl SolveReport {
+    fn finish(&mut self, r: f64) {
+        self.final_residual = r;
+        if self.cycles > 0 && r > 0.0 {
+            self.reduction_per_cycle = (self.initial_residual / r).powf(1.0 / self.cycles as f64);
+        } else if self.cycles > 0 {
+            self.reduction_per_cycle = f64::INFINITY;
+        }
+    }
+}
+
+fn cycle(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64], coarse: &mut [Level]) {
     if coarse.is_empty() {
         // Coarsest grid (4 × 4): smooth to convergence.
         for _ in 0..60 {
-            rb_gauss_seidel(n, h2, phi, rhs);
+            rb_gauss_seidel(n, h2, faces, phi, rhs);
         }
         remove_mean(phi);
         return;
     }
     for _ in 0..2 {
-        rb_gauss_seidel(n, h2, phi, rhs);
+        rb_gauss_seidel(n, h2, faces, phi, rhs);
     }
     // The residual is restricted on the fly, never stored.
     let (level, rest) = coarse.split_first_mut().expect("checked non-empty");
-    restrict_residual(n, h2, phi, rhs, &mut level.rhs);
+    restrict_residual(n, h2, faces, phi, rhs, &mut level.rhs);
     remove_mean(&mut level.rhs);
     level.phi.iter_mut().for_each(|p| *p = 0.0);
-    cycle(level.n, level.h2, &mut level.phi, &level.rhs, rest);
-    prolong_add(level.n, &level.phi, phi);
+    cycle(level.n, level.h2, level.faces.as_ref(), &mut level.phi, &level.rhs, rest);
+    prolong_add(level.n, &level.phi, level.faces.as_ref(), phi);
     for _ in 0..2 {
-        rb_gauss_seidel(n, h2, phi, rhs);
+        rb_gauss_seidel(n, h2, faces, phi, rhs);
+    }
+}
+
+/// `h² ∇·(a∇φ)` at cell `k` (its west/east/south/north neighbours given), the plain
+/// 5-point Laplacian without weights.
+#[inline]
+#[allow(clippy::too_many_arguments)]
+fn operator(
+    faces: Option<&Faces>,
+    phi: &[f64],
+    k: usize,
+    left: usize,
+    right: usize,
+    down: usize,
+    up: usize,
+) -> f64 {
+    let c = phi[k];
+    match faces {
+        None => phi[left] + phi[right] + phi[up] + phi[down] - 4.0 * c,
+        Some(f) => {
+            let (aw, ae, as_, an) = f.around(k, right, up);
+            aw * (phi[left] - c) + ae * (phi[right] - c) + as_ * (phi[down] - c) + an * (phi[up] - c)
+        }
     }
 }
 
@@ -156,10 +293,11 @@ struct SharedRows(*mut f64);
 unsafe impl Send for SharedRows {}
 unsafe impl Sync for SharedRows {}
 
-/// One red-black Gauss–Seidel sweep of `∇²φ = rhs` (5-point stencil, toroidal). Rows of one
-/// colour pass are independent, so large grids update them in parallel; the result does not
-/// depend on the thread count.
-fn rb_gauss_seidel(n: usize, h2: f64, phi: &mut [f64], rhs: &[f64]) {
+/// One red-black Gauss–Seidel sweep of `∇·(a∇φ) = rhs` (5-point stencil, toroidal; `a = 1`
+/// without face weights; a cell with all faces closed is skipped). Rows of one colour pass are
+/// independent, so large grids update them in parallel; the result does not depend on the
+/// thread count.
+fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64]) {
     assert_eq!(phi.len(), n * n);
     let mask = n - 1;
     let base = SharedRows(phi.as_mut_ptr());
@@ -179,9 +317,19 @@ fn rb_gauss_seidel(n: usize, h2: f64, phi: &mut [f64], rhs: &[f64]) {
                 // also across the torus seam because n is even), so no cell is read and
                 // written concurrently.
                 unsafe {
-                    let s =
-                        *p.0.add(row + left) + *p.0.add(row + right) + *p.0.add(up + i) + *p.0.add(down + i);
-                    *p.0.add(row + i) = 0.25 * (s - h2 * rhs[row + i]);
+                    let (pl, pr) = (*p.0.add(row + left), *p.0.add(row + right));
+                    let (pu, pd) = (*p.0.add(up + i), *p.0.add(down + i));
+                    match faces {
+                        None => *p.0.add(row + i) = 0.25 * (pl + pr + pu + pd - h2 * rhs[row + i]),
+                        Some(f) => {
+                            let (aw, ae, as_, an) = f.around(row + i, row + right, up + i);
+                            let diag = aw + ae + as_ + an;
+                            if diag > 0.0 {
+                                *p.0.add(row + i) =
+                                    (aw * pl + ae * pr + as_ * pd + an * pu - h2 * rhs[row + i]) / diag;
+                            }
+                        }
+                    }
                 }
                 i += 2;
             }
@@ -194,8 +342,8 @@ fn rb_gauss_seidel(n: usize, h2: f64, phi: &mut [f64], rhs: &[f64]) {
     }
 }
 
-/// `res = rhs − ∇²φ` (rows in parallel on large grids).
-fn residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
+/// `res = rhs − ∇·(a∇φ)` (rows in parallel on large grids).
+fn residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
     let mask = n - 1;
     let inv = 1.0 / h2;
     let row_pass = |(j, out): (usize, &mut [f64])| {
@@ -205,8 +353,7 @@ fn residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
         for (i, r) in out.iter_mut().enumerate() {
             let left = (i + n - 1) & mask;
             let right = (i + 1) & mask;
-            let lap =
-                (phi[row + left] + phi[row + right] + phi[up + i] + phi[down + i] - 4.0 * phi[row + i]) * inv;
+            let lap = operator(faces, phi, row + i, row + left, row + right, down + i, up + i) * inv;
             *r = rhs[row + i] - lap;
         }
     };
@@ -217,9 +364,9 @@ fn residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
     }
 }
 
-/// Residual `rhs − ∇²φ` of the fine (n × n) grid restricted to the coarse one (mean of the
-/// four children), computed on the fly (coarse rows in parallel on large grids).
-fn restrict_residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
+/// Residual `rhs − ∇·(a∇φ)` of the fine (n × n) grid restricted to the coarse one (mean of
+/// the four children), computed on the fly (coarse rows in parallel on large grids).
+fn restrict_residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
     let m = n / 2;
     let mask = n - 1;
     let inv = 1.0 / h2;
@@ -229,9 +376,7 @@ fn restrict_residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], coarse: &mut [
         let down = ((j + n - 1) & mask) * n;
         let left = (i + n - 1) & mask;
         let right = (i + 1) & mask;
-        let lap =
-            (phi[row + left] + phi[row + right] + phi[up + i] + phi[down + i] - 4.0 * phi[row + i]) * inv;
-        rhs[row + i] - lap
+        rhs[row + i] - operator(faces, phi, row + i, row + left, row + right, down + i, up + i) * inv
     };
     let row_pass = |(jc, out): (usize, &mut [f64])| {
         for (ic, c) in out.iter_mut().enumerate() {
@@ -246,8 +391,10 @@ fn restrict_residual(n: usize, h2: f64, phi: &[f64], rhs: &[f64], coarse: &mut [
     }
 }
 
-/// Coarse (m × m) correction added to fine (2m × 2m) by cell-centred bilinear interpolation.
-fn prolong_add(m: usize, coarse: &[f64], fine: &mut [f64]) {
+/// Coarse (m × m) correction added to fine (2m × 2m) by cell-centred bilinear interpolation;
+/// with face weights, only from coarse cells with an open face (weights renormalised), so a
+/// coarse cell inside the terrain (whose value means nothing) does not drag its neighbours.
+fn prolong_add(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64]) {
     let n = 2 * m;
     let mask = m - 1;
     let row_pass = |(jf, out): (usize, &mut [f64])| {
@@ -256,11 +403,20 @@ fn prolong_add(m: usize, coarse: &[f64], fine: &mut [f64]) {
         for (i_f, x) in out.iter_mut().enumerate() {
             let ic = i_f / 2;
             let in_ = if i_f & 1 == 0 { (ic + m - 1) & mask } else { (ic + 1) & mask };
-            let c = coarse[jc * m + ic];
-            let cx = coarse[jc * m + in_];
-            let cy = coarse[jn * m + ic];
-            let cxy = coarse[jn * m + in_];
-            *x += 0.5625 * c + 0.1875 * (cx + cy) + 0.0625 * cxy;
+            let (k, kx, ky, kxy) = (jc * m + ic, jc * m + in_, jn * m + ic, jn * m + in_);
+            match faces {
+                None => {
+                    *x += 0.5625 * coarse[k] + 0.1875 * (coarse[kx] + coarse[ky]) + 0.0625 * coarse[kxy];
+                }
+                Some(f) => {
+                    let (w, wx, wy, wxy) =
+                        (0.5625 * f.live[k], 0.1875 * f.live[kx], 0.1875 * f.live[ky], 0.0625 * f.live[kxy]);
+                    let sum = w + wx + wy + wxy;
+                    if sum > 0.0 {
+                        *x += (w * coarse[k] + wx * coarse[kx] + wy * coarse[ky] + wxy * coarse[kxy]) / sum;
+                    }
+                }
+            }
         }
     };
     if n >= PARALLEL_FROM {
@@ -361,6 +517,76 @@ mod tests {
         assert!(rep.final_residual < 1e-9, "{rep:?}");
         let err = phi.iter().zip(&exact).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
         assert!(err < 0.01, "max error {err}");
+    }
+
+    /// Residual reduction of each of 6 V-cycles on a masked problem of size n: face weights
+    /// are the apertures (min of the two cells' open fractions) of `sigma`, the right-hand
+    /// side random on the open cells with zero sum.
+    fn masked_rates(n: usize, sigma: &[f32]) -> Vec<f64> {
+        let (mut ax, mut ay) = (vec![0.0; n * n], vec![0.0; n * n]);
+        crate::model::advection::apertures(sigma, n, &mut ax, &mut ay);
+        let active: Vec<bool> = (0..n * n)
+            .map(|k| {
+                let (i, j) = (k % n, k / n);
+                ax[k] + ax[j * n + (i + 1) % n] + ay[k] + ay[((j + 1) % n) * n + i] > 0.0
+            })
+            .collect();
+        let mut rhs = random_rhs(n, 11);
+        rhs.iter_mut().zip(&active).for_each(|(r, &a)| *r = if a { *r } else { 0.0 });
+        let count = active.iter().filter(|&&a| a).count() as f64;
+        let mean = rhs.iter().sum::<f64>() / count;
+        rhs.iter_mut().zip(&active).for_each(|(r, &a)| *r -= if a { mean } else { 0.0 });
+        let mut mg = Poisson::new(n, 100.0).unwrap();
+        mg.set_face_weights(&ax, &ay).unwrap();
+        assert!(mg.has_face_weights());
+        let mut phi = vec![0.0; n * n];
+        let mut prev = mg.residual_rms(&phi, &rhs);
+        (0..6)
+            .map(|_| {
+                mg.v_cycle(&mut phi, &rhs);
+                let r = mg.residual_rms(&phi, &rhs);
+                let rate = prev / r;
+                prev = r;
+                rate
+            })
+            .collect()
+    }
+
+    /// A layer cut by terrain: a closed block (odd-aligned edges) inside a rim of half-open
+    /// cells, on 256². Every V-cycle reduces the residual at least 5× (measured 58×, 17×,
+    /// 9.9×, 7.6×, 6.9×, 6.6×). A one-cell-thick wall with an open end is the hard case of
+    /// rediscretised coarse operators (the two sides connect only round its end): measured
+    /// 18×, 1.2×, 1.7×, 1.9×, 2.1×, 2.1×; required: 100× over the six cycles.
+    #[test]
+    fn masked_problems_converge() {
+        let n = 256;
+        let block: Vec<f32> = (0..n * n)
+            .map(|k| {
+                let (i, j) = (k % n, k / n);
+                if (81..151).contains(&i) && (61..199).contains(&j) {
+                    0.0
+                } else if (78..154).contains(&i) && (58..202).contains(&j) {
+                    0.5
+                } else {
+                    1.0
+                }
+            })
+            .collect();
+        let rates = masked_rates(n, &block);
+        eprintln!("block: {rates:.2?}");
+        assert!(rates.iter().all(|&r| r >= 5.0), "block: {rates:.2?}");
+        let wall: Vec<f32> = (0..n * n).map(|k| if k % n == 31 && k / n < 200 { 0.0 } else { 1.0 }).collect();
+        let rates = masked_rates(n, &wall);
+        eprintln!("thin wall: {rates:.2?}");
+        assert!(rates.iter().product::<f64>() >= 100.0, "thin wall: {rates:.2?}");
+        // Bad weights are errors, all-open weights fall back to the plain Laplacian.
+        let mut mg = Poisson::new(16, 100.0).unwrap();
+        let ones = vec![1.0f32; 256];
+        assert!(mg.set_face_weights(&vec![1.5; 256], &ones).is_err());
+        assert!(mg.set_face_weights(&ones[1..], &ones).is_err());
+        assert!(mg.set_face_weights(&ones, &[f32::NAN; 256]).is_err());
+        mg.set_face_weights(&ones, &ones).unwrap();
+        assert!(!mg.has_face_weights());
     }
 
     #[test]

@@ -233,10 +233,12 @@ mod tests {
     fn amounts_stay_out_of_terrain() {
         let mut st = state();
         let g = st.grid;
-        // The orographic ridge (1.5 km) cuts the lowest layer along x = 0.
+        // The orographic ridge (1.5 km) cuts the lowest layer (slab 0–800 m) along x = 0,
+        // wherever the ground is above 800 m (|x| ≲ 3.3 km): the brush reaches beyond.
         let layer = &mut st.layers[0];
         assert!(layer.sigma.data().iter().any(|s| *s <= 0.0), "the ridge should cut layer 0");
-        paint(layer, g, &brush(PaintField::Water, PaintMode::Set, 2.0)).unwrap();
+        let wide = Brush { radius_m: 5000.0, ..brush(PaintField::Water, PaintMode::Set, 2.0) };
+        paint(layer, g, &wide).unwrap();
         for (w, s) in layer.w.data().iter().zip(layer.sigma.data()) {
             if *s <= 0.0 {
                 assert_eq!(*w, 0.0);

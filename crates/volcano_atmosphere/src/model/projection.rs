@@ -2,9 +2,16 @@
 //! docs/ARCHITECTURE.md §5.3: `∇·V_i = −(D_i − D_{i−1}) / h_i`, so air leaving a layer through
 //! its top draws air in horizontally (and the pressure coupling of eq. 4.7 is not erased).
 //!
-//! On the staggered grid the discrete divergence of the corrected wind equals the target up to
-//! the multigrid residual. On a torus a net gain or loss of air in a layer is not
-//! representable: the target's mean is removed (reported as `target_mean`).
+//! The terrain enters through the face apertures `a` (open fraction of each face, from σ of
+//! eq. 4.8, see `advection::apertures`): what must meet the target is the flux `a·V`, so the
+//! pressure solves the variable-coefficient problem `∇·(a∇P) = ∇·(aV) − target` and the
+//! correction `V ← V − ∇P` applies on open faces, while the wind on closed faces (`a = 0`,
+//! rock on one side) is zero: no wind blows into the terrain (issue 17 item 6).
+//!
+//! On the staggered grid the discrete flux divergence of the corrected wind equals the target
+//! up to the multigrid residual. On a torus a net gain or loss of air in a layer is not
+//! representable: the target's mean over each connected open region is removed (reported as
+//! `target_mean`); cells with every face closed take no part.
 
 use rayon::prelude::*;
 
@@ -24,12 +31,40 @@ pub fn divergence(u: &[f32], v: &[f32], n: usize, dx: f64, out: &mut [f64]) {
     });
 }
 
-/// Orographic damping of the wind: each face's velocity is multiplied by its aperture
-/// (min σ of the two cells it separates), thesis eq. (4.8) "σ is used for damping the
-/// velocity field around obstacles".
-pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32]) {
-    u.iter_mut().zip(ax).for_each(|(x, a)| *x *= a);
-    v.iter_mut().zip(ay).for_each(|(x, a)| *x *= a);
+/// Discrete divergence (1/s) of the face fluxes `a·V` (aperture × wind) into `out`.
+pub fn flux_divergence(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, dx: f64, out: &mut [f64]) {
+    let mask = n - 1;
+    let inv = 1.0 / dx;
+    let f = |a: f32, w: f32| a as f64 * w as f64;
+    out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+        let jp = (j + 1) & mask;
+        for (i, o) in row.iter_mut().enumerate() {
+            let (k, ke, kn) = (j * n + i, j * n + ((i + 1) & mask), jp * n + i);
+            *o = (f(ax[ke], u[ke]) - f(ax[k], u[k]) + f(ay[kn], v[kn]) - f(ay[k], v[k])) * inv;
+        }
+    });
+}
+
+/// Orographic damping of the wind, thesis eq. (4.8) "σ is used for damping the velocity field
+/// around obstacles": each face's velocity is multiplied by how much narrower the face is
+/// than the air it joins, `a / max(σ_left, σ_right)` (1 where the terrain cuts both cells
+/// alike, e.g. a flat floor inside the lowest slab; 0 against a wall). Multiplying by `a`
+/// itself, as when σ was read at the layer's centre, would brake a layer whose slab reaches
+/// below a flat ground every step (docs/ARCHITECTURE.md §5).
+pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: usize) {
+    let mask = n - 1;
+    let rel = |a: f32, s0: f32, s1: f32| {
+        let s = s0.max(s1);
+        if s > 0.0 { (a / s).min(1.0) } else { 0.0 }
+    };
+    u.par_chunks_mut(n).zip(v.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(|(j, (ur, vr))| {
+        let jm = (j + n - 1) & mask;
+        for i in 0..n {
+            let k = j * n + i;
+            ur[i] *= rel(ax[k], sigma[k], sigma[j * n + ((i + n - 1) & mask)]);
+            vr[i] *= rel(ay[k], sigma[k], sigma[jm * n + i]);
+        }
+    });
 }
 
 /// Relaxes the wind toward a prevailing wind `(wu, wv)` with time scale `tau` (s): a
@@ -44,12 +79,15 @@ pub fn relax_wind(u: &mut [f32], v: &mut [f32], wu: f32, wv: f32, dt: f64, tau: 
 /// Outcome of one projection.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct ProjectionReport {
-    /// max |∇·V − target| before the projection (1/s).
+    /// max |∇·(aV) − target| over the open cells before the projection (1/s).
     pub initial_error: f64,
-    /// max |∇·V − target| after the projection (1/s).
+    /// max |∇·(aV) − target| over the open cells after the projection (1/s).
     pub final_error: f64,
-    /// Mean of the requested target, removed for solvability (1/s).
+    /// Mean of the requested target over the open cells, removed (per connected open region)
+    /// for solvability (1/s).
     pub target_mean: f64,
+    /// Largest |wind| on a closed face (aperture 0) after the projection (m/s).
+    pub solid_face_speed: f64,
     /// The multigrid solve.
     pub solve: SolveReport,
 }
@@ -63,43 +101,144 @@ pub struct ProjectionWork {
     pub rhs: Vec<f64>,
     /// Divergence scratch.
     pub div: Vec<f64>,
+    /// Connected open region of each cell (`u32::MAX`: every face closed).
+    region: Vec<u32>,
+    /// Per region: target sum, then mean.
+    region_mean: Vec<f64>,
+    /// Cells per region.
+    region_cells: Vec<u32>,
+    /// The apertures `region` and the multigrid weights were built for (`ax` then `ay`).
+    faces_for: Vec<f32>,
 }
 
 impl ProjectionWork {
     /// Buffers for an `n × n` grid of cell size `dx`.
     pub fn new(n: usize, dx: f64) -> Result<Self, volcano_core::ConfigError> {
-        Ok(Self { poisson: Poisson::new(n, dx)?, rhs: vec![0.0; n * n], div: vec![0.0; n * n] })
+        Ok(Self {
+            poisson: Poisson::new(n, dx)?,
+            rhs: vec![0.0; n * n],
+            div: vec![0.0; n * n],
+            region: Vec::new(),
+            region_mean: Vec::new(),
+            region_cells: Vec::new(),
+            faces_for: Vec::new(),
+        })
+    }
+
+    /// Rebuilds the open regions and the multigrid face weights when the apertures changed.
+    fn use_faces(&mut self, ax: &[f32], ay: &[f32]) -> Result<(), volcano_core::ConfigError> {
+        let n = self.poisson.n();
+        if self.faces_for.len() == 2 * n * n
+            && self.faces_for[..n * n] == *ax
+            && self.faces_for[n * n..] == *ay
+        {
+            return Ok(());
+        }
+        self.poisson.set_face_weights(ax, ay)?;
+        (self.region, self.region_cells) = open_regions(ax, ay, n);
+        self.region_mean = vec![0.0; self.region_cells.len()];
+        self.faces_for.clear();
+        self.faces_for.extend_from_slice(ax);
+        self.faces_for.extend_from_slice(ay);
+        Ok(())
     }
 }
 
-/// Projects `(u, v)` so that its divergence equals `target` (its mean removed), solving
-/// `∇²P = ∇·V − target` (eq. 4.1 with the continuity target) warm-started from `p`, then
-/// `V ← V − ∇P`. Stops when the RMS residual is below `tol ·` RMS(right-hand side) or after
-/// `max_cycles` V-cycles.
+/// Labels the connected open regions (cells joined by faces with aperture > 0), in order of
+/// their first cell, and counts their cells; cells with every face closed get `u32::MAX`.
+fn open_regions(ax: &[f32], ay: &[f32], n: usize) -> (Vec<u32>, Vec<u32>) {
+    let mask = n - 1;
+    let mut parent: Vec<u32> = (0..(n * n) as u32).collect();
+    fn root(parent: &mut [u32], mut k: u32) -> u32 {
+        while parent[k as usize] != k {
+            parent[k as usize] = parent[parent[k as usize] as usize];
+            k = parent[k as usize];
+        }
+        k
+    }
+    fn join(parent: &mut [u32], a: usize, b: usize) {
+        let (ra, rb) = (root(parent, a as u32), root(parent, b as u32));
+        if ra != rb {
+            parent[ra.max(rb) as usize] = ra.min(rb);
+        }
+    }
+    for j in 0..n {
+        for i in 0..n {
+            let k = j * n + i;
+            if ax[k] > 0.0 {
+                join(&mut parent, k, j * n + ((i + n - 1) & mask));
+            }
+            if ay[k] > 0.0 {
+                join(&mut parent, k, ((j + n - 1) & mask) * n + i);
+            }
+        }
+    }
+    let mut label = vec![u32::MAX; n * n];
+    let mut id_of_root = vec![u32::MAX; n * n];
+    let mut cells: Vec<u32> = Vec::new();
+    for k in 0..n * n {
+        let (i, j) = (k % n, k / n);
+        let east = ax[j * n + ((i + 1) & mask)];
+        let north = ay[((j + 1) & mask) * n + i];
+        if !(ax[k] > 0.0 || ay[k] > 0.0 || east > 0.0 || north > 0.0) {
+            continue;
+        }
+        let r = root(&mut parent, k as u32) as usize;
+        if id_of_root[r] == u32::MAX {
+            id_of_root[r] = cells.len() as u32;
+            cells.push(0);
+        }
+        label[k] = id_of_root[r];
+        cells[id_of_root[r] as usize] += 1;
+    }
+    (label, cells)
+}
+
+/// Projects `(u, v)` so that the divergence of the face fluxes `a·V` (apertures `ax` on west
+/// faces, `ay` on south faces) equals `target` (its mean over each open region removed),
+/// solving `∇·(a∇P) = ∇·(aV) − target` (eq. 4.1 with the continuity target and the terrain's
+/// apertures) warm-started from `p`, then `V ← V − ∇P` on open faces and `V = 0` on closed
+/// ones. Stops when the RMS residual is below `tol ·` RMS(right-hand side) or after
+/// `max_cycles` V-cycles. Errors if the apertures are not in [0, 1].
 #[allow(clippy::too_many_arguments)]
 pub fn project(
     u: &mut [f32],
     v: &mut [f32],
     p: &mut [f64],
     target: &[f64],
+    ax: &[f32],
+    ay: &[f32],
     work: &mut ProjectionWork,
     dx: f64,
     max_cycles: u32,
     tol: f64,
-) -> ProjectionReport {
+) -> Result<ProjectionReport, volcano_core::ConfigError> {
     let n = work.poisson.n();
-    let target_mean = target.iter().sum::<f64>() / target.len() as f64;
-    divergence(u, v, n, dx, &mut work.div);
+    work.use_faces(ax, ay)?;
+    // Target mean per open region.
+    work.region_mean.iter_mut().for_each(|m| *m = 0.0);
+    for (r, t) in work.region.iter().zip(target) {
+        if *r != u32::MAX {
+            work.region_mean[*r as usize] += t;
+        }
+    }
+    let open_cells: u32 = work.region_cells.iter().sum();
+    let target_mean = work.region_mean.iter().sum::<f64>() / open_cells.max(1) as f64;
+    for (m, &c) in work.region_mean.iter_mut().zip(&work.region_cells) {
+        *m /= c.max(1) as f64;
+    }
+    let (region, region_mean) = (&work.region, &work.region_mean);
+    let goal = |k: usize| target[k] - region_mean[region[k] as usize];
+    flux_divergence(u, v, ax, ay, n, dx, &mut work.div);
     let mut initial_error = 0.0f64;
-    for ((r, d), t) in work.rhs.iter_mut().zip(&work.div).zip(target) {
-        *r = d - (t - target_mean);
+    for (k, r) in work.rhs.iter_mut().enumerate() {
+        *r = if region[k] == u32::MAX { 0.0 } else { work.div[k] - goal(k) };
         initial_error = initial_error.max(r.abs());
     }
-    remove_mean(&mut work.rhs);
     remove_mean(p);
     let scale = super::multigrid::rms(&work.rhs);
     let solve = work.poisson.solve(p, &work.rhs, max_cycles, tol * scale);
-    // V ← V − ∇P on the faces.
+    // V ← V − ∇P on the open faces, no wind through closed ones.
     let mask = n - 1;
     let inv = 1.0 / dx;
     let p = &*p;
@@ -108,14 +247,20 @@ pub fn project(
         for i in 0..n {
             let im = (i + n - 1) & mask;
             let k = j * n + i;
-            ur[i] -= ((p[k] - p[j * n + im]) * inv) as f32;
-            vr[i] -= ((p[k] - p[jm * n + i]) * inv) as f32;
+            ur[i] = if ax[k] > 0.0 { ur[i] - ((p[k] - p[j * n + im]) * inv) as f32 } else { 0.0 };
+            vr[i] = if ay[k] > 0.0 { vr[i] - ((p[k] - p[jm * n + i]) * inv) as f32 } else { 0.0 };
         }
     });
-    divergence(u, v, n, dx, &mut work.div);
-    let final_error =
-        work.div.iter().zip(target).map(|(d, t)| (d - (t - target_mean)).abs()).fold(0.0, f64::max);
-    ProjectionReport { initial_error, final_error, target_mean, solve }
+    flux_divergence(u, v, ax, ay, n, dx, &mut work.div);
+    let final_error = (0..n * n)
+        .filter(|&k| region[k] != u32::MAX)
+        .map(|k| (work.div[k] - goal(k)).abs())
+        .fold(0.0, f64::max);
+    let solid = |w: &[f32], a: &[f32]| {
+        w.iter().zip(a).filter(|(_, a)| **a == 0.0).map(|(w, _)| w.abs() as f64).fold(0.0, f64::max)
+    };
+    let solid_face_speed = solid(u, ax).max(solid(v, ay));
+    Ok(ProjectionReport { initial_error, final_error, target_mean, solid_face_speed, solve })
 }
 
 #[cfg(test)]
@@ -139,7 +284,8 @@ mod tests {
             .collect();
         let mut p = vec![0.0; n * n];
         let mut work = ProjectionWork::new(n, dx).unwrap();
-        let rep = project(&mut u, &mut v, &mut p, &target, &mut work, dx, 30, 1e-9);
+        let open = vec![1.0f32; n * n];
+        let rep = project(&mut u, &mut v, &mut p, &target, &open, &open, &mut work, dx, 30, 1e-9).unwrap();
         eprintln!("{rep:?}");
         assert!(rep.final_error <= 1e-4 * rep.initial_error, "{rep:?}");
         assert!(rep.solve.reduction_per_cycle >= 5.0, "{rep:?}");

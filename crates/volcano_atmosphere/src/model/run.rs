@@ -50,6 +50,9 @@ pub struct AtmosphereSummary {
     pub precipitated_g: f64,
     /// Whether every field stayed finite and every amount non-negative (checked each step).
     pub valid: bool,
+    /// Largest |wind| through a closed face (rock on one side) after the last step's
+    /// projection (m/s); zero when the projection respects the terrain.
+    pub max_solid_face_flux_m_s: f64,
     /// Mean onshore wind of the lowest layer over the coast, 11:30–12:30 local (m/s).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub onshore_wind_noon_m_s: Option<f64>,
@@ -176,6 +179,7 @@ pub fn run(
         (Mean::default(), Mean::default(), Mean::default(), Mean::default());
     let mut valid = true;
     let mut elapsed = 0.0;
+    let mut solid_face = 0.0;
     for s in 0..steps {
         while next_event < events.len() && events[next_event].at_s <= state.time_s {
             apply_event(&mut state, events[next_event]);
@@ -192,6 +196,7 @@ pub fn run(
             div_ratio = div_ratio.max(rep.max_divergence_error / rep.max_initial_divergence_error);
         }
         red_sum += rep.residual_reduction;
+        solid_face = rep.max_solid_face_flux_m_s;
         valid &= state.is_valid();
         let hour = state.local_hour();
         if let Some(p) = &shore {
@@ -228,6 +233,7 @@ pub fn run(
         step_ms: if steps > 0 { 1e3 * elapsed / steps as f64 } else { 0.0 },
         precipitated_g: state.precipitated,
         valid,
+        max_solid_face_flux_m_s: solid_face,
         onshore_wind_noon_m_s: noon.get(),
         onshore_wind_night_m_s: night.get(),
         windward_updraft_m_s: ww.get(),

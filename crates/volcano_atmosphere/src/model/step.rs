@@ -86,6 +86,8 @@ pub struct StepReport {
     pub precipitated: f64,
     /// Grams evaporated from the ground this step (negative: dew).
     pub ground_evaporation: f64,
+    /// Largest |wind| on a closed face (rock on one side) after the projection (m/s).
+    pub max_solid_face_flux_m_s: f64,
     /// Largest number of flux substeps a layer needed.
     pub flux_substeps: u32,
     /// Wall time (ms) of the phases: ground, phase change, vertical exchange, dynamics.
@@ -159,11 +161,12 @@ pub fn step(
         .par_iter_mut()
         .zip(work.layers.par_iter_mut())
         .map(|(layer, w)| layer_dynamics(layer, w, params, n, dx, dt))
-        .collect();
+        .collect::<Result<_, _>>()?;
     let mut reduction_sum = 0.0;
     for (r, subs) in &reports {
         report.max_divergence_error = report.max_divergence_error.max(r.final_error);
         report.max_initial_divergence_error = report.max_initial_divergence_error.max(r.initial_error);
+        report.max_solid_face_flux_m_s = report.max_solid_face_flux_m_s.max(r.solid_face_speed);
         reduction_sum += r.solve.reduction_per_cycle.min(1e6);
         report.v_cycles += r.solve.cycles;
         report.flux_substeps = report.flux_substeps.max(*subs);
@@ -224,7 +227,8 @@ fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f6
 }
 
 /// Advection of V and T, wind forcing, orographic damping, projection with the continuity
-/// target, then conservative advection of H, W and ash by the projected wind.
+/// target and the terrain's apertures, then conservative advection of H, W and ash by the
+/// projected wind.
 fn layer_dynamics(
     layer: &mut LayerFields,
     w: &mut LayerWork,
@@ -232,7 +236,7 @@ fn layer_dynamics(
     n: usize,
     dx: f64,
     dt: f64,
-) -> (ProjectionReport, u32) {
+) -> Result<(ProjectionReport, u32), ConfigError> {
     let c = (dt / dx) as f32;
     let scheme = params.advection;
     // V (both components from the old wind) and T.
@@ -270,17 +274,19 @@ fn layer_dynamics(
     }
     apertures(layer.sigma.data(), n, &mut w.ax, &mut w.ay);
     // Orographic damping, eq. (4.8).
-    damp(layer.u.data_mut(), layer.v.data_mut(), &w.ax, &w.ay);
+    damp(layer.u.data_mut(), layer.v.data_mut(), &w.ax, &w.ay, layer.sigma.data(), n);
     let rep = project(
         layer.u.data_mut(),
         layer.v.data_mut(),
         layer.p.data_mut(),
         &w.target,
+        &w.ax,
+        &w.ay,
         &mut w.projection,
         dx,
         params.multigrid_cycles,
         params.multigrid_tolerance,
-    );
+    )?;
     let subs = {
         let LayerFields { h, w: water, ash, u, v, sigma, .. } = layer;
         let mut fields: [&mut [f64]; 3] = [h.data_mut(), water.data_mut(), ash.data_mut()];
@@ -296,5 +302,5 @@ fn layer_dynamics(
             dt / dx,
         )
     };
-    (rep, subs)
+    Ok((rep, subs))
 }

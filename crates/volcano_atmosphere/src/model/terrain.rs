@@ -1,7 +1,14 @@
-//! Terrain–atmosphere interaction (thesis §4.2.5): orographic damping (4.8), terrain
-//! self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴ per the erratum), heat
-//! (4.11) and water (4.12) exchange with the lowest free layer, all with a ground heat
-//! capacity per m² (docs/ARCHITECTURE.md §5.3 erratum: C_p × density × active depth).
+//! Terrain–atmosphere interaction (thesis §4.2.5): the free fraction σ of each layer (4.8),
+//! terrain self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴
+//! per the erratum), heat (4.11) and water (4.12) exchange with the lowest layer with air, all
+//! with a ground heat capacity per m² (docs/ARCHITECTURE.md §5.3 erratum: C_p × density × active depth).
+//!
+//! σ has one definition, used for the amounts (free volume), the face apertures of transport
+//! and projection, the damping and ℓ(p): the free fraction of the layer's slab
+//! `[bottom, bottom + thickness]` above the ground. The ground temperature is integrated
+//! without a clamp: radiation and sensible heat are linearised about the ground temperature
+//! (Newton) and the linear ground–air system is integrated exactly over the step, then
+//! re-linearised once about the result (docs/ARCHITECTURE.md §5).
 
 use rayon::prelude::*;
 use volcano_core::{LandCover, Terrain};
@@ -13,35 +20,33 @@ use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
 
 /// Stefan–Boltzmann constant (W/(m²·K⁴)).
 pub const STEFAN_BOLTZMANN: f64 = 5.670_374e-8;
-/// A layer takes part in ground exchange when at least this fraction of its slab is air.
-pub const MIN_FREE_FRACTION: f32 = 0.1;
-
-/// Orographic damping σ_i(p), thesis eq. (4.8) as printed:
-/// `σ_i = 1 − min(1, max(0, (Θ_T − Θ_i) / ΔΘ_i))`, with `ΔΘ_i` the layer's thickness: a layer
-/// is untouched while the terrain stays below its altitude and closed once the terrain rises a
-/// thickness above it. σ also scales the layer's air volume for the water budget and the face
-/// apertures for transport.
-pub fn orographic_damping(terrain: f64, altitude: f64, thickness: f64) -> f32 {
-    (1.0 - ((terrain - altitude) / thickness).clamp(0.0, 1.0)) as f32
+/// Free fraction σ_i(p) of layer i's slab `[bottom, bottom + thickness]` above terrain of
+/// height `terrain`: `σ_i = clamp((bottom + thickness − Θ_T) / thickness, 0, 1)`. This is
+/// thesis eq. (4.8), `σ_i = 1 − min(1, max(0, (Θ_T − Θ_i) / ΔΘ_i))`, with Θ_i read as the
+/// layer's lower boundary: the printed form with Θ_i the layer's (centre) altitude makes σ the
+/// free fraction of a slab that does not exist (a layer over ground at 1,100 m with its slab
+/// at 0–800 m and centre at 400 m kept σ = 0.125) and disagrees with the volume σ scales
+/// (docs/ARCHITECTURE.md §5). σ is the layer's damping (4.8), its free volume for the
+/// amounts, the source of the face apertures, and picks ℓ(p).
+pub fn free_fraction(terrain: f64, bottom: f64, thickness: f64) -> f32 {
+    ((bottom + thickness - terrain) / thickness).clamp(0.0, 1.0) as f32
 }
 
-/// Fills every layer's σ from the terrain and the ground's `lowest` index ℓ(p) (the lowest
-/// layer with at least [`MIN_FREE_FRACTION`] of air). Water and heat in cells that become
-/// solid (σ = 0) are cleared by the caller's initialisation, not here.
+/// Fills every layer's σ ([`free_fraction`]) from the terrain, and the ground's `lowest`
+/// index ℓ(p): the lowest layer with air (σ > 0), i.e. the layer whose slab contains the
+/// ground (the thesis' `argmin_{Θ_i > Θ_T} i` with Θ_i the layer's top). Water and heat in
+/// cells that become solid (σ = 0) are cleared by the caller's initialisation, not here.
 pub fn update_masks(state: &mut AtmosphereState) {
     let heights = state.ground.height.data();
     for layer in state.layers.iter_mut() {
-        let (b, h) = (layer.altitude, layer.thickness);
+        let (b, h) = (layer.bottom, layer.thickness);
         for (s, &t) in layer.sigma.data_mut().iter_mut().zip(heights) {
-            *s = orographic_damping(t as f64, b, h);
+            *s = free_fraction(t as f64, b, h);
         }
     }
     let layers = &state.layers;
     for (k, l) in state.ground.lowest.iter_mut().enumerate() {
-        *l = layers
-            .iter()
-            .position(|layer| layer.sigma.data()[k] >= MIN_FREE_FRACTION)
-            .map_or(u8::MAX, |i| i as u8);
+        *l = layers.iter().position(|layer| layer.sigma.data()[k] > 0.0).map_or(u8::MAX, |i| i as u8);
     }
 }
 
@@ -140,10 +145,90 @@ pub fn grey_body(emissivity: f64, t: f64) -> f64 {
     emissivity * STEFAN_BOLTZMANN * t.powi(4)
 }
 
+/// Ground and air temperatures after `dt` s of radiation and sensible heat, thesis eqs.
+/// (4.9)–(4.11): `C_g dT_g/dt = gain − ε σ_B T_g⁴ − κ (T_g − T_a)` and
+/// `C_a dT_a/dt = κ (T_g − T_a)`, with `gain` the absorbed sunlight and sky radiation (W/m²,
+/// held over the step), `C_g`/`C_a` the ground's and the air column's heat capacities per m²
+/// (`air_cap = ∞` holds the air fixed). The emission is linearised about the ground
+/// temperature (Newton) and the linear system integrated exactly over the step (its matrix
+/// exponential), then linearised again about that first result and integrated again from the
+/// start: unconditionally stable, no overshoot of the common temperature, and independent of
+/// the step to well under 1 K for a 20-minute soil time constant and 1 h steps. Replaces the
+/// explicit step and its 150–400 K clamp (docs/ARCHITECTURE.md §5).
+#[allow(clippy::too_many_arguments)]
+pub fn ground_heat_step(
+    tg: f64,
+    ta: f64,
+    gain: f64,
+    emissivity: f64,
+    kappa: f64,
+    ground_cap: f64,
+    air_cap: f64,
+    dt: f64,
+) -> (f64, f64) {
+    let (t1, _) = linear_heat_step(tg, ta, tg, gain, emissivity, kappa, ground_cap, air_cap, dt);
+    let t_lin = if t1.is_finite() && t1 > 0.0 { t1 } else { tg };
+    linear_heat_step(tg, ta, t_lin, gain, emissivity, kappa, ground_cap, air_cap, dt)
+}
+
+/// One exact integration of the ground–air system with the emission linearised about
+/// `t_lin`: `ε σ_B T⁴ ≈ R + G (T − t_lin)`, `R = ε σ_B t_lin⁴`, `G = 4R / t_lin`.
+#[allow(clippy::too_many_arguments)]
+fn linear_heat_step(
+    tg: f64,
+    ta: f64,
+    t_lin: f64,
+    gain: f64,
+    emissivity: f64,
+    kappa: f64,
+    cg: f64,
+    ca: f64,
+    dt: f64,
+) -> (f64, f64) {
+    let r = grey_body(emissivity, t_lin);
+    let g = 4.0 * r / t_lin;
+    // C_g T_g' = f − G T_g − κ (T_g − T_a).
+    let f = gain - r + g * t_lin;
+    if !(kappa > 0.0 && ca.is_finite() && ca > 0.0) {
+        // The air is held (or not coupled): one mode.
+        let k = g + kappa.max(0.0);
+        if k <= 0.0 {
+            return (tg + (gain - r) * dt / cg, ta);
+        }
+        let eq = (f + kappa.max(0.0) * ta) / k;
+        return (eq + (tg - eq) * (-k * dt / cg).exp(), ta);
+    }
+    if g <= 0.0 {
+        // No emission: heat only moves between ground and air (their mean is kept).
+        let eq = (cg * tg + ca * ta + gain * dt) / (cg + ca);
+        let decay = (-kappa * (1.0 / cg + 1.0 / ca) * dt).exp();
+        let d = (tg - ta) * decay;
+        return (eq + d * ca / (cg + ca), eq - d * cg / (cg + ca));
+    }
+    // x' = A (x − x*), x* = (f/G, f/G): both at the radiative equilibrium.
+    let eq = f / g;
+    let (a11, a12, a21, a22) = (-(g + kappa) / cg, kappa / cg, kappa / ca, -kappa / ca);
+    let s = 0.5 * (a11 + a22);
+    let q = (0.25 * (a11 - a22).powi(2) + a12 * a21).sqrt();
+    let (e1, e2) = (((s + q) * dt).exp(), ((s - q) * dt).exp());
+    // exp(A t) = e^{st} [cosh(qt) I + sinh(qt)/q (A − s I)].
+    let ch = 0.5 * (e1 + e2);
+    let sh = if q * dt < 1e-4 {
+        (s * dt).exp() * dt * (1.0 + (q * dt).powi(2) / 6.0)
+    } else {
+        (e1 - e2) / (2.0 * q)
+    };
+    let (y1, y2) = (tg - eq, ta - eq);
+    (eq + (ch + sh * (a11 - s)) * y1 + sh * a12 * y2, eq + sh * a21 * y1 + (ch + sh * (a22 - s)) * y2)
+}
+
 /// One step of ground physics under `sun`: radiation (4.9, 4.10 and the sky's back
-/// radiation), sensible heat to the lowest free layer (4.11), evaporation or dew with the
-/// ground's latent heat (4.12). Returns the grams of water moved from ground to air (negative
-/// for dew).
+/// radiation) and sensible heat to the lowest layer with air (4.11), integrated by
+/// [`ground_heat_step`]; evaporation or dew (4.12) with the ground's latent heat,
+/// linearised-implicit in the ground temperature (the flux is evaluated at the step's end
+/// temperature through the slope of the saturation humidity, so evaporative cooling cannot
+/// run past the point where the flux vanishes). Returns the grams of water moved from ground
+/// to air (negative for dew).
 pub fn ground_exchange(
     state: &mut AtmosphereState,
     params: &AtmosphereParams,
@@ -199,28 +284,34 @@ pub fn ground_exchange(
             let absorbed = lit
                 * cloud_transmission(lwp)
                 * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
-            let emitted = grey_body(props.emissivity as f64, tg);
             let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
-            // Sensible heat, limited so ground and air cannot overshoot their common temperature.
-            let equilibrium_energy = (tg - ta) * cap * air_cap / (cap + air_cap);
-            let mut sensible = params.sensible_heat_coefficient * (tg - ta) * dt;
-            if sensible.abs() > equilibrium_energy.abs() {
-                sensible = equilibrium_energy;
-            }
-            let mut tg_new = tg + ((absorbed - emitted + back) * dt - sensible) / cap;
-            let ta_new = ta + sensible / air_cap;
+            let (tg_heat, ta_new) = ground_heat_step(
+                tg,
+                ta,
+                absorbed + back,
+                props.emissivity as f64,
+                params.sensible_heat_coefficient,
+                cap,
+                air_cap,
+                dt,
+            );
             // Water exchange (4.12): toward saturation at the ground temperature.
             let vol = sigma * layer.thickness;
             let hum = layer.h.data()[k];
-            let target = saturation_humidity(tg_new, layer.pi);
+            let target = saturation_humidity(tg_heat, layer.pi);
             // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
             let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
-            let grams = (relax * (target - hum) * vol).clamp(-hum * vol, ground.water.data()[k]);
-            // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12).
-            tg_new -= grams * L_V_PER_G / cap;
+            let slope = (saturation_humidity(tg_heat + 0.5, layer.pi)
+                - saturation_humidity(tg_heat - 0.5, layer.pi))
+            .max(0.0);
+            // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
+            // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
+            let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
+            let grams = (relax * (target - hum) * vol / implicit).clamp(-hum * vol, ground.water.data()[k]);
+            let tg_new = tg_heat - grams * L_V_PER_G / cap;
             Some(CellUpdate {
                 layer: li,
-                tg: tg_new.clamp(150.0, 400.0) as f32,
+                tg: tg_new as f32,
                 ta: ta_new as f32,
                 h: (hum + grams / vol).max(0.0),
                 grams,
@@ -255,11 +346,14 @@ mod tests {
     use crate::model::sun::sun_position;
 
     #[test]
-    fn damping_follows_eq_4_8() {
-        assert_eq!(orographic_damping(0.0, 100.0, 200.0), 1.0);
-        assert_eq!(orographic_damping(100.0, 100.0, 200.0), 1.0);
-        assert_eq!(orographic_damping(200.0, 100.0, 200.0), 0.5);
-        assert_eq!(orographic_damping(300.0, 100.0, 200.0), 0.0);
+    fn free_fraction_is_the_slab_share_above_the_ground() {
+        // Slab 100–300 m.
+        assert_eq!(free_fraction(0.0, 100.0, 200.0), 1.0);
+        assert_eq!(free_fraction(100.0, 100.0, 200.0), 1.0);
+        assert_eq!(free_fraction(150.0, 100.0, 200.0), 0.75);
+        assert_eq!(free_fraction(200.0, 100.0, 200.0), 0.5);
+        assert_eq!(free_fraction(300.0, 100.0, 200.0), 0.0);
+        assert_eq!(free_fraction(900.0, 100.0, 200.0), 0.0);
     }
 
     #[test]
@@ -324,6 +418,34 @@ mod tests {
         assert!(h[centre] > 1500.0, "summit region {}", h[centre]);
         assert_eq!(c.len(), 64 * 64);
         assert!(h.iter().all(|x| x.is_finite() && *x >= t.sea_level()));
+    }
+
+    /// The ground model alone, air held: 1 × 1 h and 60 × 1 min agree within 1 K on 1 cm of
+    /// soil (a 10-minute time constant) by day and by night, and a coupled air column
+    /// follows the ground without heat being created.
+    #[test]
+    fn ground_heat_step_is_step_independent_and_does_not_overshoot() {
+        let cap = 800.0 * 1600.0 * 0.01;
+        for gain in [1000.0, 250.0, 0.0] {
+            let run = |steps: usize, dt: f64| {
+                (0..steps).fold(290.0, |t, _| {
+                    ground_heat_step(t, 285.0, gain, 0.91, 15.0, cap, f64::INFINITY, dt).0
+                })
+            };
+            let (one, sixty, exact) = (run(1, 3600.0), run(60, 60.0), run(36_000, 0.1));
+            assert!(
+                (one - sixty).abs() < 1.0 && (sixty - exact).abs() < 0.2,
+                "gain {gain}: {one} {sixty} {exact}"
+            );
+            assert!(one.is_finite() && one > 150.0);
+        }
+        // A clear night without sky radiation, 10 m of air: the radiating ground cools and
+        // the air it touches follows it down, staying the warmer of the two.
+        let (tg, ta) = ground_heat_step(300.0, 280.0, 0.0, 0.91, 15.0, cap, 12_000.0, 3600.0);
+        assert!(tg < 280.0 && ta < 280.0 && ta > tg && tg > 200.0, "{tg} {ta}");
+        // No radiation: energy is conserved between ground and air.
+        let (tg3, ta3) = ground_heat_step(300.0, 280.0, 0.0, 0.0, 15.0, cap, 12_000.0, 600.0);
+        assert!(((tg3 - 300.0) * cap + (ta3 - 280.0) * 12_000.0).abs() < 1e-6);
     }
 
     #[test]
