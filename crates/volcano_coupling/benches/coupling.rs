@@ -21,7 +21,7 @@ fn setup() -> (GridSpec, Vec<LayerFields>, Vec<ColumnSlice>) {
                 altitude: 200.0 + 12_000.0 * f,
                 radius: 100.0 + 1_100.0 * f,
                 temperature: 900.0 - 650.0 * f,
-                vapour: 20.0 * (1.0 - f),
+                water_fraction: 0.03 * (1.0 - f),
             }
         })
         .collect();

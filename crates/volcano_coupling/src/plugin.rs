@@ -153,7 +153,7 @@ fn column_of(volcano: Entity, slices: &[(Entity, &PlumeSlice)]) -> Vec<ColumnSli
                 altitude: s.vent.y as f64 + p.z,
                 radius: s.state.r,
                 temperature: s.state.temperature,
-                vapour: s.state.vapour_concentration(),
+                water_fraction: s.state.water_mass / s.state.mass.max(1e-9),
             }
         })
         .collect()

@@ -19,8 +19,8 @@ pub struct ColumnSlice {
     pub radius: f64,
     /// Temperature (K).
     pub temperature: f64,
-    /// Water vapour concentration (g/m³).
-    pub vapour: f64,
+    /// Water mass fraction of the slice (kg of water per kg of slice).
+    pub water_fraction: f64,
 }
 
 /// What the plume → air transfer did.
@@ -145,12 +145,24 @@ pub fn ambient_levels(
         .collect()
 }
 
+/// Humidity (g/m³) that air of the layer's pressure `pi` (Pa) at temperature `t` (K) holds when
+/// it carries a water mass fraction `q` (kg/kg): `q ρ_air`, `ρ_air = Π / (R_air T)`.
+///
+/// The slice's own water per volume is not used: the thesis' vent mixture is ≈ 50× denser than
+/// a real one (docs/ARCHITECTURE.md §4.1), so its 3 wt% of magmatic water would be thousands of
+/// g/m³ near the vent and its latent heat would run the layer's temperature away. The mass
+/// fraction is what the column's air carries into the layer.
+pub fn humidity_of(q: f64, pi: f64, t: f64) -> f64 {
+    1e3 * q.max(0.0) * pi / (volcano_core::units::R_AIR * t.max(1.0))
+}
+
 /// Plume → air (§4.3.3): in each layer with a slice in range, the cells within the imposition
 /// radius `R` of the slice take `q_k = q_a + (q_s − q_a) w_k / w̄` for temperature and
 /// humidity, with `w_k = 1 − d_k / R` (a cone peaking at the column's centre), `w̄` its mean over
 /// those cells and `q_a` the annulus mean around them: the imposed values' mean is exactly the
-/// slice's. Only free cells (σ > 0) are written; humidity never goes below 0. Returns what was
-/// done, with the net water written (g) for the water budget.
+/// slice's. The slice's humidity is its water fraction in air of the layer's pressure and the
+/// slice's temperature ([`humidity_of`]). Only free cells (σ > 0) are written; humidity never
+/// goes below 0. Returns what was done, with the net water written (g) for the water budget.
 pub fn impose(
     layers: &mut [LayerFields],
     grid: GridSpec,
@@ -178,10 +190,11 @@ pub fn impose(
             continue;
         }
         let volume = layer.thickness * cell_area;
+        let h_s = humidity_of(s.water_fraction, layer.pi, s.temperature);
         for &(k, w) in &cells {
             let f = w / mean_w;
             let sigma = layer.sigma.data()[k] as f64;
-            let h_new = (h_a + (s.vapour - h_a) * f).max(0.0);
+            let h_new = (h_a + (h_s - h_a) * f).max(0.0);
             report.water_written_g += (h_new - layer.h.data()[k]) * sigma * volume;
             layer.h.data_mut()[k] = h_new;
             layer.t.data_mut()[k] = (t_a + (s.temperature - t_a) * f).max(1.0) as f32;
@@ -210,7 +223,7 @@ mod tests {
             altitude: alt,
             radius: r,
             temperature: 400.0,
-            vapour: 12.0,
+            water_fraction: 0.02,
         }
     }
 
@@ -237,7 +250,9 @@ mod tests {
         let mean_t = cells.iter().map(|&(k, _)| l[1].t.data()[k] as f64).sum::<f64>() / cells.len() as f64;
         let mean_h = cells.iter().map(|&(k, _)| l[1].h.data()[k]).sum::<f64>() / cells.len() as f64;
         assert!((mean_t - 400.0).abs() < 1e-3, "{mean_t}");
-        assert!((mean_h - 12.0).abs() < 1e-9, "{mean_h}");
+        let h_s = humidity_of(0.02, l[1].pi, 400.0);
+        assert!(h_s > 10.0 && h_s < 20.0, "2 % water in air at ≈ 850 hPa, 400 K: {h_s} g/m³");
+        assert!((mean_h - h_s).abs() < 1e-9, "{mean_h}");
         let centre = cells.iter().min_by(|a, b| a.1.total_cmp(&b.1)).unwrap().0;
         let edge = cells.iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap().0;
         assert!(l[1].t.data()[centre] > 400.0 && l[1].t.data()[edge] < 400.0);

@@ -125,11 +125,6 @@ impl Slice {
         }
     }
 
-    /// Water vapour concentration of the slice (g/m³): its water over its volume.
-    pub fn vapour_concentration(&self) -> f64 {
-        1e3 * self.water_mass / self.volume().max(1e-12)
-    }
-
     /// Volume `V = π r³` (m³).
     pub fn volume(&self) -> f64 {
         std::f64::consts::PI * self.r.powi(3)
