@@ -5,11 +5,9 @@
 
 use std::path::Path;
 use std::process::ExitCode;
-use std::time::Duration;
 
 use bevy::math::DVec2;
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use serde::Serialize;
 use volcano::coupling::plugin::ash_ledger;
 use volcano::coupling::{CouplingBudget, CouplingSettings};
@@ -137,11 +135,8 @@ pub fn run(which: EruptionScenario, seconds: f64, grid: usize, dir: &Path) -> Ex
         eprintln!("error: cannot create {}: {e}", dir.display());
         return ExitCode::FAILURE;
     }
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
-        .init_resource::<Apex>()
-        .add_systems(FixedUpdate, record.in_set(SimSystems::End));
+    let mut app = crate::sim_app();
+    app.init_resource::<Apex>().add_systems(FixedUpdate, record.in_set(SimSystems::End));
     let mut eruption = Eruption::plinian();
     if which != EruptionScenario::CloudCap {
         // Coarse ash: out of the umbrella within a minute or so.

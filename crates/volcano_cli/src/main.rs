@@ -211,6 +211,15 @@ impl From<LavaView> for volcano::render::LavaRenderMode {
     }
 }
 
+/// A headless simulation app (no rendering) advancing 5 base ticks per update, for the runs
+/// that only need numbers (`pyroclastic`, `eruption`).
+pub(crate) fn sim_app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
+    app
+}
+
 fn render(
     scene: &str,
     ticks: u32,

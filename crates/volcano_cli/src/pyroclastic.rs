@@ -5,10 +5,8 @@
 
 use std::path::Path;
 use std::process::ExitCode;
-use std::time::Duration;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use serde::Serialize;
 use volcano::plume::pyroclastic::airborne_mass;
 use volcano::plume::{DepositMap, Eruption, PlumeParams, PyroParticle, PyroclasticBudget};
@@ -90,11 +88,8 @@ pub fn run(params: &PlumeParams, seconds: f64, dir: &Path) -> ExitCode {
         eprintln!("error: cannot create {}: {e}", dir.display());
         return ExitCode::FAILURE;
     }
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
-        .init_resource::<Tracks>()
-        .add_systems(FixedUpdate, record.in_set(SimSystems::End));
+    let mut app = crate::sim_app();
+    app.init_resource::<Tracks>().add_systems(FixedUpdate, record.in_set(SimSystems::End));
     app.world_mut().spawn(terrain.clone());
     app.world_mut().spawn((volcano, eruption, transform));
     let ticks = (seconds * 50.0).round() as u64;
