@@ -15,7 +15,7 @@ use volcano_plume::{
 };
 
 use crate::model::column::{ColumnSlice, TransferReport, ambient_levels, impose, nearest_slice_per_layer};
-use crate::model::inject::{Delivered, inject_ash};
+use crate::model::inject::{Delivered, cell_at, inject_ash};
 
 /// Public sets of the coupling, so games can order their own systems against the transfers.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -133,10 +133,7 @@ fn grids<'a>(atmospheres: impl Iterator<Item = (Entity, &'a Atmosphere)>) -> Vec
 
 /// The first atmosphere (in entity order) whose grid contains world `(x, z)`.
 fn atmosphere_over(grids: &[(Entity, GridSpec)], x: f32, z: f32) -> Option<(Entity, GridSpec)> {
-    grids.iter().copied().find(|(_, g)| {
-        let half = 0.5 * g.extent() as f32;
-        x.abs() < half && z.abs() < half
-    })
+    grids.iter().copied().find(|(_, g)| cell_at(*g, x as f64, z as f64).is_some())
 }
 
 /// The column slices of `volcano`, sorted by emission index, as the layers see them.

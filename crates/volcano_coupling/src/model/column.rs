@@ -62,6 +62,14 @@ pub fn imposition_radius(r: f64, dx: f64) -> f64 {
     r.max(dx)
 }
 
+/// The annulus `[R, max(3r, R + 1.5 dx)]` (m) read as a column's surroundings, `R` the
+/// imposition radius: both transfers use it, so the cells the column writes are never read
+/// back as its air.
+pub fn annulus_bounds(r: f64, dx: f64) -> (f64, f64) {
+    let r_in = imposition_radius(r, dx);
+    (r_in, (3.0 * r).max(r_in + 1.5 * dx))
+}
+
 /// Means of temperature (K), humidity (g/m³) and cell-centred wind (world x/z, m/s) over the
 /// free cells whose centres lie in the annulus `r_in ≤ d ≤ r_out` around `centre`. `None` if no
 /// free cell is there.
@@ -132,8 +140,7 @@ pub fn ambient_levels(
         .zip(nearest)
         .filter_map(|(layer, near)| {
             let (centre, r) = near.map_or((vent, r0), |i| (slices[i].centre, slices[i].radius));
-            let r_in = imposition_radius(r, grid.dx);
-            let r_out = (3.0 * r).max(r_in + 1.5 * grid.dx);
+            let (r_in, r_out) = annulus_bounds(r, grid.dx);
             let (t, h, w) = annulus_mean(layer, grid, centre, r_in, r_out)?;
             Some(AmbientLevel {
                 altitude: layer.altitude,
@@ -173,10 +180,8 @@ pub fn impose(
     let cell_area = grid.dx * grid.dx;
     for (layer, near) in layers.iter_mut().zip(nearest) {
         let Some(s) = near.map(|i| slices[i]) else { continue };
-        let r = imposition_radius(s.radius, grid.dx);
-        let Some((t_a, h_a, _)) =
-            annulus_mean(layer, grid, s.centre, r, (3.0 * s.radius).max(r + 1.5 * grid.dx))
-        else {
+        let (r, r_out) = annulus_bounds(s.radius, grid.dx);
+        let Some((t_a, h_a, _)) = annulus_mean(layer, grid, s.centre, r, r_out) else {
             continue;
         };
         let mut cells: Vec<(usize, f64)> = Vec::new();
