@@ -14,6 +14,7 @@ pub use atmosphere::SceneAtmosphere;
 /// Built-in scenes: (name, RON text).
 const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
+    ("eruption_collapse", include_str!("../assets/scenes/eruption_collapse.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
     ("lava_folds", include_str!("../assets/scenes/lava_folds.ron")),

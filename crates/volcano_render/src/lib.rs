@@ -21,6 +21,7 @@
 //!     .run();
 //! ```
 
+pub mod ash_fall;
 pub mod camera;
 pub mod clouds;
 pub mod deposit;
@@ -33,6 +34,7 @@ pub mod window_capture;
 
 use bevy::app::{App, Plugin};
 
+pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
 pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
 pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use deposit::{DepositRenderPlugin, DepositTint};
@@ -57,7 +59,7 @@ pub struct VolcanoRenderPlugin;
 impl Plugin for VolcanoRenderPlugin {
     fn build(&self, app: &mut App) {
         app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, PlumeRenderPlugin));
-        app.add_plugins((DepositRenderPlugin, LavaRenderPlugin, CloudRenderPlugin));
+        app.add_plugins((DepositRenderPlugin, LavaRenderPlugin, CloudRenderPlugin, AshFallRenderPlugin));
     }
 }
 

@@ -272,12 +272,12 @@ fn update_cloud_volumes(
     }
 }
 
-/// Adds [`VolumetricFog`] to main cameras and [`VolumetricLight`] to suns while cloud volumes
-/// exist, and removes them when none is left.
+/// Adds [`VolumetricFog`] to main cameras and [`VolumetricLight`] to suns while cloud or ash-fall
+/// volumes exist, and removes them when none is left.
 fn volumetric_views(
     mut commands: Commands,
     settings: Res<CloudRenderSettings>,
-    fogs: Query<(), With<CloudFog>>,
+    fogs: Query<(), Or<(With<CloudFog>, With<crate::ash_fall::AshFallFog>)>>,
     cameras: Query<(Entity, Option<&VolumetricFog>), With<MainCamera>>,
     suns: Query<(Entity, Has<VolumetricLight>), With<Sun>>,
 ) {

@@ -1,0 +1,253 @@
+//! Pure part of the ash-fall renderer: the layers' ash concentration (g/m³) resampled on a
+//! voxel grid for a fog volume, with fall streaks.
+//!
+//! The atmosphere holds ash per layer (`LayerFields::ash`, g/m³; the coupling feeds it from the
+//! column and the umbrella, `volcano_atmosphere::model::ash` advects and settles it). Ash
+//! settling through a layer *is* that layer's ash, so drawing each layer's field over the
+//! layer's whole slab draws the fall: a curtain under the umbrella, bent by the winds of the
+//! layers it crosses, dense where the field is dense. The field is piecewise constant in
+//! altitude (one value per layer); streaks — a horizontal noise at a few voxels, constant along
+//! the fall — break the curtain into shafts, with a mean factor of 1 so the drawn mass follows
+//! the field. Below the terrain nothing is drawn.
+
+use bevy::math::Vec2;
+use noise::{NoiseFn, Perlin};
+use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
+use volcano_core::error::in_range;
+use volcano_core::grid::Boundary;
+use volcano_core::{ConfigError, Grid2};
+
+/// The voxel grid of an ash volume: `nxy × nxy` columns over the atmosphere's footprint (centred
+/// on the world origin, like its grid), `nz` levels from `z_min` to `z_max` (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AshVolumeSpec {
+    /// Voxels per side horizontally.
+    pub nxy: usize,
+    /// Voxels vertically.
+    pub nz: usize,
+    /// Altitude of the volume's bottom (m).
+    pub z_min: f64,
+    /// Altitude of the volume's top (m).
+    pub z_max: f64,
+    /// Strength of the fall streaks, 0 (a smooth curtain) to 1 (shafts and gaps).
+    pub streaks: f64,
+    /// Horizontal size of a streak (m).
+    pub streak_m: f64,
+    /// Seed of the streak noise.
+    pub seed: u32,
+}
+
+impl AshVolumeSpec {
+    /// The volume over a stack of layers: from the lowest layer's bottom (not below sea level)
+    /// to the top layer's top.
+    pub fn over(layers: &[&LayerFields], nxy: usize, nz: usize) -> Self {
+        let z_min = layers.iter().map(|l| l.bottom).fold(f64::INFINITY, f64::min);
+        let z_max = layers.iter().map(|l| l.bottom + l.thickness).fold(f64::NEG_INFINITY, f64::max);
+        let z_min = if z_min.is_finite() { z_min.max(0.0) } else { 0.0 };
+        let z_max = if z_max.is_finite() { z_max.max(z_min + 1.0) } else { z_min + 1.0 };
+        Self { nxy, nz, z_min, z_max, streaks: 0.6, streak_m: 400.0, seed: 11 }
+    }
+
+    /// Checks the sizes and the streak parameters; the error names the field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        in_range("ash voxels_xy", self.nxy as f64, 2.0, 1024.0)?;
+        in_range("ash voxels_z", self.nz as f64, 2.0, 512.0)?;
+        in_range("ash streaks", self.streaks, 0.0, 1.0)?;
+        in_range("ash streak_m", self.streak_m, 1.0, 1e6)?;
+        if !(self.z_min.is_finite() && self.z_max.is_finite() && self.z_max > self.z_min) {
+            return Err(ConfigError::InvalidParameter {
+                name: "ash volume altitudes",
+                value: self.z_max - self.z_min,
+                reason: format!("need finite z_min < z_max, got {} .. {}", self.z_min, self.z_max),
+            });
+        }
+        Ok(())
+    }
+
+    /// Altitude of the centre of level `iz` (m).
+    pub fn level_altitude(&self, iz: usize) -> f64 {
+        self.z_min + (iz as f64 + 0.5) * (self.z_max - self.z_min) / self.nz as f64
+    }
+}
+
+/// Which layers' fields make the ash at altitude `z`: `(lower, upper, weight of upper)`,
+/// linear in altitude between the centres (`altitude`) of adjacent layers, the nearest layer's
+/// own value between its centre and its slab's outer boundary, `None` outside the stack.
+/// The layers are a stack of slabs, lowest first.
+pub fn layer_blend(layers: &[&LayerFields], z: f64) -> Option<(usize, usize, f64)> {
+    let (first, last) = (layers.first()?, layers.last()?);
+    if !(z >= first.bottom && z < last.bottom + last.thickness) {
+        return None;
+    }
+    let above = layers.iter().position(|l| l.altitude > z);
+    Some(match above {
+        None => (layers.len() - 1, layers.len() - 1, 0.0),
+        Some(0) => (0, 0, 0.0),
+        Some(u) => {
+            let (a, b) = (layers[u - 1].altitude, layers[u].altitude);
+            (u - 1, u, ((z - a) / (b - a)).clamp(0.0, 1.0))
+        }
+    })
+}
+
+/// Ash concentration (g/m³) of the voxels of `spec` over an atmosphere of grid `grid` (x
+/// fastest, then grid y, then altitude — the layout of `clouds::density_texels`): each voxel
+/// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
+/// by [`layer_blend`] (a curtain sheared by the winds leans smoothly instead of in steps),
+/// times the streak factor of its column; 0 above the layers and under `ground` (terrain altitude at
+/// the atmosphere's cell centres, if given). Non-finite or negative ash counts as none.
+pub fn ash_density_volume(
+    layers: &[&LayerFields],
+    grid: GridSpec,
+    ground: Option<&Grid2<f32>>,
+    spec: &AshVolumeSpec,
+) -> Result<Vec<f32>, ConfigError> {
+    spec.validate()?;
+    let (nxy, nz) = (spec.nxy, spec.nz);
+    let extent = grid.extent();
+    let streak = streak_factors(spec, extent);
+    // World position of each voxel column's centre.
+    let column_xy = |i: usize| -0.5 * extent + (i as f64 + 0.5) * extent / nxy as f64;
+    let levels: Vec<(f64, Option<(usize, usize, f64)>)> = (0..nz)
+        .map(|iz| {
+            let z = spec.level_altitude(iz);
+            (z, layer_blend(layers, z))
+        })
+        .collect();
+    let finite = |c: f64| if c.is_finite() && c > 0.0 { c } else { 0.0 };
+    let mut out = vec![0.0f32; nxy * nxy * nz];
+    for jy in 0..nxy {
+        for ix in 0..nxy {
+            let p = Vec2::new(column_xy(ix) as f32, column_xy(jy) as f32);
+            let floor = ground.map_or(f64::NEG_INFINITY, |g| g.sample(p, Boundary::Clamp) as f64);
+            let s = streak[jy * nxy + ix];
+            for (iz, &(z, blend)) in levels.iter().enumerate() {
+                let Some((lo, hi, w)) = blend else { continue };
+                if z < floor {
+                    continue;
+                }
+                let c = finite(layers[lo].ash.sample(p, Boundary::Clamp));
+                let c =
+                    if w > 0.0 { c + w * (finite(layers[hi].ash.sample(p, Boundary::Clamp)) - c) } else { c };
+                out[(iz * nxy + jy) * nxy + ix] = (c * s) as f32;
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Streak factor of each voxel column (`nxy²`, x fastest): `max(0, 1 + a·p)` with `p` a Perlin
+/// noise (mean 0, |p| ≤ 1) over `streak_m`-sized features, `a` = `spec.streaks`, so the factors
+/// average ≈ 1 and the drawn ash mass follows the field.
+pub fn streak_factors(spec: &AshVolumeSpec, extent: f64) -> Vec<f64> {
+    let noise = Perlin::new(spec.seed);
+    let nxy = spec.nxy;
+    let mut out = Vec::with_capacity(nxy * nxy);
+    for jy in 0..nxy {
+        for ix in 0..nxy {
+            let (x, y) = ((ix as f64 + 0.5) * extent / nxy as f64, (jy as f64 + 0.5) * extent / nxy as f64);
+            // Perlin is 0 on integer lattice points: offset so columns do not land on them.
+            let p = noise.get([x / spec.streak_m + 0.37, y / spec.streak_m + 0.71]);
+            out.push((1.0 + spec.streaks * p.clamp(-1.0, 1.0)).max(0.0));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn layers(grid: GridSpec) -> Vec<LayerFields> {
+        // Three 1 km slabs from 0 to 3 km.
+        (0..3)
+            .map(|i| LayerFields::new(grid, 500.0 + 1000.0 * i as f64, 1000.0 * i as f64, 1000.0, 280.0))
+            .collect()
+    }
+
+    fn spec(nxy: usize, nz: usize, streaks: f64) -> AshVolumeSpec {
+        AshVolumeSpec { nxy, nz, z_min: 0.0, z_max: 3000.0, streaks, streak_m: 400.0, seed: 3 }
+    }
+
+    #[test]
+    fn levels_blend_the_layers_linearly_between_their_centres() {
+        let grid = GridSpec::new(16, 250.0).unwrap();
+        let mut ls = layers(grid);
+        ls[1].ash.data_mut().fill(2.0);
+        ls[2].ash.data_mut().fill(0.5);
+        let refs: Vec<&LayerFields> = ls.iter().collect();
+        // Six levels at 250, 750, …, 2,750 m; layer centres at 500, 1,500, 2,500 m.
+        let v = ash_density_volume(&refs, grid, None, &spec(4, 6, 0.0)).unwrap();
+        let level = |iz: usize| {
+            let l = &v[iz * 16..(iz + 1) * 16];
+            assert!(l.iter().all(|&c| c == l[0]), "uniform field, uniform level");
+            l[0]
+        };
+        let expect = [0.0, 0.5, 1.5, 2.0 - 0.25 * 1.5, 2.0 - 0.75 * 1.5, 0.5];
+        for (iz, e) in expect.iter().enumerate() {
+            assert!((level(iz) - e).abs() < 1e-6, "level {iz}: {} vs {e}", level(iz));
+        }
+        assert_eq!(layer_blend(&refs, -1.0), None);
+        assert_eq!(layer_blend(&refs, 3000.0), None);
+        assert_eq!(layer_blend(&refs, 2900.0), Some((2, 2, 0.0)));
+    }
+
+    #[test]
+    fn denser_field_denser_voxels_and_nothing_under_the_ground() {
+        let grid = GridSpec::new(16, 250.0).unwrap();
+        let mut ls = layers(grid);
+        // Ash twice as dense in the east half of layer 1.
+        for k in 0..grid.cells() {
+            ls[1].ash.data_mut()[k] = if grid.centre(k).0 > 0.0 { 2.0 } else { 1.0 };
+        }
+        let refs: Vec<&LayerFields> = ls.iter().collect();
+        let s = spec(16, 6, 0.6);
+        let v = ash_density_volume(&refs, grid, None, &s).unwrap();
+        let f = streak_factors(&s, grid.extent());
+        let iz = 2; // 1,250 m: 3/4 of layer 1, 1/4 of layer 0 (which holds no ash)
+        for jy in 0..16 {
+            // Columns well inside each half (the bilinear sample blends the middle).
+            let (w, e) = (jy * 16 + 2, jy * 16 + 13);
+            assert!((v[iz * 256 + w] as f64 - 0.75 * f[w]).abs() < 1e-6);
+            assert!((v[iz * 256 + e] as f64 - 1.5 * f[e]).abs() < 1e-6);
+        }
+        // A 1,500 m ridge along the west half: layer 1's lower level (1,250 m) is underground there.
+        let mut ground = grid.grid(0.0f32);
+        for k in 0..grid.cells() {
+            if grid.centre(k).0 < 0.0 {
+                ground.data_mut()[k] = 1500.0;
+            }
+        }
+        let g = ash_density_volume(&refs, grid, Some(&ground), &s).unwrap();
+        assert_eq!(g[iz * 256 + 16 * 8 + 1], 0.0, "under the ridge");
+        assert_eq!(g[iz * 256 + 16 * 8 + 14], v[iz * 256 + 16 * 8 + 14], "beside it");
+        assert!(g[3 * 256 + 16 * 8 + 1] > 0.0, "above the ridge (1,750 m)");
+    }
+
+    #[test]
+    fn streaks_vary_but_keep_the_mean() {
+        let s = spec(128, 2, 0.6);
+        let f = streak_factors(&s, 25_600.0);
+        let mean = f.iter().sum::<f64>() / f.len() as f64;
+        let var = f.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / f.len() as f64;
+        assert!((mean - 1.0).abs() < 0.05, "mean streak factor {mean}");
+        assert!(var.sqrt() > 0.1, "streaks too weak: σ = {}", var.sqrt());
+        assert!(f.iter().all(|&x| x >= 0.0));
+        assert!(streak_factors(&spec(8, 2, 0.0), 1000.0).iter().all(|&x| x == 1.0));
+    }
+
+    #[test]
+    fn bad_input_is_an_error_or_ignored() {
+        let grid = GridSpec::new(16, 100.0).unwrap();
+        let mut ls = layers(grid);
+        ls[0].ash.data_mut()[0] = f64::NAN;
+        ls[0].ash.data_mut()[1] = -1.0;
+        let refs: Vec<&LayerFields> = ls.iter().collect();
+        let v = ash_density_volume(&refs, grid, None, &spec(4, 3, 0.0)).unwrap();
+        assert!(v.iter().all(|c| c.is_finite() && *c >= 0.0));
+        let e = ash_density_volume(&refs, grid, None, &spec(1, 3, 0.0)).unwrap_err().to_string();
+        assert!(e.contains("voxels_xy"), "{e}");
+        let e = ash_density_volume(&refs, grid, None, &spec(4, 3, 1.5)).unwrap_err().to_string();
+        assert!(e.contains("streaks"), "{e}");
+    }
+}
