@@ -108,7 +108,8 @@ pub fn ash_density_volume(
     let streak = streak_factors(spec, extent);
     // World position of each voxel column's centre.
     let column_xy = |i: usize| -0.5 * extent + (i as f64 + 0.5) * extent / nxy as f64;
-    let levels: Vec<(f64, Option<(usize, usize, f64)>)> = (0..nz)
+    type Level = (f64, Option<(usize, usize, f64)>);
+    let levels: Vec<Level> = (0..nz)
         .map(|iz| {
             let z = spec.level_altitude(iz);
             (z, layer_blend(layers, z))

@@ -272,12 +272,15 @@ fn update_cloud_volumes(
     }
 }
 
+/// Fog volumes that need the cameras' volumetric fog: clouds and ash fall.
+type FogVolumes = Or<(With<CloudFog>, With<crate::ash_fall::AshFallFog>)>;
+
 /// Adds [`VolumetricFog`] to main cameras and [`VolumetricLight`] to suns while cloud or ash-fall
 /// volumes exist, and removes them when none is left.
 fn volumetric_views(
     mut commands: Commands,
     settings: Res<CloudRenderSettings>,
-    fogs: Query<(), Or<(With<CloudFog>, With<crate::ash_fall::AshFallFog>)>>,
+    fogs: Query<(), FogVolumes>,
     cameras: Query<(Entity, Option<&VolumetricFog>), With<MainCamera>>,
     suns: Query<(Entity, Has<VolumetricLight>), With<Sun>>,
 ) {
