@@ -331,6 +331,24 @@ mod tests {
         assert!(layers.iter().all(|l| l.h.data().iter().all(|&h| h >= 0.0)));
     }
 
+    /// A sliver of cold air (2 % of the slab, as where a slope cuts the layer) is a small mass
+    /// anomaly: it pulls air down far less than a full column with the same anomaly.
+    #[test]
+    fn a_cold_sliver_is_a_small_mass_anomaly() {
+        let mut layers = two_layers(16);
+        layers[0].t.data_mut()[5] -= 10.0;
+        layers[0].t.data_mut()[9] -= 10.0;
+        layers[0].sigma.data_mut()[9] = 0.02;
+        let p = AtmosphereParams::default();
+        vertical_velocity(&mut layers, &vec![0.0; 256], 100.0, &p, 30.0);
+        let (full, sliver) = (layers[0].c.data()[5], layers[0].c.data()[9]);
+        assert!(full < -0.5, "a 10 K colder column sinks: {full} m/s");
+        assert!(
+            sliver < 0.0 && sliver.abs() < 0.05 * full.abs(),
+            "sliver {sliver} vs full column {full} m/s"
+        );
+    }
+
     /// The realised velocity is the exponential of (4.6): linear for short steps, at most the
     /// thinner column per step for long ones, zero for non-finite input; and the transfer
     /// moves exactly |D| Δt of the source's air.
