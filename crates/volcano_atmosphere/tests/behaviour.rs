@@ -3,6 +3,7 @@
 
 use volcano_atmosphere::model::run::run;
 use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::{Workspace, step};
 
 #[test]
 fn water_is_conserved_over_1000_steps_and_nothing_goes_negative() {
@@ -156,4 +157,74 @@ fn a_stratovolcano_from_the_foundation_cuts_through_the_low_layers() {
         .replace("terrain: Flat(height_m: 0.0, cover: Ground),", "terrain: Stratovolcano((cell: -1.0)),");
     let e = Scenario::from_ron(&bad).unwrap_err().to_string();
     assert!(e.contains("cell"), "{e}");
+}
+
+/// What a plume spot did over 20 steps of 30 s: the largest D above it, the limiter's report,
+/// the condensed water above the spot (layers 1–2, within two cells) and far from it, and the
+/// water drift once the water the imposition added is booked.
+struct PlumeSpot {
+    d_max: f64,
+    unlimited: f64,
+    limited: u64,
+    near: f64,
+    far: f64,
+    drift: f64,
+}
+
+/// Imposes `dt_k` kelvin above the layer's reference and `hum` g/m³ on a 3 × 3-cell spot of the
+/// lowest layer before every step, as crates/volcano_coupling does under a plume column.
+fn plume_spot(dt_k: f32, hum: f64) -> PlumeSpot {
+    let s = Scenario::builtin("convection").unwrap();
+    let mut st = s.build(Some(32)).unwrap();
+    let n = st.grid.n;
+    let area = st.grid.dx * st.grid.dx;
+    let spot: Vec<usize> = (15..18).flat_map(|j| (15..18).map(move |i| j * n + i)).collect();
+    let mut work = Workspace::new(&st).unwrap();
+    let (water0, mut added) = (st.water_total(), 0.0);
+    let mut r = PlumeSpot { d_max: 0.0, unlimited: 0.0, limited: 0, near: 0.0, far: 0.0, drift: 0.0 };
+    for _ in 0..20 {
+        let l = &mut st.layers[0];
+        let t_ref = l.t_ref;
+        for &k in &spot {
+            l.t.data_mut()[k] = t_ref + dt_k;
+            added += (hum - l.h.data()[k]) * l.sigma.data()[k] as f64 * l.thickness * area;
+            l.h.data_mut()[k] = hum;
+        }
+        let rep = step(&mut st, &s.params, &mut work, s.dt).unwrap();
+        assert!(st.is_valid(), "state became non-finite or negative: {rep:?}");
+        let d = spot.iter().map(|&k| st.layers[0].d.data()[k] as f64).fold(f64::MIN, f64::max);
+        r.d_max = r.d_max.max(d);
+        r.unlimited = r.unlimited.max(rep.max_unlimited_vertical_speed);
+        r.limited += rep.vertical_limited_cells;
+    }
+    r.drift = (st.water_total() - water0 - added) / (water0 + added);
+    let dist = |k: usize| ((k % n) as i64 - 16).abs().max(((k / n) as i64 - 16).abs());
+    let mean = |l: usize, near: bool| {
+        let cells: Vec<usize> = (0..n * n).filter(|&k| (dist(k) <= 2) == near).collect();
+        cells.iter().map(|&k| st.layers[l].w.data()[k]).sum::<f64>() / cells.len() as f64
+    };
+    (r.near, r.far) = (mean(1, true).max(mean(2, true)), mean(1, false).max(mean(2, false)));
+    eprintln!(
+        "+{dt_k} K, {hum} g/m³: D above the spot up to {:.2} m/s (|C + U| up to {:.1}), {} limited \
+         cell-steps; condensed water above the spot {:.4} g/m³, far {:.2e}; water drift {:e}",
+        r.d_max, r.unlimited, r.limited, r.near, r.far, r.drift
+    );
+    r
+}
+
+/// A volcanic plume imposes hundreds of kelvin and its moisture on the cells under the column
+/// (issue 13 item 3). The layers must carry an updraft of tens of m/s above it (the old
+/// ±2 m/s clamp held it at 2), report the limiter that acts at Δt = 30 s, stay finite and
+/// book every gram; a moist spot diluted to +30 K (the plume's edge, where the cap cloud
+/// forms) rises at more than twice the old bound and condenses a cap cloud above it.
+#[test]
+fn a_hot_moist_plume_spot_drives_a_fast_updraft_and_a_cap_cloud() {
+    let hot = plume_spot(300.0, 20.0);
+    assert!(hot.d_max > 10.0, "updraft above a +300 K spot: {} m/s", hot.d_max);
+    assert!(hot.limited > 0 && hot.unlimited > hot.d_max, "the limiter must be reported");
+    assert!(hot.drift.abs() < 1e-12, "water drift {:e}", hot.drift);
+    let edge = plume_spot(30.0, 20.0);
+    assert!(edge.d_max > 4.0, "updraft above a +30 K moist spot: {} m/s", edge.d_max);
+    assert!(edge.drift.abs() < 1e-12, "water drift {:e}", edge.drift);
+    assert!(edge.near > 0.05 && edge.far == 0.0, "cap cloud {} g/m³ vs far {}", edge.near, edge.far);
 }

@@ -254,9 +254,19 @@ pub fn flux_step(
     });
 }
 
+/// What one conservative advection did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Transport {
+    /// Substeps run.
+    pub substeps: u32,
+    /// Whether the substep cap was hit and the donor limiter acted.
+    pub limited: bool,
+}
+
 /// Advects several concentration fields conservatively with the same velocities, in
-/// `substeps(…)` substeps. `fluxes` is scratch of length 3n². Fields that are zero
-/// everywhere (e.g. ash without an eruption) are skipped: their fluxes are zero.
+/// `substeps(…)` substeps (at most [`MAX_SUBSTEPS`], beyond which the donor limiter acts).
+/// `fluxes` is scratch of length 3n². Fields that are zero everywhere (e.g. ash without an
+/// eruption) are skipped: their fluxes are zero.
 #[allow(clippy::too_many_arguments)]
 pub fn advect_conservative(
     fields: &mut [&mut [f64]],
@@ -268,7 +278,7 @@ pub fn advect_conservative(
     sigma: &[f32],
     n: usize,
     c: f64,
-) -> u32 {
+) -> Transport {
     let need = substeps(u, v, ax, ay, sigma, n, c);
     let m = need.min(MAX_SUBSTEPS);
     let limited = need > MAX_SUBSTEPS;
@@ -281,7 +291,7 @@ pub fn advect_conservative(
             flux_step(q, fluxes, u, v, ax, ay, sigma, n, cs, limited);
         }
     }
-    m
+    Transport { substeps: m, limited }
 }
 
 #[cfg(test)]
@@ -354,7 +364,8 @@ mod tests {
         let mut src = vec![0.0; 3 * n * n];
         let mut subs = 0;
         for _ in 0..200 {
-            subs = advect_conservative(&mut [&mut q[..]], &mut src, &u, &v, &ax, &ay, &sigma, n, 0.3);
+            subs =
+                advect_conservative(&mut [&mut q[..]], &mut src, &u, &v, &ax, &ay, &sigma, n, 0.3).substeps;
         }
         assert!(subs > 1, "the test wind should need substeps");
         let after = total(&q);

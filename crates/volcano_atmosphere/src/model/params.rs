@@ -40,8 +40,6 @@ pub struct AtmosphereParams {
     /// eq. (4.12)'s transfer: evaporation = v (H'(T_ground) − H) in g/(m²·s) while ground
     /// water lasts (dew when negative). 4e-3 (C_E ≈ 1.3e-3 at ≈ 3 m/s wind).
     pub ground_evaporation_velocity: f64,
-    /// Bound on |D| (m/s), a safety limit on the vertical velocity. 2.
-    pub max_vertical_speed: f64,
     /// Condensed water above this content (g/m³) precipitates. 1.0.
     pub precipitation_threshold: f64,
     /// Rate (1/s) at which the excess over the threshold falls to the ground. 1e-3.
@@ -93,7 +91,6 @@ impl Default for AtmosphereParams {
             orographic_decay_m: 1500.0,
             phase_rate: 0.1,
             ground_evaporation_velocity: 4e-3,
-            max_vertical_speed: 2.0,
             precipitation_threshold: 1.0,
             precipitation_rate: 1e-3,
             solar_constant: 1000.0,
@@ -121,7 +118,6 @@ impl AtmosphereParams {
         in_range("orographic_decay_m", self.orographic_decay_m, 1.0, 1e5)?;
         in_range("phase_rate", self.phase_rate, 0.0, 100.0)?;
         in_range("ground_evaporation_velocity", self.ground_evaporation_velocity, 0.0, 1.0)?;
-        in_range("max_vertical_speed", self.max_vertical_speed, 0.0, 100.0)?;
         in_range("precipitation_threshold", self.precipitation_threshold, 0.0, 100.0)?;
         in_range("precipitation_rate", self.precipitation_rate, 0.0, 1.0)?;
         in_range("solar_constant", self.solar_constant, 0.0, 2000.0)?;

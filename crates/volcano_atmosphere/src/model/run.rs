@@ -53,6 +53,14 @@ pub struct AtmosphereSummary {
     /// Largest |wind| through a closed face (rock on one side) after the last step's
     /// projection (m/s); zero when the projection respects the terrain.
     pub max_solid_face_flux_m_s: f64,
+    /// Largest realised |D| over the run (m/s).
+    pub max_vertical_speed_m_s: f64,
+    /// Largest |C + U| over the run (m/s), before the exponential of eq. (4.6) limited it.
+    pub max_unlimited_vertical_speed_m_s: f64,
+    /// Limiter: cell-steps where that exponential took more than 10 % off D.
+    pub vertical_limited_cells: u64,
+    /// Limiter: layer-steps whose conservative transport hit the substep cap (donor limiter).
+    pub flux_limited_layer_steps: u32,
     /// Mean onshore wind of the lowest layer over the coast, 11:30–12:30 local (m/s).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub onshore_wind_noon_m_s: Option<f64>,
@@ -180,6 +188,7 @@ pub fn run(
     let mut valid = true;
     let mut elapsed = 0.0;
     let mut solid_face = 0.0;
+    let (mut max_d, mut unlimited, mut v_limited, mut f_limited) = (0.0f64, 0.0f64, 0u64, 0u32);
     for s in 0..steps {
         while next_event < events.len() && events[next_event].at_s <= state.time_s {
             apply_event(&mut state, events[next_event]);
@@ -197,6 +206,10 @@ pub fn run(
         }
         red_sum += rep.residual_reduction;
         solid_face = rep.max_solid_face_flux_m_s;
+        max_d = max_d.max(rep.max_vertical_speed);
+        unlimited = unlimited.max(rep.max_unlimited_vertical_speed);
+        v_limited += rep.vertical_limited_cells;
+        f_limited += rep.flux_limited_layers;
         valid &= state.is_valid();
         let hour = state.local_hour();
         if let Some(p) = &shore {
@@ -234,6 +247,10 @@ pub fn run(
         precipitated_g: state.precipitated,
         valid,
         max_solid_face_flux_m_s: solid_face,
+        max_vertical_speed_m_s: max_d,
+        max_unlimited_vertical_speed_m_s: unlimited,
+        vertical_limited_cells: v_limited,
+        flux_limited_layer_steps: f_limited,
         onshore_wind_noon_m_s: noon.get(),
         onshore_wind_night_m_s: night.get(),
         windward_updraft_m_s: ww.get(),

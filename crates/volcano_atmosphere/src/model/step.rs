@@ -9,14 +9,14 @@ use rayon::prelude::*;
 use serde::Serialize;
 use volcano_core::ConfigError;
 
-use super::advection::{Staggering, advect_conservative, advect_field, apertures};
+use super::advection::{Staggering, Transport, advect_conservative, advect_field, apertures};
 use super::ash::{AshReport, step_ash};
 use super::fields::{AtmosphereState, LayerFields};
 use super::params::AtmosphereParams;
 use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
 use super::sun::sun_position;
 use super::terrain::ground_exchange;
-use super::thermo::phase_change_fraction;
+use super::thermo::{phase_change_fraction, wedge_air};
 use super::vertical::{divergence_target, precipitate, transfer, vertical_velocity};
 
 /// Scratch buffers of one layer, kept between steps.
@@ -80,14 +80,22 @@ pub struct StepReport {
     pub residual_reduction: f64,
     /// V-cycles run, summed over layers.
     pub v_cycles: u32,
-    /// max |D| (m/s).
+    /// max |D| realised (m/s), see `vertical::realised_velocity`.
     pub max_vertical_speed: f64,
+    /// max |C + U| before the exponential of eq. (4.6) (m/s): what D would be without a limit.
+    pub max_unlimited_vertical_speed: f64,
+    /// Limiter: cells (over all interfaces) where the exponential of eq. (4.6) took more than
+    /// 10 % off the vertical velocity (the step is long for the updraft there).
+    pub vertical_limited_cells: u64,
     /// Grams precipitated this step.
     pub precipitated: f64,
     /// Grams evaporated from the ground this step (negative: dew).
     pub ground_evaporation: f64,
     /// Largest |wind| on a closed face (rock on one side) after the projection (m/s).
     pub max_solid_face_flux_m_s: f64,
+    /// Limiter: layers whose conservative transport hit the substep cap and ran the donor
+    /// limiter (exact, but the step is too long for the wind there).
+    pub flux_limited_layers: u32,
     /// Largest number of flux substeps a layer needed.
     pub flux_substeps: u32,
     /// Wall time (ms) of the phases: ground, phase change, vertical exchange, dynamics.
@@ -136,8 +144,10 @@ pub fn step(
     lap(1, &mut report);
 
     // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
-    report.max_vertical_speed =
-        vertical_velocity(&mut state.layers, state.ground.height.data(), state.grid.dx, params);
+    let vert = vertical_velocity(&mut state.layers, state.ground.height.data(), state.grid.dx, params, dt);
+    report.max_vertical_speed = vert.max_speed;
+    report.max_unlimited_vertical_speed = vert.max_unlimited_speed;
+    report.vertical_limited_cells = vert.limited_cells;
     transfer(&mut state.layers, dt);
     let area = state.grid.dx * state.grid.dx;
     report.precipitated = precipitate(
@@ -156,20 +166,21 @@ pub fn step(
         divergence_target(&state.layers, i, &mut work.layers[i].target);
     }
     let (n, dx) = (state.grid.n, state.grid.dx);
-    let reports: Vec<(ProjectionReport, u32)> = state
+    let reports: Vec<(ProjectionReport, Transport)> = state
         .layers
         .par_iter_mut()
         .zip(work.layers.par_iter_mut())
         .map(|(layer, w)| layer_dynamics(layer, w, params, n, dx, dt))
         .collect::<Result<_, _>>()?;
     let mut reduction_sum = 0.0;
-    for (r, subs) in &reports {
+    for (r, t) in &reports {
         report.max_divergence_error = report.max_divergence_error.max(r.final_error);
         report.max_initial_divergence_error = report.max_initial_divergence_error.max(r.initial_error);
         report.max_solid_face_flux_m_s = report.max_solid_face_flux_m_s.max(r.solid_face_speed);
         reduction_sum += r.solve.reduction_per_cycle.min(1e6);
         report.v_cycles += r.solve.cycles;
-        report.flux_substeps = report.flux_substeps.max(*subs);
+        report.flux_substeps = report.flux_substeps.max(t.substeps);
+        report.flux_limited_layers += t.limited as u32;
     }
     report.residual_reduction = reduction_sum / reports.len().max(1) as f64;
     lap(3, &mut report);
@@ -199,9 +210,11 @@ pub fn step(
 }
 
 /// Evaporation/condensation with latent heat in every free cell of a layer (rows in
-/// parallel; cells are independent).
+/// parallel; cells are independent). In cells where the terrain cuts the layer's slab the
+/// saturation is evaluated for the wedge's air, lifted within the layer ([`wedge_air`]).
 fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f64) {
     let pi = layer.pi;
+    let (altitude, thickness) = (layer.altitude, layer.thickness);
     let n = layer.t.nx();
     let rate = 1.0 - (-params.phase_rate * dt).exp();
     let sigma = layer.sigma.data();
@@ -216,6 +229,15 @@ fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f6
         .for_each(|(j, (t, h, w))| {
             for i in 0..t.len() {
                 if sigma[j * n + i] <= 0.0 {
+                    continue;
+                }
+                let s = sigma[j * n + i] as f64;
+                if s < 1.0 {
+                    let (tw, pw) = wedge_air(t[i] as f64, altitude, thickness, s);
+                    let pc = phase_change_fraction(tw, h[i], w[i], pw, rate);
+                    t[i] = (t[i] as f64 + (pc.t - tw)) as f32;
+                    h[i] = pc.h;
+                    w[i] = pc.w;
                     continue;
                 }
                 let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
@@ -236,7 +258,7 @@ fn layer_dynamics(
     n: usize,
     dx: f64,
     dt: f64,
-) -> Result<(ProjectionReport, u32), ConfigError> {
+) -> Result<(ProjectionReport, Transport), ConfigError> {
     let c = (dt / dx) as f32;
     let scheme = params.advection;
     // V (both components from the old wind) and T.
@@ -287,7 +309,7 @@ fn layer_dynamics(
         params.multigrid_cycles,
         params.multigrid_tolerance,
     )?;
-    let subs = {
+    let transport = {
         let LayerFields { h, w: water, ash, u, v, sigma, .. } = layer;
         let mut fields: [&mut [f64]; 3] = [h.data_mut(), water.data_mut(), ash.data_mut()];
         advect_conservative(
@@ -302,5 +324,5 @@ fn layer_dynamics(
             dt / dx,
         )
     };
-    Ok((rep, subs))
+    Ok((rep, transport))
 }

@@ -1,6 +1,6 @@
 //! Thermodynamics of moist air: barometric pressure (4.2), saturation vapour pressure (4.3,
 //! Tetens over water, Arden Buck over ice), saturation humidity (4.4), moist static energy
-//! (4.5) and the intra-layer phase change with latent heat.
+//! (4.5), the intra-layer phase change with latent heat, and the air of a terrain wedge.
 //!
 //! Units: temperatures in K (°C only inside the vapour-pressure laws), pressures in Pa,
 //! humidity and condensed water in g/m³ (thesis Table 4.2).
@@ -76,6 +76,19 @@ pub fn moist_static_energy(t: f64, theta: f64, h: f64, pi: f64) -> f64 {
 /// Exner factor `(Π/Π_sea)^(R/c_p)`: `T = θ · exner` converts potential temperature θ.
 pub fn exner(pi: f64) -> f64 {
     (pi / P_SEA).powf(KAPPA)
+}
+
+/// Temperature (K) and pressure (Pa) of the free air of a cell whose layer slab is cut by the
+/// terrain (free fraction `sigma` < 1): that air fills `[Θ_T, top]` and sits on average
+/// `Δz = (1 − σ) h / 2` above the layer's altitude Θ_i. The horizontal wind that pushed it into
+/// the wedge lifted it by Δz within the layer, so it is colder by the dry adiabatic lapse
+/// `g/c_p · Δz` (its potential temperature is the layer's) and at the barometric pressure of
+/// eq. (4.2) at `Θ_i + Δz`. Phase change (4.3–4.4) is evaluated there; dry static energy
+/// `c_p T + g z` is unchanged by the shift, so the layer keeps its T and only the latent heat
+/// of what condenses or evaporates is added.
+pub fn wedge_air(t: f64, altitude: f64, thickness: f64, sigma: f64) -> (f64, f64) {
+    let dz = (1.0 - sigma.clamp(0.0, 1.0)) * 0.5 * thickness;
+    (t - G0 / CP_AIR * dz, layer_pressure(altitude + dz))
 }
 
 /// Result of a phase change in one cell.
@@ -168,6 +181,25 @@ mod tests {
         let pc = phase_change(t, 1.0, 0.2, pi, 0.1, 30.0);
         assert_eq!(pc.w, 0.0);
         assert!((pc.h - 1.2).abs() < 1e-12 && pc.t < t);
+    }
+
+    /// The wedge of a slab 800–1,700 m cut by ground at 1,520 m (σ = 0.2): its air sits 360 m
+    /// above the layer's 1,200 m, 3.5 K colder and at the pressure of 1,560 m, so air at 97 %
+    /// relative humidity in the open layer is supersaturated there and condenses, warming the
+    /// layer by the latent heat only; the open cell stays clear.
+    #[test]
+    fn terrain_wedge_air_is_lifted_and_condenses_first() {
+        let (t, pi) = (280.0, layer_pressure(1200.0));
+        assert_eq!(wedge_air(t, 1200.0, 900.0, 1.0), (t, pi));
+        let (tw, pw) = wedge_air(t, 1200.0, 900.0, 0.2);
+        assert!((t - tw - 3.51).abs() < 0.01, "{tw}");
+        assert!((pw - layer_pressure(1560.0)).abs() < 1e-6 && pw < pi);
+        let h = 0.97 * saturation_humidity(t, pi);
+        assert!(h > saturation_humidity(tw, pw), "the lifted wedge air must be supersaturated");
+        let open = phase_change(t, h, 0.0, pi, 0.1, 30.0);
+        let wedge = phase_change(tw, h, 0.0, pw, 0.1, 30.0);
+        assert_eq!(open.w, 0.0);
+        assert!(wedge.w > 0.1 && wedge.t > tw, "{wedge:?}");
     }
 
     #[test]

@@ -4,11 +4,19 @@
 //!
 //! Readings (documented deviations from the printed text):
 //! - Convection uses the *horizontal anomaly* of the MSE difference between a layer and the
-//!   one above: `C_i = λ [(MSE_i − MSE_{i+1}) − ⟨MSE_i − MSE_{i+1}⟩]`. The printed
+//!   one above: `C_i = λ σ_i [(MSE_i − MSE_{i+1}) − ⟨MSE_i − MSE_{i+1}⟩_σ]`. The printed
 //!   `λ (MSE_{i+1} − MSE_i)` is ≈ +3 kJ/kg per km in any stable atmosphere, i.e. a uniform
 //!   ≈ 1.6 m/s vertical wind over the whole domain that a torus cannot supply (the net
 //!   divergence must vanish) and that no observed skyscape has. With the anomaly, air rises
 //!   where the lower layer holds more energy than elsewhere (warm, moist), as in Fig 4.6.
+//!   The anomaly is *mass-weighted*: the mean ⟨·⟩_σ weights each cell by its free fraction
+//!   σ_i (the air it holds), and the drive is scaled by σ_i, the share of the slab the
+//!   anomalous air fills. In parcel theory the kinetic energy a buoyant parcel gains is its
+//!   buoyancy integrated over the depth it is buoyant through (`w²/2 = ∫ B dz`, the CAPE of
+//!   e.g. Emanuel 1994, *Atmospheric Convection*); linearised, the drive of the flow through
+//!   a layer's top grows with the depth of anomalous air below it. A terrain sliver (a few
+//!   metres of air that follow the ground) is then a small mass anomaly, not a full-slab one:
+//!   without the weight, a night-cooled sliver on a slope pulled air down at several m/s.
 //! - Non-convective uplift: the printed `U_i = ν (P_{i+1} − P_i)` feeds back through the
 //!   continuity projection (the convergence under a rising column lowers P, which changes U,
 //!   which changes the target): on the torus the loop gain exceeds 1 for the largest modes and
@@ -17,35 +25,85 @@
 //!   1979): `U_i = ν (V_i · ∇Θ_T) exp(−max(0, Θ_top,i − Θ_T) / H_o)`, the terrain-following
 //!   vertical wind of layer i at its top boundary, fading with height above the ground over
 //!   `H_o`. Windward (V·∇Θ_T > 0): up; lee: down. ν is dimensionless here.
+//! - No bound on D (issue 13 item 3: a volcanic plume's updraft is tens of m/s; the former
+//!   ±2 m/s clamp made its cap cloud a trace). The stable scheme is the printed exponential of
+//!   (4.6) applied to the velocity: the stored D is the *realised* velocity
+//!   `D = sign(D_raw) · V (1 − exp(−|D_raw| Δt / V)) / Δt` ([`realised_velocity`]) with
+//!   `D_raw = C + U` and `V` the thinner of the two free columns `σ h` of the pair. It is
+//!   ≈ `D_raw` while `|D_raw| Δt ≪ V` and never moves more than `V` per step: the source cannot
+//!   give more than it holds (positivity, the vertical CFL of an upwind scheme), and a thin
+//!   destination (a layer mostly cut by a slope) is not filled with several times its own
+//!   volume before the horizontal wind can carry the excess away (monotonicity: without this,
+//!   air pushed into a 10–80 m wedge multiplied its humidity six-fold and more, its MSE ran
+//!   away and `D_raw` reached 368 m/s). The transfer then moves exactly `|D| Δt`, the volume the
+//!   projection's continuity target asks the horizontal wind to supply. Cells where the
+//!   exponential takes more than 10 % off `D_raw` are counted as limited in
+//!   [`VerticalReport`] (and the step report and run summary), with the largest `|D_raw|`.
 //! - Transfers (4.6) move *amounts* (concentration × free volume), docs/ARCHITECTURE.md §5.3:
-//!   the moved air volume per m² is `V_src (1 − exp(−|D| Δt / V_src))`, the printed exponential
-//!   with the source's free air column `V_src = σ h` in place of `ΔΘ_i`: ≈ `|D| Δt` (what
-//!   continuity moves) for small steps, never more than the source holds, and consistent with
-//!   the horizontal inflow of partly blocked cells. H, W and ash move with the air (conserved
-//!   exactly); temperature mixes as potential temperature into the destination (rising air
-//!   cools adiabatically).
+//!   the moved air volume per m² is `|D| Δt` of the source's concentration. H, W and ash move
+//!   with the air (conserved exactly); temperature mixes as potential temperature into the
+//!   destination (rising air cools adiabatically).
 //! - Pressure coupling (4.7), `P_i ← P_i + μ D_i`, is not applied: P is re-solved from the
 //!   wind every step, so an increment would only change the multigrid's starting guess. Its
 //!   purpose (vertical motion acting on the horizontal flow) is served by the continuity
 //!   target of the projection (docs/ARCHITECTURE.md §5.3), see [`divergence_target`].
 
+use bevy::reflect::Reflect;
 use rayon::prelude::*;
+use serde::Serialize;
 
 use super::fields::LayerFields;
 use super::params::AtmosphereParams;
 use super::thermo::{exner, moist_static_energy};
 
-/// Computes `C_i`, `U_i`, `D_i` at the top of each layer (zero for the top layer and where
-/// either layer of a pair is blocked by terrain). `terrain` holds Θ_T at the cell centres
-/// (cell size `dx`). Returns max |D|.
+/// What [`vertical_velocity`] found: the realised speeds and the limiter.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Reflect, Serialize)]
+pub struct VerticalReport {
+    /// max |D| realised (m/s).
+    pub max_speed: f64,
+    /// max |D_raw| = |C + U| before the exponential of (4.6) (m/s): what D would be without
+    /// a limit.
+    pub max_unlimited_speed: f64,
+    /// Limiter: cells (summed over interfaces) where the exponential took more than 10 % off
+    /// `D_raw` (the step is long for the updraft there), or where `D_raw` was not finite (D
+    /// set to 0).
+    pub limited_cells: u64,
+}
+
+impl VerticalReport {
+    fn merge(self, o: Self) -> Self {
+        Self {
+            max_speed: self.max_speed.max(o.max_speed),
+            max_unlimited_speed: self.max_unlimited_speed.max(o.max_unlimited_speed),
+            limited_cells: self.limited_cells + o.limited_cells,
+        }
+    }
+}
+
+/// Realised vertical velocity (m/s) over a step `dt` for `d_raw = C + U` through an
+/// interface whose thinner free column is `column` m: the exponential of eq. (4.6) with the
+/// free column in place of ΔΘ_i, `sign(D) · V (1 − exp(−|D_raw| Δt / V)) / Δt` — ≈ `D_raw`
+/// while `|D_raw| Δt ≪ V`, never more than that column per step. Zero for a closed interface
+/// or a non-finite `d_raw`.
+pub fn realised_velocity(d_raw: f64, column: f64, dt: f64) -> f64 {
+    if !d_raw.is_finite() || d_raw == 0.0 || column <= 0.0 || dt <= 0.0 {
+        return 0.0;
+    }
+    -(-d_raw.abs() * dt / column).exp_m1() * column / dt * d_raw.signum()
+}
+
+/// Computes `C_i`, `U_i` and the realised `D_i` (see [`realised_velocity`]) at the top of each
+/// layer for a step of `dt` s (zero for the top layer and where either layer of a pair is
+/// blocked by terrain). `terrain` holds Θ_T at the cell centres (cell size `dx`).
 pub fn vertical_velocity(
     layers: &mut [LayerFields],
     terrain: &[f32],
     dx: f64,
     params: &AtmosphereParams,
-) -> f64 {
+    dt: f64,
+) -> VerticalReport {
     let nl = layers.len();
-    let mut max_d = 0.0f64;
+    let mut report = VerticalReport::default();
     let cells = terrain.len();
     let n = (cells as f64).sqrt() as usize;
     // Terrain gradient (central differences, toroidal).
@@ -71,7 +129,7 @@ pub fn vertical_velocity(
         let (lo, hi) = layers.split_at_mut(i + 1);
         let (a, b) = (&mut lo[i], &hi[0]);
         let open = |k: usize| a.sigma.data()[k] > 0.0 && b.sigma.data()[k] > 0.0;
-        // MSE difference per cell (f64), its mean over open cells.
+        // MSE difference per cell (f64), its mass-weighted (σ) mean over open cells.
         let diff: Vec<f64> = (0..cells)
             .into_par_iter()
             .with_min_len(4096)
@@ -83,29 +141,31 @@ pub fn vertical_velocity(
                     - moist_static_energy(b.t.data()[k] as f64, b.altitude, b.h.data()[k], b.pi)
             })
             .collect();
-        let (sum, count) =
-            (0..cells).filter(|&k| open(k)).fold((0.0, 0usize), |(s, c), k| (s + diff[k], c + 1));
-        let mean = if count > 0 { sum / count as f64 } else { 0.0 };
-        let dmax = params.max_vertical_speed;
+        let (sum, mass) = (0..cells).filter(|&k| open(k)).fold((0.0, 0.0), |(s, m), k| {
+            let w = a.sigma.data()[k] as f64;
+            (s + w * diff[k], m + w)
+        });
+        let mean = if mass > 0.0 { sum / mass } else { 0.0 };
         let top = a.bottom + a.thickness;
+        let (ha, hb) = (a.thickness, b.thickness);
         let (bs, coupling, decay) = (b.sigma.data(), params.convective_coupling, params.orographic_decay_m);
         let LayerFields { c, up, d, u, v, sigma, .. } = a;
         let (u, v, sa) = (u.data(), v.data(), sigma.data());
-        // Rows in parallel; the max is order-independent.
-        let row_max =
+        // Rows in parallel; maxima and counts are order-independent.
+        let rows =
             (c.data_mut().par_chunks_mut(n), up.data_mut().par_chunks_mut(n), d.data_mut().par_chunks_mut(n))
                 .into_par_iter()
                 .enumerate()
                 .with_min_len(8)
                 .map(|(jj, (cr, ur, dr))| {
-                    let mut m = 0.0f64;
+                    let mut m = VerticalReport::default();
                     for ii in 0..n {
                         let k = jj * n + ii;
                         if !(sa[k] > 0.0 && bs[k] > 0.0) {
                             (cr[ii], ur[ii], dr[ii]) = (0.0, 0.0, 0.0);
                             continue;
                         }
-                        let conv = coupling * (diff[k] - mean);
+                        let conv = coupling * sa[k] as f64 * (diff[k] - mean);
                         let (gx, gy) = grad[k];
                         let lift = if gx == 0.0 && gy == 0.0 {
                             0.0
@@ -115,20 +175,30 @@ pub fn vertical_velocity(
                             let above = (top - terrain[k] as f64).max(0.0);
                             params.uplift_coupling * (uc * gx + vc * gy) * (-above / decay).exp()
                         };
-                        let dk = (conv + lift).clamp(-dmax, dmax);
-                        (cr[ii], ur[ii], dr[ii]) = (conv as f32, lift as f32, dk as f32);
-                        m = m.max(dk.abs());
+                        let raw = conv + lift;
+                        // At most the thinner of the two free columns per step.
+                        let column = (sa[k] as f64 * ha).min(bs[k] as f64 * hb);
+                        let dk = realised_velocity(raw, column, dt);
+                        let finite = raw.is_finite();
+                        (cr[ii], ur[ii], dr[ii]) =
+                            if finite { (conv as f32, lift as f32, dk as f32) } else { (0.0, 0.0, 0.0) };
+                        m.max_speed = m.max_speed.max(dk.abs());
+                        if finite {
+                            m.max_unlimited_speed = m.max_unlimited_speed.max(raw.abs());
+                        }
+                        m.limited_cells += (!finite || dk.abs() < 0.9 * raw.abs()) as u64;
                     }
                     m
                 })
-                .reduce(|| 0.0, f64::max);
-        max_d = max_d.max(row_max);
+                .reduce(VerticalReport::default, VerticalReport::merge);
+        report = report.merge(rows);
     }
-    max_d
+    report
 }
 
-/// Transfers of eq. (4.6) across every interface, bottom to top, driven by `D`. Columns are
-/// independent, so rows run in parallel.
+/// Transfers of eq. (4.6) across every interface, bottom to top, driven by the realised `D`
+/// of [`vertical_velocity`]: `|D| Δt` of air per m² (never more than the source's free column).
+/// Columns are independent, so rows run in parallel.
 pub fn transfer(layers: &mut [LayerFields], dt: f64) {
     let nl = layers.len();
     for i in 0..nl.saturating_sub(1) {
@@ -162,7 +232,7 @@ pub fn transfer(layers: &mut [LayerFields], dt: f64) {
                     let (va, vb) = (sak * ha, sbk * hb);
                     let up = dk > 0.0;
                     let (vs, vd, exs, exd) = if up { (va, vb, ex_a, ex_b) } else { (vb, va, ex_b, ex_a) };
-                    let moved = vs * (1.0 - (-dk.abs() * dt / vs).exp());
+                    let moved = (dk.abs() * dt).min(vs);
                     let carry = |qa: &mut f64, qb: &mut f64| {
                         let (qs, qd) = if up { (qa, qb) } else { (qb, qa) };
                         let m = *qs * moved;
@@ -245,10 +315,11 @@ mod tests {
         layers[0].h.data_mut().fill(8.0);
         layers[1].h.data_mut().fill(2.0);
         let p = AtmosphereParams::default();
-        let max_d = vertical_velocity(&mut layers, &vec![0.0; 256], 100.0, &p);
+        let rep = vertical_velocity(&mut layers, &vec![0.0; 256], 100.0, &p, 30.0);
         assert!(layers[0].d.data()[5] > 0.5, "{}", layers[0].d.data()[5]);
         assert!(layers[0].d.data()[6] < 0.0 && layers[0].d.data()[6] > -0.1);
-        assert!(max_d > 0.5);
+        assert!(rep.max_speed > 0.5);
+        assert_eq!(rep.limited_cells, 0, "an 8 K anomaly is far from the vertical CFL: {rep:?}");
         let water = |l: &[LayerFields]| l.iter().map(|l| l.water_grams(100.0)).sum::<f64>();
         let before = water(&layers);
         let t_up = layers[1].t.data()[5];
@@ -258,6 +329,59 @@ mod tests {
         assert!(layers[1].t.data()[5] > t_up, "warm air warms the layer above");
         // Every column with D < 0 moved some water down, nothing negative.
         assert!(layers.iter().all(|l| l.h.data().iter().all(|&h| h >= 0.0)));
+    }
+
+    /// A sliver of cold air (2 % of the slab, as where a slope cuts the layer) is a small mass
+    /// anomaly: it pulls air down far less than a full column with the same anomaly.
+    #[test]
+    fn a_cold_sliver_is_a_small_mass_anomaly() {
+        let mut layers = two_layers(16);
+        layers[0].t.data_mut()[5] -= 10.0;
+        layers[0].t.data_mut()[9] -= 10.0;
+        layers[0].sigma.data_mut()[9] = 0.02;
+        let p = AtmosphereParams::default();
+        vertical_velocity(&mut layers, &vec![0.0; 256], 100.0, &p, 30.0);
+        let (full, sliver) = (layers[0].c.data()[5], layers[0].c.data()[9]);
+        assert!(full < -0.5, "a 10 K colder column sinks: {full} m/s");
+        assert!(
+            sliver < 0.0 && sliver.abs() < 0.05 * full.abs(),
+            "sliver {sliver} vs full column {full} m/s"
+        );
+    }
+
+    /// The realised velocity is the exponential of (4.6): linear for short steps, at most the
+    /// thinner column per step for long ones, zero for non-finite input; and the transfer
+    /// moves exactly |D| Δt of the source's air.
+    #[test]
+    fn realised_velocity_saturates_at_the_thinner_column() {
+        assert!((realised_velocity(1.0, 1000.0, 1.0) - 1.0).abs() < 1e-3);
+        assert!((realised_velocity(-1.0, 1000.0, 1.0) + 1.0).abs() < 1e-3);
+        // 100 m/s for 30 s through a 1,000 m column: (1 − e^{−3}) of it, 31.7 m/s, not 100.
+        let d = realised_velocity(100.0, 1000.0, 30.0);
+        assert!(d > 31.0 && d < 32.0, "{d}");
+        assert!(realised_velocity(1e6, 50.0, 30.0) <= 50.0 / 30.0);
+        assert_eq!(realised_velocity(5.0, 0.0, 30.0), 0.0);
+        assert_eq!(realised_velocity(f64::NAN, 100.0, 30.0), 0.0);
+        assert_eq!(realised_velocity(f64::INFINITY, 100.0, 30.0), 0.0);
+    }
+
+    /// A volcanic plume's hot, moist spot under a layer (issue 13 item 3): D far above the
+    /// old ±2 m/s bound, the limiter reported, and the transfer moves |D| Δt of air.
+    #[test]
+    fn a_hot_moist_spot_drives_an_updraft_far_above_two_m_s() {
+        let mut layers = two_layers(16);
+        layers[0].t.data_mut()[5] += 300.0;
+        layers[0].h.data_mut()[5] = 20.0;
+        let p = AtmosphereParams::default();
+        let rep = vertical_velocity(&mut layers, &vec![0.0; 256], 100.0, &p, 30.0);
+        let d = layers[0].d.data()[5] as f64;
+        eprintln!("D {d} m/s, {rep:?}");
+        assert!(d > 10.0 && d < rep.max_unlimited_speed, "{rep:?}");
+        assert_eq!(rep.limited_cells, 1, "{rep:?}");
+        let before = layers[0].h.data()[5] * layers[0].thickness;
+        transfer(&mut layers, 30.0);
+        let moved = before - layers[0].h.data()[5] * layers[0].thickness;
+        assert!((moved - 20.0 * d * 30.0).abs() < 1e-4 * moved, "moved {moved} g/m² for D = {d}");
     }
 
     #[test]
