@@ -1,16 +1,21 @@
 //! Terrain rendering: one vertex-coloured mesh per [`Terrain`] entity (a child of it, rebuilt
-//! whenever the terrain changes) and a glowing marker over each volcano's vent.
+//! whenever the terrain is added or changed, and updated in place over the nodes a
+//! [`TerrainChanged`] message names) and a glowing marker over each volcano's vent.
 //!
 //! The heightfield is downsampled with an integer stride so a mesh has at most
 //! [`MAX_VERTICES_PER_SIDE`]² vertices. Colours come from the land cover and darken on steep
-//! slopes, so the flanks read under flat lighting too.
+//! slopes, so the flanks read under flat lighting too; nodes under frozen lava (the terrain's
+//! added layer) turn basalt grey.
 
 use bevy::asset::RenderAssetUsages;
 use bevy::color::{Color, ColorToComponents, LinearRgba, Srgba};
 use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
-use volcano_core::{LandCover, Terrain, VentPosition, Volcano};
+use volcano_core::{LandCover, NodeRegion, Terrain, TerrainChanged, VentPosition, Volcano};
+use volcano_plume::DepositMap;
+
+use crate::deposit::{DepositTint, deposit_tint};
 
 /// Upper bound on the vertices per side of a terrain mesh (the stride is chosen to respect it).
 pub const MAX_VERTICES_PER_SIDE: usize = 512;
@@ -37,7 +42,11 @@ impl Plugin for TerrainRenderPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<TerrainMesh>()
             .register_type::<VentMarker>()
-            .add_systems(Update, (build_terrain_meshes, update_vent_markers));
+            .add_message::<TerrainChanged>()
+            .add_systems(
+                Update,
+                ((build_terrain_meshes, update_changed_regions).chain(), update_vent_markers),
+            );
     }
 
     fn finish(&self, app: &mut App) {
@@ -118,6 +127,25 @@ pub(crate) fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
     )
 }
 
+/// Colour of lava frozen into the terrain (linear; the lava renderer's frozen albedo).
+fn basalt() -> LinearRgba {
+    LinearRgba::from(Srgba::rgb(0.12, 0.115, 0.11))
+}
+
+/// Mean thickness (m) of the added layer at which a node is drawn wholly as frozen lava.
+pub const FROZEN_FULL_COVER: f64 = 0.05;
+
+/// Colour of terrain node `(i, j)` with unit normal `normal`: [`cover_color`], turning to
+/// basalt as the node's added layer (frozen lava, a mean over the node's footprint) thickens
+/// to [`FROZEN_FULL_COVER`].
+pub fn terrain_color(terrain: &Terrain, i: usize, j: usize, normal: Vec3) -> LinearRgba {
+    let base = cover_color(terrain.cover().get(i, j), normal);
+    match terrain.added() {
+        Some(a) => mix(base, basalt(), smoothstep(0.0, FROZEN_FULL_COVER as f32, a.get(i, j) as f32)),
+        None => base,
+    }
+}
+
 /// Sample indices `0, s, 2s, …` along an axis of `n` samples, always ending at `n − 1`.
 pub(crate) fn sample_axis(n: usize, stride: usize) -> Vec<usize> {
     let mut v: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
@@ -133,42 +161,73 @@ pub(crate) fn stride_for(n: usize, max_per_side: usize) -> usize {
     if n <= max { 1 } else { (n - 1).div_ceil(max - 1).max(1) }
 }
 
+/// The mesh samples of a terrain: which nodes are vertices, and how each vertex looks.
+struct MeshSamples<'a> {
+    terrain: &'a Terrain,
+    xs: Vec<usize>,
+    ys: Vec<usize>,
+}
+
+impl<'a> MeshSamples<'a> {
+    fn new(terrain: &'a Terrain, stride: usize) -> Self {
+        let h = terrain.heights();
+        Self { terrain, xs: sample_axis(h.nx(), stride), ys: sample_axis(h.ny(), stride) }
+    }
+
+    /// Drawn altitude of node `(i, j)`: water is lifted to sea level.
+    fn surface(&self, i: usize, j: usize) -> f32 {
+        let h = self.terrain.heights().get(i, j);
+        if self.terrain.cover().get(i, j) == LandCover::Water { h.max(self.terrain.sea_level()) } else { h }
+    }
+
+    /// Position, normal (central differences over the neighbouring mesh samples, one-sided at
+    /// the edges) and colour of vertex `(a, b)`.
+    fn vertex(&self, a: usize, b: usize) -> ([f32; 3], [f32; 3], [f32; 4]) {
+        let (xs, ys, heights) = (&self.xs, &self.ys, self.terrain.heights());
+        let (i, j) = (xs[a], ys[b]);
+        let p = heights.position(i, j);
+        let (i0, i1) = (xs[a.saturating_sub(1)], xs[(a + 1).min(xs.len() - 1)]);
+        let (j0, j1) = (ys[b.saturating_sub(1)], ys[(b + 1).min(ys.len() - 1)]);
+        let dx = heights.position(i1, j).x - heights.position(i0, j).x;
+        let dz = heights.position(i, j1).y - heights.position(i, j0).y;
+        let dhdx = if dx > 0.0 { (self.surface(i1, j) - self.surface(i0, j)) / dx } else { 0.0 };
+        let dhdz = if dz > 0.0 { (self.surface(i, j1) - self.surface(i, j0)) / dz } else { 0.0 };
+        let n = Vec3::new(-dhdx, 1.0, -dhdz).normalize_or(Vec3::Y);
+        let colour = terrain_color(self.terrain, i, j, n).to_f32_array();
+        ([p.x, self.surface(i, j), p.y], n.to_array(), colour)
+    }
+
+    /// Vertex index range `[lo, hi]` along an axis whose mesh depends on nodes `lo_n..=hi_n`
+    /// (one more mesh sample each side: the normals use their neighbours).
+    fn affected(axis: &[usize], lo_n: usize, hi_n: usize) -> Option<(usize, usize)> {
+        let first = axis.iter().position(|&n| n >= lo_n)?;
+        let last = axis.iter().rposition(|&n| n <= hi_n)?;
+        // Samples between two vertices change no vertex but the two around them.
+        let (first, last) = if first > last { (last, first) } else { (first, last) };
+        Some((first.saturating_sub(1), (last + 1).min(axis.len() - 1)))
+    }
+}
+
 /// Builds the render mesh of `terrain`: positions in world metres (grid `(x, y)` → world
 /// `(x, z)`, height → `y`; water is lifted to sea level), smooth normals from central
-/// differences, vertex colours from [`cover_color`]. At most `max_per_side`² vertices. Returns
-/// the mesh and the stride used.
+/// differences, vertex colours from [`terrain_color`]. At most `max_per_side`² vertices.
+/// Returns the mesh and the stride used.
 pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
     let heights = terrain.heights();
-    let cover = terrain.cover();
-    let (nx, ny) = (heights.nx(), heights.ny());
-    let stride = stride_for(nx.max(ny), max_per_side);
-    let xs = sample_axis(nx, stride);
-    let ys = sample_axis(ny, stride);
-    let sea = terrain.sea_level();
-    let surface = |i: usize, j: usize| {
-        let h = heights.get(i, j);
-        if cover.get(i, j) == LandCover::Water { h.max(sea) } else { h }
-    };
-
+    let stride = stride_for(heights.nx().max(heights.ny()), max_per_side);
+    let samples = MeshSamples::new(terrain, stride);
+    let (xs, ys) = (&samples.xs, &samples.ys);
     let count = xs.len() * ys.len();
     let mut positions = Vec::with_capacity(count);
     let mut normals = Vec::with_capacity(count);
     let mut colors = Vec::with_capacity(count);
     let mut uvs = Vec::with_capacity(count);
-    for (b, &j) in ys.iter().enumerate() {
-        for (a, &i) in xs.iter().enumerate() {
-            let p = heights.position(i, j);
-            positions.push([p.x, surface(i, j), p.y]);
-            // Central differences over the neighbouring mesh samples (one-sided at the edges).
-            let (i0, i1) = (xs[a.saturating_sub(1)], xs[(a + 1).min(xs.len() - 1)]);
-            let (j0, j1) = (ys[b.saturating_sub(1)], ys[(b + 1).min(ys.len() - 1)]);
-            let dx = heights.position(i1, j).x - heights.position(i0, j).x;
-            let dz = heights.position(i, j1).y - heights.position(i, j0).y;
-            let dhdx = if dx > 0.0 { (surface(i1, j) - surface(i0, j)) / dx } else { 0.0 };
-            let dhdz = if dz > 0.0 { (surface(i, j1) - surface(i, j0)) / dz } else { 0.0 };
-            let n = Vec3::new(-dhdx, 1.0, -dhdz).normalize_or(Vec3::Y);
-            normals.push(n.to_array());
-            colors.push(cover_color(cover.get(i, j), n).to_f32_array());
+    for b in 0..ys.len() {
+        for a in 0..xs.len() {
+            let (p, n, c) = samples.vertex(a, b);
+            positions.push(p);
+            normals.push(n);
+            colors.push(c);
             uvs.push([a as f32 / (xs.len() - 1).max(1) as f32, b as f32 / (ys.len() - 1).max(1) as f32]);
         }
     }
@@ -194,6 +253,101 @@ pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
         .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
         .with_inserted_indices(Indices::U32(indices));
     (mesh, stride)
+}
+
+/// Rewrites, in a mesh built by [`terrain_mesh`] with `stride`, the vertices that depend on the
+/// nodes of `region` (positions, normals and colours; `tint` recolours a vertex from its node
+/// and base colour, e.g. the ash deposit). Returns how many vertices were rewritten (0 if the
+/// mesh does not have the expected shape).
+pub fn update_terrain_mesh(
+    mesh: &mut Mesh,
+    terrain: &Terrain,
+    stride: usize,
+    region: NodeRegion,
+    tint: impl Fn(usize, usize, [f32; 4]) -> [f32; 4],
+) -> usize {
+    if region.is_empty() {
+        return 0;
+    }
+    let samples = MeshSamples::new(terrain, stride);
+    let (xs, ys) = (&samples.xs, &samples.ys);
+    let n = xs.len() * ys.len();
+    let (Some((a0, a1)), Some((b0, b1))) = (
+        MeshSamples::affected(xs, region.i0, region.i0 + region.ni - 1),
+        MeshSamples::affected(ys, region.j0, region.j0 + region.nj - 1),
+    ) else {
+        return 0;
+    };
+    let mut fresh = Vec::with_capacity((a1 + 1 - a0) * (b1 + 1 - b0));
+    for b in b0..=b1 {
+        for a in a0..=a1 {
+            let (p, nrm, c) = samples.vertex(a, b);
+            fresh.push((b * xs.len() + a, p, nrm, tint(xs[a], ys[b], c)));
+        }
+    }
+    use bevy::mesh::VertexAttributeValues as V;
+    let mut count = 0;
+    if let Ok(Some(V::Float32x3(pos))) = mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_POSITION)
+        && pos.len() == n
+    {
+        for (v, p, _, _) in &fresh {
+            pos[*v] = *p;
+        }
+        count = fresh.len();
+    }
+    if let Ok(Some(V::Float32x3(nor))) = mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_NORMAL)
+        && nor.len() == n
+    {
+        for (v, _, q, _) in &fresh {
+            nor[*v] = *q;
+        }
+    }
+    if let Ok(Some(V::Float32x4(col))) = mesh.try_attribute_mut_option(Mesh::ATTRIBUTE_COLOR)
+        && col.len() == n
+    {
+        for (v, _, _, c) in &fresh {
+            col[*v] = *c;
+        }
+    }
+    count
+}
+
+/// The drawn surface of a terrain mesh built with some stride, for placing things on it.
+pub struct MeshSurface<'a>(MeshSamples<'a>);
+
+impl<'a> MeshSurface<'a> {
+    /// The surface of `terrain`'s mesh built with `stride` (see [`TerrainMesh::stride`]).
+    pub fn new(terrain: &'a Terrain, stride: usize) -> Self {
+        Self(MeshSamples::new(terrain, stride))
+    }
+
+    /// Altitude of the mesh at world `(x, z)`: its own triangles, not the bilinear surface of
+    /// [`Terrain::height_at`], which can differ by decimetres on a 40 m grid. Clamped at the
+    /// mesh's edges.
+    pub fn height_at(&self, x: f32, z: f32) -> f32 {
+        let s = &self.0;
+        let (xs, ys) = (&s.xs, &s.ys);
+        let (gx, gy) = s.terrain.heights().to_grid(Vec2::new(x, z));
+        // Mesh column (row) holding the point and the fraction across it.
+        let locate = |axis: &[usize], g: f64| -> (usize, usize, f32) {
+            let last = axis.len() - 1;
+            let g = if g.is_finite() { g.clamp(0.0, axis[last] as f64) } else { 0.0 };
+            let a = axis.partition_point(|&n| (n as f64) <= g).saturating_sub(1).min(last.saturating_sub(1));
+            let a1 = (a + 1).min(last);
+            let span = (axis[a1] - axis[a]) as f64;
+            let t = if span > 0.0 { ((g - axis[a] as f64) / span).clamp(0.0, 1.0) } else { 0.0 };
+            (a, a1, t as f32)
+        };
+        let ((a, a1, tx), (b, b1, ty)) = (locate(xs, gx), locate(ys, gy));
+        let y = |a: usize, b: usize| s.surface(xs[a], ys[b]);
+        let (h00, h10, h01, h11) = (y(a, b), y(a1, b), y(a, b1), y(a1, b1));
+        // Triangles (v00, v01, v10) and (v10, v01, v11), as in `terrain_mesh`.
+        if tx + ty <= 1.0 {
+            h00 + tx * (h10 - h00) + ty * (h01 - h00)
+        } else {
+            h11 + (1.0 - tx) * (h01 - h11) + (1.0 - ty) * (h10 - h11)
+        }
+    }
 }
 
 /// Builds or replaces the mesh child of every added or changed [`Terrain`].
@@ -229,6 +383,35 @@ fn build_terrain_meshes(
             Transform::IDENTITY,
             ChildOf(entity),
         ));
+    }
+}
+
+/// Updates the mesh vertices over the nodes each [`TerrainChanged`] names (frozen lava), with
+/// the ash deposit tint when it is shown.
+fn update_changed_regions(
+    mut changes: MessageReader<TerrainChanged>,
+    terrains: Query<(&Terrain, &Children)>,
+    mesh_children: Query<(&Mesh3d, &TerrainMesh)>,
+    mut meshes: ResMut<Assets<Mesh>>,
+    deposit: Option<Res<DepositMap>>,
+    tint: Option<Res<DepositTint>>,
+) {
+    for change in changes.read() {
+        let Ok((terrain, children)) = terrains.get(change.terrain) else { continue };
+        let ash = tint.as_deref().filter(|t| t.enabled).map(|t| LinearRgba::from(t.ash));
+        let deposit = deposit.as_deref().filter(|d| d.revision > 0);
+        let recolour = |i: usize, j: usize, c: [f32; 4]| match (ash, deposit) {
+            (Some(ash), Some(d)) => {
+                deposit_tint(LinearRgba::from_f32_array(c), ash, d.thickness_at_node(i, j)).to_f32_array()
+            }
+            _ => c,
+        };
+        for child in children.iter() {
+            let Ok((handle, marker)) = mesh_children.get(child) else { continue };
+            if let Some(mut mesh) = meshes.get_mut(&handle.0) {
+                update_terrain_mesh(&mut mesh, terrain, marker.stride, change.region, recolour);
+            }
+        }
     }
 }
 
@@ -358,6 +541,78 @@ mod tests {
         let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
         let min_y = pos.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min);
         assert!(min_y > 1000.0, "mesh not rebuilt: lowest vertex {min_y}");
+
+        // Frozen lava written without change detection plus a `TerrainChanged`: the same mesh
+        // is updated over the region and matches a full rebuild.
+        let region = NodeRegion { i0: 10, j0: 12, ni: 3, nj: 2 };
+        let mut terrain = world.get_mut::<Terrain>(t).unwrap();
+        terrain.bypass_change_detection().add_thickness(region, &[2.0; 6]).unwrap();
+        world.write_message(TerrainChanged { terrain: t, region });
+        app.update();
+        let world = app.world_mut();
+        let handle = world.query_filtered::<&Mesh3d, With<TerrainMesh>>().single(world).unwrap().0.clone();
+        assert_eq!(handle, meshes[0].1);
+        let (full, _) = terrain_mesh(world.get::<Terrain>(t).unwrap(), MAX_VERTICES_PER_SIDE);
+        let mesh = world.resource::<Assets<Mesh>>().get(&handle).unwrap();
+        assert_eq!(mesh.attribute(Mesh::ATTRIBUTE_POSITION), full.attribute(Mesh::ATTRIBUTE_POSITION));
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        let h = world.get::<Terrain>(t).unwrap().base_heights().get(11, 12);
+        assert!((pos[12 * 33 + 11][1] - (h + 2.0)).abs() < 1e-3, "vertex not raised");
+    }
+
+    #[test]
+    fn a_region_update_matches_a_full_rebuild() {
+        for cap in [65, 33] {
+            let mut terrain =
+                StratovolcanoParams { resolution: 65, cell: 300.0, ..Default::default() }.generate().unwrap();
+            let (mut mesh, stride) = terrain_mesh(&terrain, cap);
+            let region = NodeRegion { i0: 20, j0: 30, ni: 5, nj: 3 };
+            let dh: Vec<f64> = (0..15).map(|k| 5.0 + k as f64).collect();
+            assert_eq!(terrain.add_thickness(region, &dh).unwrap(), region);
+            let (full, _) = terrain_mesh(&terrain, cap);
+            let attrs = [Mesh::ATTRIBUTE_POSITION, Mesh::ATTRIBUTE_NORMAL, Mesh::ATTRIBUTE_COLOR];
+            assert_ne!(mesh.attribute(Mesh::ATTRIBUTE_POSITION), full.attribute(Mesh::ATTRIBUTE_POSITION));
+            let n = update_terrain_mesh(&mut mesh, &terrain, stride, region, |_, _, c| c);
+            // Stride 1: nodes 19..=25 × 29..=33 (one more each side for the normals).
+            assert_eq!(n, if stride == 1 { 7 * 5 } else { 5 * 4 }, "stride {stride}");
+            for a in attrs {
+                assert_eq!(mesh.attribute(a.clone()), full.attribute(a), "stride {stride}");
+            }
+        }
+    }
+
+    #[test]
+    fn frozen_lava_turns_the_terrain_basalt() {
+        let mut t = Terrain::flat(4, 10.0, 100.0).unwrap();
+        let ground = terrain_color(&t, 1, 1, Vec3::Y);
+        t.add_thickness(NodeRegion { i0: 1, j0: 1, ni: 2, nj: 1 }, &[FROZEN_FULL_COVER, 0.01]).unwrap();
+        assert_eq!(terrain_color(&t, 1, 1, Vec3::Y), basalt());
+        let partly = terrain_color(&t, 2, 1, Vec3::Y);
+        assert!(partly.red < ground.red && partly.red > basalt().red, "{partly:?}");
+        assert_eq!(terrain_color(&t, 0, 0, Vec3::Y), ground);
+    }
+
+    #[test]
+    fn mesh_surface_follows_the_drawn_triangles() {
+        // A saddle h = x·z / 10 on 10 m cells: over the cell [0, 10]², the bilinear surface at
+        // its centre is 2.5 m, the triangles (diagonal from (10, 0) to (0, 10)) give 5 m.
+        let mut t = Terrain::flat(3, 10.0, 0.0).unwrap();
+        {
+            let mut g = t.heights_mut();
+            for j in 0..3 {
+                for i in 0..3 {
+                    let p = g.position(i, j);
+                    g.set(i, j, p.x * p.y / 10.0);
+                }
+            }
+        }
+        let drawn = MeshSurface::new(&t, 1);
+        assert!((t.height_at(-5.0, -5.0) - 2.5).abs() < 1e-4);
+        assert!((drawn.height_at(-5.0, -5.0) - 5.0).abs() < 1e-4, "{}", drawn.height_at(-5.0, -5.0));
+        // At nodes and along edges the two agree.
+        assert_eq!(drawn.height_at(0.0, 0.0), 0.0);
+        assert!((drawn.height_at(10.0, -10.0) - t.height_at(10.0, -10.0)).abs() < 1e-4);
+        assert!((drawn.height_at(-5.0, 10.0) - t.height_at(-5.0, 10.0)).abs() < 1e-4);
     }
 
     #[test]
