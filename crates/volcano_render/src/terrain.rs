@@ -279,10 +279,10 @@ pub fn update_terrain_mesh(
         return 0;
     };
     let mut fresh = Vec::with_capacity((a1 + 1 - a0) * (b1 + 1 - b0));
-    for b in b0..=b1 {
-        for a in a0..=a1 {
+    for (b, &j) in ys.iter().enumerate().take(b1 + 1).skip(b0) {
+        for (a, &i) in xs.iter().enumerate().take(a1 + 1).skip(a0) {
             let (p, nrm, c) = samples.vertex(a, b);
-            fresh.push((b * xs.len() + a, p, nrm, tint(xs[a], ys[b], c)));
+            fresh.push((b * xs.len() + a, p, nrm, tint(i, j, c)));
         }
     }
     use bevy::mesh::VertexAttributeValues as V;
@@ -576,7 +576,7 @@ mod tests {
             // Stride 1: nodes 19..=25 × 29..=33 (one more each side for the normals).
             assert_eq!(n, if stride == 1 { 7 * 5 } else { 5 * 4 }, "stride {stride}");
             for a in attrs {
-                assert_eq!(mesh.attribute(a.clone()), full.attribute(a), "stride {stride}");
+                assert_eq!(mesh.attribute(a), full.attribute(a), "stride {stride}");
             }
         }
     }
@@ -586,7 +586,8 @@ mod tests {
         let mut t = Terrain::flat(4, 10.0, 100.0).unwrap();
         let ground = terrain_color(&t, 1, 1, Vec3::Y);
         t.add_thickness(NodeRegion { i0: 1, j0: 1, ni: 2, nj: 1 }, &[FROZEN_FULL_COVER, 0.01]).unwrap();
-        assert_eq!(terrain_color(&t, 1, 1, Vec3::Y), basalt());
+        let full = terrain_color(&t, 1, 1, Vec3::Y);
+        assert!((full.red - basalt().red).abs() < 1e-6 && (full.green - basalt().green).abs() < 1e-6);
         let partly = terrain_color(&t, 2, 1, Vec3::Y);
         assert!(partly.red < ground.red && partly.red > basalt().red, "{partly:?}");
         assert_eq!(terrain_color(&t, 0, 0, Vec3::Y), ground);
@@ -594,8 +595,9 @@ mod tests {
 
     #[test]
     fn mesh_surface_follows_the_drawn_triangles() {
-        // A saddle h = x·z / 10 on 10 m cells: over the cell [0, 10]², the bilinear surface at
-        // its centre is 2.5 m, the triangles (diagonal from (10, 0) to (0, 10)) give 5 m.
+        // A saddle h = x·z / 10 on 10 m cells: over the cell [0, 10]² the bilinear surface is
+        // 2.5 m at the centre and 5.625 m at (7.5, 7.5); the triangles (diagonal from (10, 0)
+        // to (0, 10), both at 0 m) give 0 m and 5 m.
         let mut t = Terrain::flat(3, 10.0, 0.0).unwrap();
         {
             let mut g = t.heights_mut();
@@ -607,8 +609,10 @@ mod tests {
             }
         }
         let drawn = MeshSurface::new(&t, 1);
-        assert!((t.height_at(-5.0, -5.0) - 2.5).abs() < 1e-4);
-        assert!((drawn.height_at(-5.0, -5.0) - 5.0).abs() < 1e-4, "{}", drawn.height_at(-5.0, -5.0));
+        assert!((t.height_at(5.0, 5.0) - 2.5).abs() < 1e-4);
+        assert!(drawn.height_at(5.0, 5.0).abs() < 1e-4, "{}", drawn.height_at(5.0, 5.0));
+        assert!((t.height_at(7.5, 7.5) - 5.625).abs() < 1e-4);
+        assert!((drawn.height_at(7.5, 7.5) - 5.0).abs() < 1e-4, "{}", drawn.height_at(7.5, 7.5));
         // At nodes and along edges the two agree.
         assert_eq!(drawn.height_at(0.0, 0.0), 0.0);
         assert!((drawn.height_at(10.0, -10.0) - t.height_at(10.0, -10.0)).abs() < 1e-4);
