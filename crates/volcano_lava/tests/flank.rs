@@ -154,3 +154,41 @@ fn a_clicked_patch_lies_downslope_and_inside_the_terrain() {
     assert!(Placement::downslope_of(&t, click, 400, 1.0).is_err());
     assert!(Placement::downslope_of(&t, Vec2::new(500.0, 0.0), 16, 1.0).is_err());
 }
+
+/// The `eruption` scene's flank patch alone (its lava entry copied from
+/// assets/scenes/eruption.ron), printing what flowed and froze: the numbers quoted in
+/// docs/ARCHITECTURE.md §6.7. `TICKS` (default 1500) and `KELVIN` (default 1473) override.
+/// `cargo test -p volcano_lava --test flank -- --ignored --nocapture` (~20 s per 1500 ticks).
+#[test]
+#[ignore = "prints numbers for the docs; tens of seconds"]
+fn eruption_scene_patch_numbers() {
+    let env = |k: &str, d: f64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+    let (ticks, kelvin) = (env("TICKS", 1500.0) as u64, env("KELVIN", 1473.0));
+    // The scene's terrain is the generator's default.
+    let terrain = StratovolcanoParams::default().generate().unwrap();
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
+    let t = app.world_mut().spawn(terrain).id();
+    let placement = Placement { centre: Vec2::new(1721.0, 2457.0), nx: 256, ny: 256, cell: 1.0 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    let mut src = LavaSource::new(Vec3::new(1666.0, 0.0, 2379.0), 3.0, kelvin).unwrap();
+    src.radius = 2.0;
+    app.world_mut().spawn(src);
+    run(&mut app, ticks);
+    let w = app.world();
+    let state = w.get::<LavaState>(field).unwrap();
+    let h = state.flow.thickness();
+    let wet: Vec<Vec2> =
+        (0..h.data().len()).filter(|&k| h.data()[k] > 0.01).map(|k| h.position(k % 256, k / 256)).collect();
+    let reach = wet.iter().map(|p| p.distance(Vec2::new(1666.0, 2379.0))).fold(0.0f32, f32::max);
+    let frozen_cells = state.flow.solid().data().iter().filter(|v| **v > 0.01).count();
+    let added =
+        w.get::<Terrain>(t).unwrap().added().map_or(0.0, |a| a.data().iter().copied().fold(0.0, f64::max));
+    println!(
+        "{ticks} ticks at {kelvin} K: {:?}; {} cells > 1 cm, reaching {reach:.1} m from the source; \
+         {frozen_cells} frozen cells > 1 cm; thickest added layer on a node {added:.2e} m",
+        state.flow.budget(),
+        wet.len()
+    );
+}
