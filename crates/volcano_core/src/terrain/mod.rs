@@ -73,7 +73,7 @@ struct AddedLayer {
 /// caches). Such changes do not trigger Bevy's change detection on [`Terrain`] (that would
 /// make every `Changed<Terrain>` reader redo a whole 512² terrain once a second); a whole new
 /// or edited terrain does.
-#[derive(Message, Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Message, Debug, Clone, Copy, PartialEq, Eq, Reflect)]
 pub struct TerrainChanged {
     /// The terrain entity.
     pub terrain: Entity,
