@@ -2,7 +2,8 @@
 //! of the selected one (viscosity, cooling, crust, folds), the test terrains of thesis
 //! Fig 5.10, sources, and the lava view. Ctrl + left click on a terrain places a `LavaSource`
 //! there: on the patch under the click, or on a new patch started on whichever terrain was
-//! clicked (the "new patch" size and rate of the window).
+//! clicked (the "new patch" size and rate of the window); a button starts one at the view
+//! centre.
 //!
 //! Edits are made on a copy and written back only if `LavaParams::validate` and
 //! `FoldParams::validate` accept them; a rejected edit shows the message in red and leaves the
@@ -17,7 +18,7 @@ use volcano_lava::{
     FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, Placement, ScenarioKind,
     ViscosityModel,
 };
-use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, PointerCaptured};
+use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, OrbitCamera, PointerCaptured};
 
 /// Window state.
 #[derive(Resource, Debug, Clone, Reflect)]
@@ -181,6 +182,7 @@ fn lava_window(
     mut sources: Query<(Entity, &mut LavaSource)>,
     mut mode: Option<ResMut<LavaRenderMode>>,
     mut settings: Option<ResMut<LavaRenderSettings>>,
+    cameras: Query<&OrbitCamera, With<MainCamera>>,
 ) -> Result {
     if !panel.visible {
         return Ok(());
@@ -270,6 +272,17 @@ fn lava_window(
                     slider(ui, &mut panel.new_source_rate, 0.0..=5.0, "new source rate (m³/s)");
                     ui.add(egui::Slider::new(&mut panel.new_patch_cells, 16..=512).text("new patch cells"));
                     slider(ui, &mut panel.new_patch_cell, 0.25..=4.0, "new patch cell (m)");
+                    if ui.button("new patch at the view centre").clicked()
+                        && let Some(focus) = cameras.iter().next().map(|c| c.focus)
+                    {
+                        let (n, cell, rate) =
+                            (panel.new_patch_cells as usize, panel.new_patch_cell, panel.new_source_rate);
+                        let xz = Vec2::new(focus.x, focus.z);
+                        match start_patch(&mut commands, terrains.iter().map(|(_, t)| t), xz, (n, cell, rate)) {
+                            Ok(()) => error = None,
+                            Err(e) => error = Some(e),
+                        }
+                    }
                     for (source_entity, mut src) in &mut sources {
                         ui.horizontal(|ui| {
                             let mut s = src.clone();
@@ -365,22 +378,36 @@ fn place_source_on_click(
         return;
     };
     let xz = Vec2::new(hit.x, hit.z);
-    if !fields.iter().any(|s| s.flow.cell_at(xz).is_some()) {
-        let placed =
-            Placement::downslope_of(terrain, xz, panel.new_patch_cells as usize, panel.new_patch_cell)
-                .and_then(|p| LavaField::new(p, LavaParams::default()));
-        match placed {
-            Ok(field) => {
-                commands.spawn((Name::new("Lava field"), field));
-            }
-            Err(e) => {
-                panel.error = Some(e.to_string());
-                return;
-            }
+    let (n, cell, rate) = (panel.new_patch_cells as usize, panel.new_patch_cell, panel.new_source_rate);
+    if fields.iter().any(|s| s.flow.cell_at(xz).is_some()) {
+        if let Ok(mut src) = LavaSource::new(hit, rate, LavaParams::default().liquidus) {
+            src.radius = 0.75;
+            commands.spawn((Name::new("Lava source"), src));
         }
+    } else if let Err(e) = start_patch(&mut commands, [terrain], xz, (n, cell, rate)) {
+        panel.error = Some(e);
     }
-    if let Ok(mut src) = LavaSource::new(hit, panel.new_source_rate, LavaParams::default().liquidus) {
-        src.radius = 0.75;
-        commands.spawn((Name::new("Lava source"), src));
-    }
+}
+
+/// Starts a patch of `n × n` cells of `cell` m fed `rate` m³/s at the liquidus from `xz`, on
+/// the first of `terrains` under that point (placed downslope of it, inside the terrain).
+fn start_patch<'a>(
+    commands: &mut Commands,
+    terrains: impl IntoIterator<Item = &'a Terrain>,
+    xz: Vec2,
+    (n, cell, rate): (usize, f64, f64),
+) -> Result<(), String> {
+    let terrain = terrains
+        .into_iter()
+        .find(|t| t.contains(xz.x, xz.y))
+        .ok_or_else(|| format!("no terrain under ({:.0}, {:.0})", xz.x, xz.y))?;
+    let placement = Placement::downslope_of(terrain, xz, n, cell).map_err(|e| e.to_string())?;
+    let field = LavaField::new(placement, LavaParams::default()).map_err(|e| e.to_string())?;
+    let position = Vec3::new(xz.x, terrain.height_at(xz.x, xz.y), xz.y);
+    let mut src =
+        LavaSource::new(position, rate, LavaParams::default().liquidus).map_err(|e| e.to_string())?;
+    src.radius = 0.75;
+    commands.spawn((Name::new("Lava field"), field));
+    commands.spawn((Name::new("Lava source"), src));
+    Ok(())
 }
