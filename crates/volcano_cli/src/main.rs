@@ -18,6 +18,7 @@ use bevy::time::TimeUpdateStrategy;
 use clap::{Parser, Subcommand};
 use volcano::prelude::*;
 use volcano::render::headless::{HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev};
+use volcano::scenes::CameraSpec;
 
 #[derive(Parser, Debug)]
 #[command(name = "volcano", version, about = "Headless runner for the volcano plugin set")]
@@ -54,6 +55,10 @@ enum Command {
         /// How lava is drawn: incandescent, or a debug view.
         #[arg(long, value_enum, default_value_t = LavaView::Lit)]
         lava_view: LavaView,
+        /// Camera instead of the scene's: `FX,FY,FZ,YAW,PITCH,DISTANCE` (focus in world metres,
+        /// angles in degrees), e.g. a close-up of a lava patch.
+        #[arg(long, value_parser = parse_camera, allow_hyphen_values = true)]
+        camera: Option<CameraSpec>,
     },
     /// List the scenes of the registry.
     Scenes,
@@ -157,11 +162,24 @@ fn main() -> ExitCode {
         Command::Atmosphere(args) => domains::atmosphere(&args),
         Command::Pyroclastic { params, seconds, out } => pyroclastic::run(&params.params(), seconds, &out),
         Command::Eruption { scenario, seconds, grid, out } => eruption::run(scenario, seconds, grid, &out),
-        Command::Render { scene, ticks, out, width, height, min_stddev, plume_view, lava_view } => {
+        Command::Render { scene, ticks, out, width, height, min_stddev, plume_view, lava_view, camera } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
-            render(&scene, ticks, out, (width, height), min_stddev, (plume_view.into(), lava))
+            let views = (plume_view.into(), lava, camera);
+            render(&scene, ticks, out, (width, height), min_stddev, views)
         }
     }
+}
+
+/// Parses `--camera FX,FY,FZ,YAW,PITCH,DISTANCE`.
+fn parse_camera(text: &str) -> Result<CameraSpec, String> {
+    let v: Vec<f32> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    let [fx, fy, fz, yaw_deg, pitch_deg, distance] = v[..] else {
+        return Err(format!("expected 6 comma-separated numbers, got {}", v.len()));
+    };
+    Ok(CameraSpec { focus: (fx, fy, fz), yaw_deg, pitch_deg, distance })
 }
 
 /// `--plume-view` values.
@@ -226,13 +244,24 @@ fn render(
     out: PathBuf,
     (width, height): (u32, u32),
     min_stddev: f64,
-    (view, lava_view): (volcano::render::PlumeRenderMode, volcano::render::LavaRenderMode),
+    (view, lava_view, camera): (
+        volcano::render::PlumeRenderMode,
+        volcano::render::LavaRenderMode,
+        Option<CameraSpec>,
+    ),
 ) -> ExitCode {
     if !(16..=8192).contains(&width) || !(16..=8192).contains(&height) {
         eprintln!("error: --width and --height must be in 16..=8192");
         return ExitCode::from(2);
     }
-    let scene = match VolcanoScenePlugin::builtin(scene) {
+    // The scene, with the camera override (validated with the rest of the scene).
+    let spec = volcano::scenes::by_name(scene).map(|mut s| {
+        if let Some(c) = camera {
+            s.camera = c;
+        }
+        s
+    });
+    let scene = match spec.and_then(VolcanoScenePlugin::new) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");

@@ -182,13 +182,14 @@ fn frame_rate_independence_is_bit_exact() {
 fn vent_snaps_to_terrain() {
     let mut app = app(1);
     let mut terrain = Terrain::flat(65, 2.0, 0.0).unwrap();
-    let g = terrain.heights_mut();
+    let mut g = terrain.heights_mut();
     for j in 0..65 {
         for i in 0..65 {
             let p = g.position(i, j);
             g.set(i, j, 100.0 + 0.5 * p.x);
         }
     }
+    drop(g);
     app.world_mut().spawn(terrain);
     let v =
         app.world_mut().spawn((Volcano::new(10.0, 4).unwrap(), Transform::from_xyz(20.0, -999.0, 3.0))).id();

@@ -1,6 +1,9 @@
-//! "Lava" window (shown while a `LavaField` exists): the state of the first field, the test
-//! terrains of thesis Fig 5.10, viscosity model, cooling, crust and fold parameters, sources,
-//! and the lava view. Ctrl + left click on the terrain places a `LavaSource` there.
+//! "Lava" window (shown while a `LavaField` exists): the lava patches, the state and parameters
+//! of the selected one (viscosity, cooling, crust, folds), the test terrains of thesis
+//! Fig 5.10, sources, and the lava view. Ctrl + left click on a terrain places a `LavaSource`
+//! there: on the patch under the click, or on a new patch started on whichever terrain was
+//! clicked (the "new patch" size and rate of the window); a button starts one at the view
+//! centre.
 //!
 //! Edits are made on a copy and written back only if `LavaParams::validate` and
 //! `FoldParams::validate` accept them; a rejected edit shows the message in red and leaves the
@@ -12,9 +15,10 @@ use bevy_egui::{EguiContexts, egui};
 use volcano_core::Terrain;
 use volcano_lava::scenario::terrains::scenario_terrain;
 use volcano_lava::{
-    FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, ScenarioKind, ViscosityModel,
+    FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, Placement, ScenarioKind,
+    ViscosityModel,
 };
-use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, PointerCaptured};
+use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, OrbitCamera, PointerCaptured};
 
 /// Window state.
 #[derive(Resource, Debug, Clone, Reflect)]
@@ -32,6 +36,12 @@ pub struct LavaPanel {
     /// obstacle).
     #[reflect(ignore)]
     pub table: ScenarioKind,
+    /// The patch shown and edited (the first one if unset or gone).
+    pub selected: Option<Entity>,
+    /// Cells per side of a patch started by Ctrl + click off every patch.
+    pub new_patch_cells: u32,
+    /// Cell size (m) of such a patch.
+    pub new_patch_cell: f64,
 }
 
 impl Default for LavaPanel {
@@ -42,6 +52,9 @@ impl Default for LavaPanel {
             slope_deg: 3.0,
             new_source_rate: 1.0,
             table: ScenarioKind::Obstacle,
+            selected: None,
+            new_patch_cells: 256,
+            new_patch_cell: 1.0,
         }
     }
 }
@@ -169,13 +182,20 @@ fn lava_window(
     mut sources: Query<(Entity, &mut LavaSource)>,
     mut mode: Option<ResMut<LavaRenderMode>>,
     mut settings: Option<ResMut<LavaRenderSettings>>,
+    cameras: Query<&OrbitCamera, With<MainCamera>>,
 ) -> Result {
     if !panel.visible {
         return Ok(());
     }
-    let Some((entity, mut field, state, status)) = fields.iter_mut().min_by_key(|(e, ..)| *e) else {
-        return Ok(());
-    };
+    let mut patches: Vec<Entity> = fields.iter().map(|(e, ..)| e).collect();
+    patches.sort_unstable();
+    let Some(&first) = patches.first() else { return Ok(()) };
+    let chosen = panel.selected.filter(|e| patches.contains(e)).unwrap_or(first);
+    let Ok((entity, mut field, state, status)) = fields.get_mut(chosen) else { return Ok(()) };
+    // The terrain under the selected patch (the first terrain before it is built).
+    let under = state.and_then(|s| s.imprint.as_ref()).and_then(|l| terrains.get(l.terrain).ok());
+    let table_terrain = under.or_else(|| terrains.iter().min_by_key(|(e, _)| *e));
+    let mut selected = chosen;
     let ctx = contexts.ctx_mut()?;
     let mut edited = field.clone();
     let mut changed = false;
@@ -184,6 +204,19 @@ fn lava_window(
     egui::Window::new("Lava").default_width(330.0).pivot(egui::Align2::RIGHT_TOP).default_pos(corner).show(
         ctx,
         |ui| {
+            ui.horizontal(|ui| {
+                ui.label(format!("{} patch(es):", patches.len()));
+                egui::ComboBox::from_id_salt("lava patch")
+                    .selected_text(format!("{selected}"))
+                    .show_ui(ui, |ui| {
+                        for &p in &patches {
+                            ui.selectable_value(&mut selected, p, format!("{p}"));
+                        }
+                    });
+                if ui.button("✖ remove").on_hover_text("its frozen lava stays in the terrain").clicked() {
+                    commands.entity(entity).despawn();
+                }
+            });
             if let Some(s) = state {
                 let b = s.flow.budget();
                 ui.label(format!(
@@ -211,7 +244,7 @@ fn lava_window(
                     (ScenarioKind::Canyon, "canyon"),
                 ] {
                     if ui.button(name).clicked()
-                        && let Some(t) = terrains.iter().next()
+                        && let Some(t) = table_terrain
                     {
                         match switch_terrain(&mut commands, kind, panel.slope_deg, t, (entity, &field)) {
                             Ok(()) => panel.table = kind,
@@ -224,7 +257,7 @@ fn lava_window(
                 ui.add(egui::Slider::new(&mut panel.slope_deg, 0.0..=20.0).text("slope (°)"));
                 // Frozen lava is written into the terrain, so a restart rebuilds the table too.
                 if ui.button("restart").on_hover_text("fresh table, no lava").clicked()
-                    && let Some(t) = terrains.iter().next()
+                    && let Some(t) = table_terrain
                     && let Err(e) =
                         switch_terrain(&mut commands, panel.table, panel.slope_deg, t, (entity, &field))
                 {
@@ -235,8 +268,21 @@ fn lava_window(
                 changed |= param_widgets(ui, &mut edited.params);
                 changed |= fold_widgets(ui, &mut edited.folds);
                 egui::CollapsingHeader::new("Sources").show(ui, |ui| {
-                    ui.label("Ctrl + left click on the lava table places a source.");
+                    ui.label("Ctrl + left click on a patch places a source; elsewhere on a terrain it starts a new patch there.");
                     slider(ui, &mut panel.new_source_rate, 0.0..=5.0, "new source rate (m³/s)");
+                    ui.add(egui::Slider::new(&mut panel.new_patch_cells, 16..=512).text("new patch cells"));
+                    slider(ui, &mut panel.new_patch_cell, 0.25..=4.0, "new patch cell (m)");
+                    if ui.button("new patch at the view centre").clicked()
+                        && let Some(focus) = cameras.iter().next().map(|c| c.focus)
+                    {
+                        let (n, cell, rate) =
+                            (panel.new_patch_cells as usize, panel.new_patch_cell, panel.new_source_rate);
+                        let xz = Vec2::new(focus.x, focus.z);
+                        match start_patch(&mut commands, terrains.iter().map(|(_, t)| t), xz, (n, cell, rate)) {
+                            Ok(()) => error = None,
+                            Err(e) => error = Some(e),
+                        }
+                    }
                     for (source_entity, mut src) in &mut sources {
                         ui.horizontal(|ui| {
                             let mut s = src.clone();
@@ -295,20 +341,24 @@ fn lava_window(
     if panel.error != error {
         panel.error = error;
     }
+    if panel.selected != Some(selected) {
+        panel.selected = Some(selected);
+    }
     Ok(())
 }
 
-/// Ctrl + left click on the terrain (when no UI has the pointer) places a source there.
+/// Ctrl + left click on a terrain (when no UI has the pointer) places a source there: on the
+/// patch under the point, or on a new patch (the panel's size) started on the clicked terrain.
 #[allow(clippy::too_many_arguments)]
 fn place_source_on_click(
     mut commands: Commands,
     buttons: Option<Res<ButtonInput<MouseButton>>>,
     keys: Option<Res<ButtonInput<KeyCode>>>,
     captured: Option<Res<PointerCaptured>>,
-    panel: Res<LavaPanel>,
+    mut panel: ResMut<LavaPanel>,
     windows: Query<&Window, With<PrimaryWindow>>,
     cameras: Query<(&Camera, &GlobalTransform), With<MainCamera>>,
-    terrains: Query<&Terrain>,
+    terrains: Query<(Entity, &Terrain)>,
     fields: Query<&LavaState>,
 ) {
     let (Some(buttons), Some(keys)) = (buttons, keys) else { return };
@@ -319,12 +369,45 @@ fn place_source_on_click(
     let (Ok(window), Some((camera, transform))) = (windows.single(), cameras.iter().next()) else { return };
     let Some(cursor) = window.cursor_position() else { return };
     let Ok(ray) = camera.viewport_to_world(transform, cursor) else { return };
-    let Some(hit) = terrains.iter().find_map(|t| t.raycast(ray.origin, *ray.direction)) else { return };
-    if !fields.iter().any(|s| s.flow.cell_at(Vec2::new(hit.x, hit.z)).is_some()) {
+    // The nearest terrain hit along the ray.
+    let Some((terrain, hit)) = terrains
+        .iter()
+        .filter_map(|(_, t)| t.raycast(ray.origin, *ray.direction).map(|h| (t, h)))
+        .min_by(|a, b| a.1.distance_squared(ray.origin).total_cmp(&b.1.distance_squared(ray.origin)))
+    else {
         return;
+    };
+    let xz = Vec2::new(hit.x, hit.z);
+    let (n, cell, rate) = (panel.new_patch_cells as usize, panel.new_patch_cell, panel.new_source_rate);
+    if fields.iter().any(|s| s.flow.cell_at(xz).is_some()) {
+        if let Ok(mut src) = LavaSource::new(hit, rate, LavaParams::default().liquidus) {
+            src.radius = 0.75;
+            commands.spawn((Name::new("Lava source"), src));
+        }
+    } else if let Err(e) = start_patch(&mut commands, [terrain], xz, (n, cell, rate)) {
+        panel.error = Some(e);
     }
-    if let Ok(mut src) = LavaSource::new(hit, panel.new_source_rate, LavaParams::default().liquidus) {
-        src.radius = 0.75;
-        commands.spawn((Name::new("Lava source"), src));
-    }
+}
+
+/// Starts a patch of `n × n` cells of `cell` m fed `rate` m³/s at the liquidus from `xz`, on
+/// the first of `terrains` under that point (placed downslope of it, inside the terrain).
+fn start_patch<'a>(
+    commands: &mut Commands,
+    terrains: impl IntoIterator<Item = &'a Terrain>,
+    xz: Vec2,
+    (n, cell, rate): (usize, f64, f64),
+) -> Result<(), String> {
+    let terrain = terrains
+        .into_iter()
+        .find(|t| t.contains(xz.x, xz.y))
+        .ok_or_else(|| format!("no terrain under ({:.0}, {:.0})", xz.x, xz.y))?;
+    let placement = Placement::downslope_of(terrain, xz, n, cell).map_err(|e| e.to_string())?;
+    let field = LavaField::new(placement, LavaParams::default()).map_err(|e| e.to_string())?;
+    let position = Vec3::new(xz.x, terrain.height_at(xz.x, xz.y), xz.y);
+    let mut src =
+        LavaSource::new(position, rate, LavaParams::default().liquidus).map_err(|e| e.to_string())?;
+    src.radius = 0.75;
+    commands.spawn((Name::new("Lava field"), field));
+    commands.spawn((Name::new("Lava source"), src));
+    Ok(())
 }

@@ -14,10 +14,12 @@ use crate::model::params::LavaParams;
 use crate::model::surface::SurfaceState;
 use crate::model::thermal::surface_temperature;
 
-/// A lava field: a local grid placed on the terrain (world x, z), with its edges and lava
-/// parameters. The plugin builds its [`LavaState`] at the next lava step by resampling the
-/// first `Terrain` entity (flat ground at altitude 0 if there is none). Parameter edits apply
-/// live (re-validated each step; an invalid edit freezes the field until fixed).
+/// A lava field (a *patch*): a local grid placed on a terrain (world x, z), with its edges and
+/// lava parameters. The plugin builds its [`LavaState`] at the next lava step by resampling
+/// the `Terrain` whose grid contains the whole patch (the finest if several do; flat
+/// ground at altitude 0 if the world has no terrain at all; rejected if terrains exist but
+/// none contains it), and writes the lava that freezes back into that terrain. Parameter
+/// edits apply live (re-validated each step; an invalid edit freezes the field until fixed).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 pub struct LavaField {
     /// Grid placement and size.
@@ -58,9 +60,21 @@ pub struct LavaState {
     pub last_substeps: u32,
     /// Whether the last step hit the substep cap (the flow was slowed to stay stable).
     pub mobility_capped: bool,
-    /// Terrain nodes under the field, into which frozen lava is written back (none when the
-    /// field was built on flat ground without a `Terrain`).
-    pub imprint: Option<crate::model::imprint::TerrainImprint>,
+    /// The terrain the field was built on, into which frozen lava is written back (none when
+    /// the field was built on flat ground without a `Terrain`).
+    pub imprint: Option<TerrainLink>,
+}
+
+/// The terrain entity under a field and what the field wrote into it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TerrainLink {
+    /// The `Terrain` entity.
+    pub terrain: Entity,
+    /// Nodes covered and frozen volume written so far.
+    pub imprint: crate::model::imprint::TerrainImprint,
+    /// Why write-back stopped (the terrain was despawned or replaced by another grid); the
+    /// field keeps its frozen lava in its own ground.
+    pub detached: Option<String>,
 }
 
 /// Why a field could not be built, or `Ok`.

@@ -18,7 +18,7 @@ pub mod scenario;
 
 pub use components::{
     LavaBreakout, LavaField, LavaFieldStatus, LavaProbe, LavaQuery, LavaReached, LavaSource,
-    LavaSourceStatus, LavaState, LavaZone,
+    LavaSourceStatus, LavaState, LavaZone, TerrainLink,
 };
 pub use model::folds::{FoldParams, FoldSystem};
 pub use model::surface::SurfaceState;

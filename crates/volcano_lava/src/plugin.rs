@@ -4,10 +4,11 @@
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 use volcano_core::prelude::*;
+use volcano_core::terrain::{NodeRegion, TerrainChanged};
 
 use crate::components::*;
 use crate::model::breakout::{BreakoutState, update_breakouts};
-use crate::model::field::{FlowField, Source};
+use crate::model::field::{FlowField, Placement, Source};
 use crate::model::folds::{FoldSystem, thicken_crust_under_folds, update_folds};
 use crate::model::imprint::TerrainImprint;
 use crate::model::surface::{SurfaceState, update_surface};
@@ -25,6 +26,8 @@ impl Plugin for LavaPlugin {
         app.add_sim_domain::<LavaStep>(SimSystems::Lava, Cadence::Substeps(1))
             .add_message::<LavaReached>()
             .add_message::<LavaBreakout>()
+            // Owned by volcano_core; registering twice is harmless.
+            .add_message::<TerrainChanged>()
             .register_type::<LavaField>()
             .register_type::<LavaFieldStatus>()
             .register_type::<LavaSource>()
@@ -36,36 +39,70 @@ impl Plugin for LavaPlugin {
     }
 }
 
-/// Grid placement a [`LavaState`] was built for, and whether a terrain existed then; a
-/// change (or a terrain appearing under a field built on flat ground) rebuilds the field
-/// (its lava is lost).
+/// Grid placement a [`LavaState`] was built for and the terrain under it; a change (or a
+/// terrain appearing under a field built on flat ground) rebuilds the field (its lava is lost).
 #[derive(Component, Debug, Clone, PartialEq)]
-struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges, bool);
+struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges, Option<Entity>);
+
+/// The terrain a field at `placement` belongs on: the one it was built on while that still
+/// contains it, else the finest terrain (smallest cell, then lowest entity index) whose grid
+/// contains the whole patch. `Ok(None)` when the world has no terrain (flat ground); an error
+/// when no terrain contains the patch.
+fn terrain_under(
+    terrains: &Query<(Entity, &Terrain)>,
+    placement: &Placement,
+    built_on: Option<Entity>,
+) -> Result<Option<Entity>, ConfigError> {
+    if terrains.is_empty() {
+        return Ok(None);
+    }
+    let origin = placement.origin();
+    let far =
+        origin + Vec2::new((placement.nx - 1) as f32, (placement.ny - 1) as f32) * placement.cell as f32;
+    let holds = |t: &Terrain| t.contains(origin.x, origin.y) && t.contains(far.x, far.y);
+    if let Some(e) = built_on
+        && terrains.get(e).is_ok_and(|(_, t)| holds(t))
+    {
+        return Ok(Some(e));
+    }
+    let finest = terrains.iter().filter(|(_, t)| holds(t)).min_by(|(a, s), (b, t)| {
+        s.heights().cell().total_cmp(&t.heights().cell()).then(a.index_u32().cmp(&b.index_u32()))
+    });
+    finest.map(|(e, _)| Some(e)).ok_or_else(|| ConfigError::InvalidParameter {
+        name: "lava field placement",
+        value: placement.centre.x as f64,
+        reason: format!("no terrain contains the whole grid [{origin}, {far}]"),
+    })
+}
 
 fn build_fields(
     mut commands: Commands,
-    terrains: Query<&Terrain>,
+    terrains: Query<(Entity, &Terrain)>,
     fields: Query<(Entity, &LavaField, Option<&BuiltFor>)>,
 ) {
     for (entity, field, built) in &fields {
-        // Built (or rejected) for this placement already: nothing to do.
-        let key = BuiltFor(field.placement, field.edges, !terrains.is_empty());
+        let p = field.placement;
+        let under = p.validate().and_then(|_| terrain_under(&terrains, &p, built.and_then(|b| b.2)));
+        let key = BuiltFor(p, field.edges, under.as_ref().ok().copied().flatten());
+        // Built (or rejected) for this placement and terrain already: nothing to do.
         if built == Some(&key) {
             continue;
         }
-        let result = match terrains.iter().next() {
-            Some(t) => FlowField::on_terrain(t, field.placement, field.edges),
-            None => field.placement.validate().and_then(|_| {
-                let p = field.placement;
-                let g = Grid2::new(p.nx, p.ny, p.cell, p.origin(), 0.0)?;
-                FlowField::new(g, field.edges, field.params.air_temperature)
+        let result = under.and_then(|under| match under.and_then(|e| terrains.get(e).ok()) {
+            Some((e, t)) => FlowField::on_terrain(t, p, field.edges).map(|flow| {
+                let imprint =
+                    TerrainLink { terrain: e, imprint: TerrainImprint::new(t, &flow), detached: None };
+                (flow, Some(imprint))
             }),
-        };
+            None => {
+                let g = Grid2::new(p.nx, p.ny, p.cell, p.origin(), 0.0)?;
+                Ok((FlowField::new(g, field.edges, field.params.air_temperature)?, None))
+            }
+        });
         let mut e = commands.entity(entity);
         match result {
-            Ok(flow) => {
+            Ok((flow, imprint)) => {
                 let surface = SurfaceState::new(flow.nx(), flow.ny());
-                let imprint = terrains.iter().next().map(|t| TerrainImprint::new(t.heights(), &flow));
                 e.insert((
                     LavaState {
                         surface,
@@ -149,28 +186,47 @@ fn step_fields(
 /// Steps between two write-backs of frozen lava into the terrain (1 s at 50 Hz).
 const IMPRINT_EVERY: u64 = 50;
 
-/// Writes each field's frozen lava into the first `Terrain` (the one the fields are built
-/// on) once per simulated second; the terrain is marked changed only when a node moved by
-/// at least 1 mm.
+/// Writes each field's new frozen lava into the terrain it was built on once per simulated
+/// second (fields in entity order), and one [`TerrainChanged`] per terrain whose heights moved.
+/// The terrain's change detection is bypassed: readers of `Changed<Terrain>` would otherwise
+/// redo the whole terrain each second for a few nodes.
 fn imprint_terrain(
     mut steps: Local<u64>,
     mut terrains: Query<&mut Terrain>,
-    mut fields: Query<&mut LavaState>,
+    mut fields: Query<(Entity, &mut LavaState)>,
+    mut changed: MessageWriter<TerrainChanged>,
 ) {
     *steps += 1;
     if !steps.is_multiple_of(IMPRINT_EVERY) {
         return;
     }
-    let Some(mut terrain) = terrains.iter_mut().next() else { return };
-    let mut changed = 0;
-    for mut state in &mut fields {
+    let mut order: Vec<Entity> = fields.iter().map(|(e, _)| e).collect();
+    order.sort_unstable();
+    let mut moved: Vec<(Entity, NodeRegion)> = Vec::new();
+    for field in order {
+        let Ok((_, mut state)) = fields.get_mut(field) else { continue };
         let state = &mut *state;
-        if let Some(imprint) = &mut state.imprint {
-            changed += imprint.apply(terrain.bypass_change_detection().heights_mut(), &state.flow, 1e-3);
+        let Some(link) = state.imprint.as_mut().filter(|l| l.detached.is_none()) else { continue };
+        let result = match terrains.get_mut(link.terrain) {
+            Ok(mut t) => link.imprint.apply(t.bypass_change_detection(), &state.flow),
+            Err(_) => Err(ConfigError::InvalidParameter {
+                name: "terrain under a lava field",
+                value: 0.0,
+                reason: "despawned".into(),
+            }),
+        };
+        match result {
+            Ok(region) if region.is_empty() => {}
+            Ok(region) => match moved.iter_mut().find(|(t, _)| *t == link.terrain) {
+                Some((_, r)) => *r = r.union(region),
+                None => moved.push((link.terrain, region)),
+            },
+            // The field keeps flowing on its own ground; its frozen lava stays in it.
+            Err(e) => link.detached = Some(e.to_string()),
         }
     }
-    if changed > 0 {
-        terrain.set_changed();
+    for (terrain, region) in moved {
+        changed.write(TerrainChanged { terrain, region });
     }
 }
 

@@ -157,18 +157,24 @@ fn frozen_lava_is_written_back_into_the_terrain() {
     // 3 m³ (about 10 cm thick) just above the solidus (1273 K): it freezes within seconds.
     let mut state = app.world_mut().get_mut::<LavaState>(field).unwrap();
     state.flow.place_volume(Vec2::new(0.0, -4.0), 3.0, 3.0, 1273.2).unwrap();
-    assert!(state.imprint.as_ref().is_some_and(|i| i.len() == 31 * 31), "nodes −15..15 m");
-    run(&mut app, 250);
+    // Cells span [−16, 16] m: the footprints of nodes −16..16 m.
+    assert!(state.imprint.as_ref().is_some_and(|l| l.imprint.len() == 33 * 33), "nodes −16..16 m");
+    // To tick 250: the last one writes back (once every 50).
+    run(&mut app, 249);
     let after = terrain_heights(&mut app);
     let state = app.world().get::<LavaState>(field).unwrap();
     let frozen = state.flow.budget().solidified;
     assert!(frozen > 2.5, "only {frozen} m³ of 3 froze");
     let solid_max = state.flow.solid().data().iter().fold(0.0f64, |m, &v| m.max(v));
-    // Terrain nodes are 1 m apart, field cells 0.5 m: each node takes the mean of 2 × 2 cells,
-    // so the terrain gains the frozen volume (f32 heights).
+    // Terrain nodes are 1 m apart, field cells 0.5 m: each node takes the volume of the cells
+    // over its footprint, so the terrain's record gains the frozen volume exactly, and its
+    // f32 heights to their rounding.
     let rise: Vec<f64> = after.iter().zip(&before).map(|(&a, &b)| (a - b) as f64).collect();
     let gained: f64 = rise.iter().sum();
-    assert!((gained - frozen).abs() < 2e-3 * frozen, "terrain gained {gained} m³, {frozen} m³ froze");
+    assert!((gained - frozen).abs() < 1e-4 * frozen, "terrain gained {gained} m³, {frozen} m³ froze");
+    let w = app.world_mut();
+    let recorded = w.query::<&Terrain>().single(w).unwrap().added_volume();
+    assert!((recorded - frozen).abs() < 1e-12 * frozen, "terrain record {recorded} m³, {frozen} m³ froze");
     let peak = rise.iter().fold(0.0f64, |m, &r| m.max(r));
     assert!(peak > 0.5 * solid_max && peak <= solid_max + 1e-4, "peak rise {peak}, layer up to {solid_max}");
     assert!(rise.iter().all(|&r| r >= -1e-6), "the terrain only rises");

@@ -9,7 +9,7 @@ use bevy::prelude::*;
 use volcano_core::Terrain;
 use volcano_plume::DepositMap;
 
-use crate::terrain::{TerrainMesh, cover_color, mix, sample_axis, smoothstep};
+use crate::terrain::{TerrainMesh, mix, sample_axis, smoothstep, terrain_color};
 
 /// How the deposit tints the terrain.
 #[derive(Resource, Debug, Clone, Copy, PartialEq, Reflect)]
@@ -93,13 +93,12 @@ fn tint_terrain(
             if normals.len() != xs.len() * ys.len() {
                 continue;
             }
-            let cover = terrain.cover();
             let colors: Vec<[f32; 4]> = ys
                 .iter()
                 .flat_map(|&j| xs.iter().map(move |&i| (i, j)))
                 .zip(&normals)
                 .map(|((i, j), n)| {
-                    let base = cover_color(cover.get(i, j), Vec3::from(*n));
+                    let base = terrain_color(terrain, i, j, Vec3::from(*n));
                     let t = if wanted { deposit.thickness_at_node(i, j) } else { 0.0 };
                     deposit_tint(base, ash, t).to_f32_array()
                 })

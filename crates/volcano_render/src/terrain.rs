@@ -1,16 +1,23 @@
 //! Terrain rendering: one vertex-coloured mesh per [`Terrain`] entity (a child of it, rebuilt
-//! whenever the terrain changes) and a glowing marker over each volcano's vent.
+//! whenever the terrain is added or changed, and updated in place over the nodes a
+//! [`TerrainChanged`] message names) and a glowing marker over each volcano's vent.
 //!
 //! The heightfield is downsampled with an integer stride so a mesh has at most
 //! [`MAX_VERTICES_PER_SIDE`]² vertices. Colours come from the land cover and darken on steep
-//! slopes, so the flanks read under flat lighting too.
+//! slopes, so the flanks read under flat lighting too; nodes under frozen lava (the terrain's
+//! added layer) turn basalt grey.
 
 use bevy::asset::RenderAssetUsages;
 use bevy::color::{Color, ColorToComponents, LinearRgba, Srgba};
 use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
-use volcano_core::{LandCover, Terrain, VentPosition, Volcano};
+mod region;
+
+use volcano_core::{LandCover, Terrain, TerrainChanged, VentPosition, Volcano};
+
+use region::update_changed_regions;
+pub use region::{MeshSurface, update_terrain_mesh};
 
 /// Upper bound on the vertices per side of a terrain mesh (the stride is chosen to respect it).
 pub const MAX_VERTICES_PER_SIDE: usize = 512;
@@ -37,7 +44,11 @@ impl Plugin for TerrainRenderPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<TerrainMesh>()
             .register_type::<VentMarker>()
-            .add_systems(Update, (build_terrain_meshes, update_vent_markers));
+            .add_message::<TerrainChanged>()
+            .add_systems(
+                Update,
+                ((build_terrain_meshes, update_changed_regions).chain(), update_vent_markers),
+            );
     }
 
     fn finish(&self, app: &mut App) {
@@ -118,6 +129,25 @@ pub(crate) fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
     )
 }
 
+/// Colour of lava frozen into the terrain (linear; the lava renderer's frozen albedo).
+fn basalt() -> LinearRgba {
+    LinearRgba::from(Srgba::rgb(0.12, 0.115, 0.11))
+}
+
+/// Mean thickness (m) of the added layer at which a node is drawn wholly as frozen lava.
+pub const FROZEN_FULL_COVER: f64 = 0.05;
+
+/// Colour of terrain node `(i, j)` with unit normal `normal`: [`cover_color`], turning to
+/// basalt as the node's added layer (frozen lava, a mean over the node's footprint) thickens
+/// to [`FROZEN_FULL_COVER`].
+pub fn terrain_color(terrain: &Terrain, i: usize, j: usize, normal: Vec3) -> LinearRgba {
+    let base = cover_color(terrain.cover().get(i, j), normal);
+    match terrain.added() {
+        Some(a) => mix(base, basalt(), smoothstep(0.0, FROZEN_FULL_COVER as f32, a.get(i, j) as f32)),
+        None => base,
+    }
+}
+
 /// Sample indices `0, s, 2s, …` along an axis of `n` samples, always ending at `n − 1`.
 pub(crate) fn sample_axis(n: usize, stride: usize) -> Vec<usize> {
     let mut v: Vec<usize> = (0..n).step_by(stride.max(1)).collect();
@@ -133,42 +163,73 @@ pub(crate) fn stride_for(n: usize, max_per_side: usize) -> usize {
     if n <= max { 1 } else { (n - 1).div_ceil(max - 1).max(1) }
 }
 
+/// The mesh samples of a terrain: which nodes are vertices, and how each vertex looks.
+pub(crate) struct MeshSamples<'a> {
+    terrain: &'a Terrain,
+    xs: Vec<usize>,
+    ys: Vec<usize>,
+}
+
+impl<'a> MeshSamples<'a> {
+    pub(crate) fn new(terrain: &'a Terrain, stride: usize) -> Self {
+        let h = terrain.heights();
+        Self { terrain, xs: sample_axis(h.nx(), stride), ys: sample_axis(h.ny(), stride) }
+    }
+
+    /// Drawn altitude of node `(i, j)`: water is lifted to sea level.
+    pub(crate) fn surface(&self, i: usize, j: usize) -> f32 {
+        let h = self.terrain.heights().get(i, j);
+        if self.terrain.cover().get(i, j) == LandCover::Water { h.max(self.terrain.sea_level()) } else { h }
+    }
+
+    /// Position, normal (central differences over the neighbouring mesh samples, one-sided at
+    /// the edges) and colour of vertex `(a, b)`.
+    pub(crate) fn vertex(&self, a: usize, b: usize) -> ([f32; 3], [f32; 3], [f32; 4]) {
+        let (xs, ys, heights) = (&self.xs, &self.ys, self.terrain.heights());
+        let (i, j) = (xs[a], ys[b]);
+        let p = heights.position(i, j);
+        let (i0, i1) = (xs[a.saturating_sub(1)], xs[(a + 1).min(xs.len() - 1)]);
+        let (j0, j1) = (ys[b.saturating_sub(1)], ys[(b + 1).min(ys.len() - 1)]);
+        let dx = heights.position(i1, j).x - heights.position(i0, j).x;
+        let dz = heights.position(i, j1).y - heights.position(i, j0).y;
+        let dhdx = if dx > 0.0 { (self.surface(i1, j) - self.surface(i0, j)) / dx } else { 0.0 };
+        let dhdz = if dz > 0.0 { (self.surface(i, j1) - self.surface(i, j0)) / dz } else { 0.0 };
+        let n = Vec3::new(-dhdx, 1.0, -dhdz).normalize_or(Vec3::Y);
+        let colour = terrain_color(self.terrain, i, j, n).to_f32_array();
+        ([p.x, self.surface(i, j), p.y], n.to_array(), colour)
+    }
+
+    /// Vertex index range `[lo, hi]` along an axis whose mesh depends on nodes `lo_n..=hi_n`
+    /// (one more mesh sample each side: the normals use their neighbours).
+    pub(crate) fn affected(axis: &[usize], lo_n: usize, hi_n: usize) -> Option<(usize, usize)> {
+        let first = axis.iter().position(|&n| n >= lo_n)?;
+        let last = axis.iter().rposition(|&n| n <= hi_n)?;
+        // Samples between two vertices change no vertex but the two around them.
+        let (first, last) = if first > last { (last, first) } else { (first, last) };
+        Some((first.saturating_sub(1), (last + 1).min(axis.len() - 1)))
+    }
+}
+
 /// Builds the render mesh of `terrain`: positions in world metres (grid `(x, y)` → world
 /// `(x, z)`, height → `y`; water is lifted to sea level), smooth normals from central
-/// differences, vertex colours from [`cover_color`]. At most `max_per_side`² vertices. Returns
-/// the mesh and the stride used.
+/// differences, vertex colours from [`terrain_color`]. At most `max_per_side`² vertices.
+/// Returns the mesh and the stride used.
 pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
     let heights = terrain.heights();
-    let cover = terrain.cover();
-    let (nx, ny) = (heights.nx(), heights.ny());
-    let stride = stride_for(nx.max(ny), max_per_side);
-    let xs = sample_axis(nx, stride);
-    let ys = sample_axis(ny, stride);
-    let sea = terrain.sea_level();
-    let surface = |i: usize, j: usize| {
-        let h = heights.get(i, j);
-        if cover.get(i, j) == LandCover::Water { h.max(sea) } else { h }
-    };
-
+    let stride = stride_for(heights.nx().max(heights.ny()), max_per_side);
+    let samples = MeshSamples::new(terrain, stride);
+    let (xs, ys) = (&samples.xs, &samples.ys);
     let count = xs.len() * ys.len();
     let mut positions = Vec::with_capacity(count);
     let mut normals = Vec::with_capacity(count);
     let mut colors = Vec::with_capacity(count);
     let mut uvs = Vec::with_capacity(count);
-    for (b, &j) in ys.iter().enumerate() {
-        for (a, &i) in xs.iter().enumerate() {
-            let p = heights.position(i, j);
-            positions.push([p.x, surface(i, j), p.y]);
-            // Central differences over the neighbouring mesh samples (one-sided at the edges).
-            let (i0, i1) = (xs[a.saturating_sub(1)], xs[(a + 1).min(xs.len() - 1)]);
-            let (j0, j1) = (ys[b.saturating_sub(1)], ys[(b + 1).min(ys.len() - 1)]);
-            let dx = heights.position(i1, j).x - heights.position(i0, j).x;
-            let dz = heights.position(i, j1).y - heights.position(i, j0).y;
-            let dhdx = if dx > 0.0 { (surface(i1, j) - surface(i0, j)) / dx } else { 0.0 };
-            let dhdz = if dz > 0.0 { (surface(i, j1) - surface(i, j0)) / dz } else { 0.0 };
-            let n = Vec3::new(-dhdx, 1.0, -dhdz).normalize_or(Vec3::Y);
-            normals.push(n.to_array());
-            colors.push(cover_color(cover.get(i, j), n).to_f32_array());
+    for b in 0..ys.len() {
+        for a in 0..xs.len() {
+            let (p, n, c) = samples.vertex(a, b);
+            positions.push(p);
+            normals.push(n);
+            colors.push(c);
             uvs.push([a as f32 / (xs.len() - 1).max(1) as f32, b as f32 / (ys.len() - 1).max(1) as f32]);
         }
     }
@@ -276,7 +337,7 @@ fn update_vent_markers(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use volcano_core::StratovolcanoParams;
+    use volcano_core::{NodeRegion, StratovolcanoParams};
 
     #[test]
     fn stride_caps_vertices_and_keeps_edges() {
@@ -358,6 +419,35 @@ mod tests {
         let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
         let min_y = pos.iter().map(|p| p[1]).fold(f32::INFINITY, f32::min);
         assert!(min_y > 1000.0, "mesh not rebuilt: lowest vertex {min_y}");
+
+        // Frozen lava written without change detection plus a `TerrainChanged`: the same mesh
+        // is updated over the region and matches a full rebuild.
+        let region = NodeRegion { i0: 10, j0: 12, ni: 3, nj: 2 };
+        let mut terrain = world.get_mut::<Terrain>(t).unwrap();
+        terrain.bypass_change_detection().add_thickness(region, &[2.0; 6]).unwrap();
+        world.write_message(TerrainChanged { terrain: t, region });
+        app.update();
+        let world = app.world_mut();
+        let handle = world.query_filtered::<&Mesh3d, With<TerrainMesh>>().single(world).unwrap().0.clone();
+        assert_eq!(handle, meshes[0].1);
+        let (full, _) = terrain_mesh(world.get::<Terrain>(t).unwrap(), MAX_VERTICES_PER_SIDE);
+        let mesh = world.resource::<Assets<Mesh>>().get(&handle).unwrap();
+        assert_eq!(mesh.attribute(Mesh::ATTRIBUTE_POSITION), full.attribute(Mesh::ATTRIBUTE_POSITION));
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        let h = world.get::<Terrain>(t).unwrap().base_heights().get(11, 12);
+        assert!((pos[12 * 33 + 11][1] - (h + 2.0)).abs() < 1e-3, "vertex not raised");
+    }
+
+    #[test]
+    fn frozen_lava_turns_the_terrain_basalt() {
+        let mut t = Terrain::flat(4, 10.0, 100.0).unwrap();
+        let ground = terrain_color(&t, 1, 1, Vec3::Y);
+        t.add_thickness(NodeRegion { i0: 1, j0: 1, ni: 2, nj: 1 }, &[FROZEN_FULL_COVER, 0.01]).unwrap();
+        let full = terrain_color(&t, 1, 1, Vec3::Y);
+        assert!((full.red - basalt().red).abs() < 1e-6 && (full.green - basalt().green).abs() < 1e-6);
+        let partly = terrain_color(&t, 2, 1, Vec3::Y);
+        assert!(partly.red < ground.red && partly.red > basalt().red, "{partly:?}");
+        assert_eq!(terrain_color(&t, 0, 0, Vec3::Y), ground);
     }
 
     #[test]

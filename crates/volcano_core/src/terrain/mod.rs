@@ -3,16 +3,28 @@
 //!
 //! Generators live in [`generate`] (procedural stratovolcano) and [`png_io`] (16-bit PNG
 //! heightmaps, the way real DEMs are commonly shared).
+//!
+//! What the simulation adds on top of the ground (frozen lava) is kept as an exact `f64`
+//! *added layer* per node beside the `f32` heights (docs/ARCHITECTURE.md §6.7): heights are
+//! `base + added` rounded to `f32` for rendering and queries, and the layer's sum is the
+//! volume gained. [`remap`] carries a patch's cell field onto the nodes conservatively, and
+//! [`TerrainChanged`] tells games and the renderer which nodes moved.
 
 pub mod generate;
 pub mod png_io;
+pub mod remap;
+
+use std::ops::{Deref, DerefMut};
 
 use bevy::ecs::component::Component;
+use bevy::ecs::entity::Entity;
+use bevy::ecs::message::Message;
 use bevy::math::{Vec2, Vec3};
 use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
 
 pub use generate::StratovolcanoParams;
+pub use remap::{NodeRegion, NodeRemap};
 
 use crate::error::ConfigError;
 use crate::grid::{Boundary, Grid2};
@@ -34,12 +46,72 @@ pub enum LandCover {
 
 /// A heightfield terrain. Lives as a component on one entity; the grid's `(x, y)` maps to world
 /// `(x, z)` and heights to world `y`.
+///
+/// Heights are the ground as built or edited ([`Terrain::heights_mut`] edits that *base*) plus
+/// the [added layer](Terrain::added), kept in `f64` so volumes written by the simulation
+/// balance exactly although an `f32` height at 2.5 km moves in steps of 2.4e-4 m.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(opaque)]
 pub struct Terrain {
+    /// `base + added`, rounded to f32.
     heights: Grid2<f32>,
     cover: Grid2<LandCover>,
     sea_level: f32,
+    /// The base heights and the added thickness, once anything was added.
+    layer: Option<AddedLayer>,
+}
+
+/// Base heights under the added layer, and the layer's thickness per node (m, f64).
+#[derive(Debug, Clone, PartialEq)]
+struct AddedLayer {
+    base: Grid2<f32>,
+    added: Grid2<f64>,
+}
+
+/// Heights of some terrain nodes changed (frozen lava written back, see
+/// [`Terrain::add_thickness`]): rebuild what depends on them there (meshes, colliders,
+/// caches). Such changes do not trigger Bevy's change detection on [`Terrain`] (that would
+/// make every `Changed<Terrain>` reader redo a whole 512² terrain once a second); a whole new
+/// or edited terrain does.
+#[derive(Message, Debug, Clone, Copy, PartialEq, Eq, Reflect)]
+pub struct TerrainChanged {
+    /// The terrain entity.
+    pub terrain: Entity,
+    /// The nodes whose height changed (a rectangle holding all of them).
+    pub region: NodeRegion,
+}
+
+/// Mutable access to a terrain's base heights (the ground under the added layer); the heights
+/// are recomputed when it is dropped.
+pub struct BaseHeightsMut<'a> {
+    terrain: &'a mut Terrain,
+}
+
+impl Deref for BaseHeightsMut<'_> {
+    type Target = Grid2<f32>;
+    fn deref(&self) -> &Grid2<f32> {
+        self.terrain.base_heights()
+    }
+}
+
+impl DerefMut for BaseHeightsMut<'_> {
+    fn deref_mut(&mut self) -> &mut Grid2<f32> {
+        match &mut self.terrain.layer {
+            Some(layer) => &mut layer.base,
+            None => &mut self.terrain.heights,
+        }
+    }
+}
+
+impl Drop for BaseHeightsMut<'_> {
+    fn drop(&mut self) {
+        if let Some(layer) = &self.terrain.layer {
+            let h = self.terrain.heights.data_mut();
+            for ((h, b), a) in h.iter_mut().zip(layer.base.data()).zip(layer.added.data()) {
+                *h = (*b as f64 + a) as f32;
+            }
+        }
+    }
 }
 
 impl Terrain {
@@ -60,7 +132,7 @@ impl Terrain {
             });
         }
         crate::error::finite("sea_level", sea_level as f64)?;
-        Ok(Self { heights, cover, sea_level })
+        Ok(Self { heights, cover, sea_level, layer: None })
     }
 
     /// A flat terrain of `n × n` samples at altitude `height`, centred on the origin.
@@ -71,13 +143,92 @@ impl Terrain {
         Self::new(heights, cover, f32::MIN)
     }
 
-    /// The heightfield (absolute altitudes, m).
+    /// The heightfield (absolute altitudes, m): base plus added layer.
     pub fn heights(&self) -> &Grid2<f32> {
         &self.heights
     }
-    /// Mutable heightfield, for tools that edit the terrain (lava freezing, deposits).
-    pub fn heights_mut(&mut self) -> &mut Grid2<f32> {
-        &mut self.heights
+    /// Mutable base heightfield, for tools that edit the ground; the added layer stays on top
+    /// (the heights are recomputed when the returned guard is dropped).
+    pub fn heights_mut(&mut self) -> BaseHeightsMut<'_> {
+        BaseHeightsMut { terrain: self }
+    }
+    /// The ground under the added layer (the heights if nothing was added).
+    pub fn base_heights(&self) -> &Grid2<f32> {
+        self.layer.as_ref().map_or(&self.heights, |l| &l.base)
+    }
+    /// Thickness added per node (m, f64), or `None` if nothing was ever added.
+    pub fn added(&self) -> Option<&Grid2<f64>> {
+        self.layer.as_ref().map(|l| &l.added)
+    }
+    /// Volume of the added layer (m³): its thickness summed in row order times the node area.
+    pub fn added_volume(&self) -> f64 {
+        let a = self.heights.cell() * self.heights.cell();
+        self.added().map_or(0.0, |g| g.data().iter().sum::<f64>() * a)
+    }
+
+    /// Adds `thickness[k]` metres (negative removes) to node `k` of `region` (row-major over
+    /// the region) in the `f64` layer, and refreshes those heights. Errors, changing nothing,
+    /// if the region leaves the grid, the lengths differ or a value is not finite. Returns the
+    /// rectangle of nodes whose `f32` height moved (empty if none did: a change below the
+    /// `f32` step is recorded but not visible yet).
+    pub fn add_thickness(
+        &mut self,
+        region: NodeRegion,
+        thickness: &[f64],
+    ) -> Result<NodeRegion, ConfigError> {
+        let (nx, ny) = (self.heights.nx(), self.heights.ny());
+        if region.i0 + region.ni > nx || region.j0 + region.nj > ny {
+            return Err(ConfigError::InvalidParameter {
+                name: "terrain region",
+                value: (region.i0 + region.ni).max(region.j0 + region.nj) as f64,
+                reason: format!("must lie within the {nx}×{ny} nodes"),
+            });
+        }
+        if thickness.len() != region.len() {
+            return Err(ConfigError::InvalidParameter {
+                name: "added thickness length",
+                value: thickness.len() as f64,
+                reason: format!("must equal the region's {} nodes", region.len()),
+            });
+        }
+        if let Some(bad) = thickness.iter().find(|v| !v.is_finite()) {
+            return Err(ConfigError::InvalidParameter {
+                name: "added thickness",
+                value: *bad,
+                reason: "must be finite".into(),
+            });
+        }
+        if region.is_empty() {
+            return Ok(NodeRegion::default());
+        }
+        if self.layer.is_none() {
+            let added = Grid2::new(nx, ny, self.heights.cell(), self.heights.origin(), 0.0)?;
+            self.layer = Some(AddedLayer { base: self.heights.clone(), added });
+        }
+        let (heights, Some(layer)) = (&mut self.heights, self.layer.as_mut()) else {
+            return Ok(NodeRegion::default());
+        };
+        let (mut lo, mut hi) = ((usize::MAX, usize::MAX), (0, 0));
+        for (r, row) in thickness.chunks(region.ni.max(1)).enumerate() {
+            let j = region.j0 + r;
+            for (d, &dh) in row.iter().enumerate() {
+                let i = region.i0 + d;
+                let k = j * nx + i;
+                let a = &mut layer.added.data_mut()[k];
+                *a += dh;
+                let h = (layer.base.data()[k] as f64 + *a) as f32;
+                if h != heights.data()[k] {
+                    heights.data_mut()[k] = h;
+                    lo = (lo.0.min(i), lo.1.min(j));
+                    hi = (hi.0.max(i), hi.1.max(j));
+                }
+            }
+        }
+        Ok(if lo.0 == usize::MAX {
+            NodeRegion::default()
+        } else {
+            NodeRegion { i0: lo.0, j0: lo.1, ni: hi.0 + 1 - lo.0, nj: hi.1 + 1 - lo.1 }
+        })
     }
     /// The land-cover map.
     pub fn cover(&self) -> &Grid2<LandCover> {
@@ -196,13 +347,14 @@ mod tests {
     fn tilted() -> Terrain {
         // h = 100 + 0.5 x on a 65×65 grid with 2 m cells.
         let mut t = Terrain::flat(65, 2.0, 0.0).unwrap();
-        let g = t.heights_mut();
+        let mut g = t.heights_mut();
         for j in 0..65 {
             for i in 0..65 {
                 let p = g.position(i, j);
                 g.set(i, j, 100.0 + 0.5 * p.x);
             }
         }
+        drop(g);
         t
     }
 
@@ -229,6 +381,48 @@ mod tests {
         assert!(t.raycast(Vec3::new(0.0, 500.0, 0.0), Vec3::Y).is_none());
         assert!(t.raycast(Vec3::new(1000.0, 500.0, 0.0), Vec3::X).is_none());
         assert!(t.raycast(Vec3::new(0.0, 500.0, 0.0), Vec3::new(f32::NAN, 0.0, 0.0)).is_none());
+    }
+
+    #[test]
+    fn the_added_layer_keeps_increments_below_the_f32_step() {
+        // At 2,500 m an f32 step is 2.4e-4 m: ten additions of 1e-4 m, each below half a step,
+        // would all round away if added to the heights; the f64 layer keeps them.
+        let mut t = Terrain::flat(8, 2.0, 2500.0).unwrap();
+        let region = NodeRegion { i0: 2, j0: 3, ni: 2, nj: 1 };
+        let mut moved = NodeRegion::default();
+        for _ in 0..10 {
+            moved = moved.union(t.add_thickness(region, &[1e-4, 0.0]).unwrap());
+        }
+        assert_eq!(moved, NodeRegion { i0: 2, j0: 3, ni: 1, nj: 1 }, "only the node that moved");
+        let h = t.heights().get(2, 3) as f64;
+        assert!((h - 2500.001).abs() < 1.3e-4, "height {h}");
+        assert_eq!(t.heights().get(3, 3), 2500.0);
+        assert!((t.added().unwrap().get(2, 3) - 1e-3).abs() < 1e-15);
+        assert!((t.added_volume() - 4e-3).abs() < 1e-15, "{}", t.added_volume());
+        assert_eq!(t.base_heights().get(2, 3), 2500.0);
+    }
+
+    #[test]
+    fn editing_the_base_keeps_the_layer_on_top() {
+        let mut t = Terrain::flat(8, 2.0, 100.0).unwrap();
+        t.add_thickness(NodeRegion { i0: 1, j0: 1, ni: 1, nj: 1 }, &[0.5]).unwrap();
+        t.heights_mut().map_in_place(|h| h + 10.0);
+        assert_eq!(t.heights().get(1, 1), 110.5);
+        assert_eq!(t.heights().get(0, 0), 110.0);
+        assert_eq!(t.base_heights().get(1, 1), 110.0);
+        assert!((t.added_volume() - 2.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_additions_are_errors_and_change_nothing() {
+        let mut t = Terrain::flat(8, 2.0, 100.0).unwrap();
+        let before = t.clone();
+        assert!(t.add_thickness(NodeRegion { i0: 6, j0: 0, ni: 3, nj: 1 }, &[0.1; 3]).is_err());
+        assert!(t.add_thickness(NodeRegion { i0: 0, j0: 0, ni: 2, nj: 2 }, &[0.1; 3]).is_err());
+        let e = t.add_thickness(NodeRegion { i0: 0, j0: 0, ni: 2, nj: 1 }, &[0.1, f64::NAN]).unwrap_err();
+        assert!(e.to_string().contains("added thickness"), "{e}");
+        assert_eq!(t, before);
+        assert!(t.add_thickness(NodeRegion::default(), &[]).unwrap().is_empty());
     }
 
     #[test]

@@ -75,6 +75,47 @@ impl Placement {
         self.centre - half
     }
 
+    /// A patch of `n × n` cells of `cell` m on `terrain` that holds the point `source` (world
+    /// x, z), centred a third of its width downslope of it so the lava has room to run, then
+    /// shifted as little as needed to lie inside the terrain. Errors if the source is off the
+    /// terrain or the patch is larger than the terrain.
+    pub fn downslope_of(terrain: &Terrain, source: Vec2, n: usize, cell: f64) -> Result<Self, ConfigError> {
+        let p = Self { centre: source, nx: n, ny: n, cell };
+        p.validate()?;
+        if !terrain.contains(source.x, source.y) {
+            return Err(ConfigError::InvalidParameter {
+                name: "lava patch source",
+                value: source.x as f64,
+                reason: format!("({}, {}) is off the terrain", source.x, source.y),
+            });
+        }
+        let half = 0.5 * (n - 1) as f64 * cell;
+        let n3 = terrain.normal_at(source.x, source.y);
+        let down = Vec2::new(n3.x, n3.z).normalize_or_zero();
+        let want = source.as_dvec2() + down.as_dvec2() * (2.0 * half / 3.0);
+        let g = terrain.heights();
+        let (lo, size) = (g.origin().as_dvec2(), g.extent().as_dvec2());
+        // A hair inside, so the f32 corners still test as contained.
+        let margin = 1e-4 * (size.x.max(size.y) + 1.0);
+        let fit = |want: f64, lo: f64, size: f64| -> Option<f64> {
+            let (a, b) = (lo + half + margin, lo + size - half - margin);
+            (a <= b).then(|| want.clamp(a, b))
+        };
+        match (fit(want.x, lo.x, size.x), fit(want.y, lo.y, size.y)) {
+            (Some(x), Some(y)) => Ok(Self { centre: Vec2::new(x as f32, y as f32), ..p }),
+            _ => Err(ConfigError::InvalidParameter {
+                name: "lava patch size",
+                value: 2.0 * half,
+                reason: format!(
+                    "a {:.0} m patch does not fit on a {:.0} × {:.0} m terrain",
+                    2.0 * half,
+                    size.x,
+                    size.y
+                ),
+            }),
+        }
+    }
+
     /// Checks sizes (1..=8192 cells a side, cell in [0.01, 100] m).
     pub fn validate(&self) -> Result<(), ConfigError> {
         in_range("nx", self.nx as f64, 1.0, 8192.0)?;

@@ -1,100 +1,90 @@
-//! Frozen lava written back into the large terrain (docs/ARCHITECTURE.md §6.1: lava colder
-//! than the solidus freezes into the ground). Inside a field the ground already includes the
-//! frozen layer; this carries it to the world's `Terrain` heights, so a field built later (or
-//! moved), the pyroclastic particles and gameplay height queries see the new ground: later
-//! lava flows over earlier lava.
+//! Frozen lava written back into the terrain under a field (docs/ARCHITECTURE.md §6.7: lava
+//! colder than the solidus freezes into the ground). Inside a field the ground already
+//! includes the frozen layer; this carries it into the terrain's exact added layer
+//! ([`Terrain::add_thickness`]), so a field built later, the pyroclastic particles and gameplay
+//! height queries see the new ground: later lava flows over earlier lava.
+//!
+//! The transfer is the conservative area-weighted remap of [`NodeRemap`] (each field cell
+//! shares its volume among the terrain node footprints it overlaps), so the terrain gains
+//! exactly the frozen volume, whatever the two cell sizes and their offset.
 
 use bevy::math::Vec2;
-use volcano_core::Grid2;
+use volcano_core::terrain::{NodeRegion, NodeRemap};
+use volcano_core::{ConfigError, Terrain};
 
 use super::field::FlowField;
 
-/// Terrain nodes under one lava field, their heights when the field was built, and the
-/// thickness last written to each.
+/// The terrain nodes under one lava field and the frozen volume already written to each.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TerrainImprint {
-    i0: usize,
-    j0: usize,
-    ni: usize,
-    nj: usize,
-    base: Vec<f32>,
-    written: Vec<f32>,
+    remap: NodeRemap,
+    /// Terrain grid the remap was built for: (nx, ny, cell, origin).
+    nodes: (usize, usize, f64, Vec2),
+    /// Volume (m³) written so far per node of the region, row-major.
+    written: Vec<f64>,
+    volumes: Vec<f64>,
+    delta: Vec<f64>,
 }
 
 impl TerrainImprint {
-    /// The terrain nodes that lie within the field's extent (cell centres, first to last).
-    /// Empty if the terrain has no node there (a field finer than one terrain cell still
-    /// covers the nodes inside it, possibly none).
-    pub fn new(heights: &Grid2<f32>, field: &FlowField) -> Self {
-        let g = field.ground();
-        let lo = g.origin();
-        let hi = lo + Vec2::new((g.nx() - 1) as f32, (g.ny() - 1) as f32) * g.cell() as f32;
-        let (a, b) = (heights.to_grid(lo), heights.to_grid(hi));
-        let first = |x: f64| x.ceil().max(0.0) as usize;
-        let (i0, j0) = (first(a.0), first(a.1));
-        let i1 = (b.0.floor() as i64).min(heights.nx() as i64 - 1);
-        let j1 = (b.1.floor() as i64).min(heights.ny() as i64 - 1);
-        let ni = (i1 + 1 - i0 as i64).max(0) as usize;
-        let nj = (j1 + 1 - j0 as i64).max(0) as usize;
-        let mut base = Vec::with_capacity(ni * nj);
-        for j in j0..j0 + nj {
-            for i in i0..i0 + ni {
-                base.push(heights.get(i, j));
-            }
+    /// The imprint of `field` on `terrain` (the field's cells against the terrain's node
+    /// footprints); nothing written yet.
+    pub fn new(terrain: &Terrain, field: &FlowField) -> Self {
+        let h = terrain.heights();
+        let remap = NodeRemap::new(field.solid(), h);
+        let n = remap.region().len();
+        Self {
+            remap,
+            nodes: (h.nx(), h.ny(), h.cell(), h.origin()),
+            written: vec![0.0; n],
+            volumes: Vec::with_capacity(n),
+            delta: Vec::with_capacity(n),
         }
-        Self { i0, j0, ni, nj, written: vec![0.0; base.len()], base }
+    }
+
+    /// The terrain nodes the field's cells overlap.
+    pub fn region(&self) -> NodeRegion {
+        self.remap.region()
     }
 
     /// Terrain nodes covered.
     pub fn len(&self) -> usize {
-        self.base.len()
+        self.written.len()
     }
 
     /// Whether no terrain node lies under the field.
     pub fn is_empty(&self) -> bool {
-        self.base.is_empty()
+        self.written.is_empty()
     }
 
-    /// Sets each covered node to its base height plus the mean frozen thickness of the field
-    /// cells within its footprint (a terrain cell centred on the node; the nearest field cell
-    /// if none is inside), so the terrain gains the frozen volume. Nodes whose value moved by
-    /// less than `tolerance` m are left alone. Returns how many nodes changed.
-    pub fn apply(&mut self, heights: &mut Grid2<f32>, field: &FlowField, tolerance: f32) -> usize {
-        let solid = field.solid();
-        let (nx, ny) = (solid.nx() as i64, solid.ny() as i64);
-        // Half a terrain cell in field cells.
-        let half = 0.5 * heights.cell() / solid.cell();
-        let mut changed = 0;
-        for jj in 0..self.nj {
-            for ii in 0..self.ni {
-                let (i, j) = (self.i0 + ii, self.j0 + jj);
-                let (gx, gy) = solid.to_grid(heights.position(i, j));
-                let lo = |c: f64| ((c - half).ceil() as i64).max(0);
-                let hi = |c: f64, n: i64| ((c + half).floor() as i64).min(n - 1);
-                let (ia, ib, ja, jb) = (lo(gx), hi(gx, nx), lo(gy), hi(gy, ny));
-                let mean = if ia > ib || ja > jb {
-                    let (ci, cj) =
-                        (gx.round().clamp(0.0, (nx - 1) as f64), gy.round().clamp(0.0, (ny - 1) as f64));
-                    solid.get(ci as usize, cj as usize)
-                } else {
-                    let mut sum = 0.0;
-                    for cj in ja..=jb {
-                        for ci in ia..=ib {
-                            sum += solid.get(ci as usize, cj as usize);
-                        }
-                    }
-                    sum / ((ib - ia + 1) * (jb - ja + 1)) as f64
-                };
-                let k = jj * self.ni + ii;
-                let add = mean as f32;
-                if (add - self.written[k]).abs() >= tolerance && add.is_finite() {
-                    self.written[k] = add;
-                    heights.set(i, j, self.base[k] + add);
-                    changed += 1;
-                }
-            }
+    /// Frozen volume written into the terrain so far (m³).
+    pub fn written_volume(&self) -> f64 {
+        self.written.iter().sum()
+    }
+
+    /// Adds to `terrain` the frozen lava of `field` not written yet: the field's frozen layer
+    /// remapped onto the node footprints, minus what earlier calls wrote. Returns the nodes
+    /// whose height moved (empty if none). Errors, writing nothing, if `terrain`'s grid is not
+    /// the one the imprint was built for.
+    pub fn apply(&mut self, terrain: &mut Terrain, field: &FlowField) -> Result<NodeRegion, ConfigError> {
+        let h = terrain.heights();
+        if (h.nx(), h.ny(), h.cell(), h.origin()) != self.nodes {
+            return Err(ConfigError::InvalidParameter {
+                name: "terrain under a lava field",
+                value: h.cell(),
+                reason: "its grid changed since the field was built; rebuild the field".into(),
+            });
         }
-        changed
+        let area = h.cell() * h.cell();
+        self.remap.volumes(field.solid().data(), &mut self.volumes);
+        self.delta.clear();
+        self.delta.extend(self.volumes.iter().zip(&self.written).map(|(v, w)| (v - w) / area));
+        if self.delta.iter().all(|d| *d == 0.0) {
+            return Ok(NodeRegion::default());
+        }
+        let moved = terrain.add_thickness(self.remap.region(), &self.delta)?;
+        self.written.copy_from_slice(&self.volumes);
+        Ok(moved)
     }
 }
 
@@ -102,51 +92,53 @@ impl TerrainImprint {
 mod tests {
     use super::*;
     use crate::model::field::{Edges, FlowField};
+    use volcano_core::{Grid2, LandCover};
 
-    /// A 2 m terrain and a 0.5 m field of 64² cells placed on it, cell-aligned so that each
-    /// interior node's footprint holds exactly 4 × 4 field cells.
-    fn setup() -> (Grid2<f32>, FlowField) {
-        let terrain = Grid2::new(32, 32, 2.0, Vec2::ZERO, 10.0f32).unwrap();
-        let ground = Grid2::new(64, 64, 0.5, Vec2::new(10.25, 10.25), 10.0f64).unwrap();
-        (terrain, FlowField::new(ground, Edges::default(), 300.0).unwrap())
+    fn terrain(n: usize, cell: f64, height: f32) -> Terrain {
+        let h = Grid2::new(n, n, cell, Vec2::ZERO, height).unwrap();
+        let c = Grid2::new(n, n, cell, Vec2::ZERO, LandCover::Ground).unwrap();
+        Terrain::new(h, c, f32::MIN).unwrap()
+    }
+
+    /// A 0.5 m field of 64² cells on a 2 m terrain at 2,500 m, off the node lattice.
+    fn setup() -> (Terrain, FlowField) {
+        let ground = Grid2::new(64, 64, 0.5, Vec2::new(10.3, 10.1), 2500.0f64).unwrap();
+        (terrain(32, 2.0, 2500.0), FlowField::new(ground, Edges::default(), 300.0).unwrap())
     }
 
     #[test]
-    fn frozen_volume_reaches_the_terrain_once() {
-        let (mut terrain, mut field) = setup();
-        let mut imprint = TerrainImprint::new(&terrain, &field);
-        // Nodes at x = 12, 14, …, 40 lie inside [10.25, 41.75]: 15 × 15.
-        assert_eq!(imprint.len(), 225);
-        // 0.3 m frozen over a 10 × 10 m block of cells aligned with node footprints
-        // (x from 15 to 25 m: footprints of nodes 16, 18, 20, 22, 24).
-        for j in 0..64 {
-            for i in 0..64 {
-                let p = field.ground().position(i, j);
-                if (15.0..25.0).contains(&p.x) && (15.0..25.0).contains(&p.y) {
-                    field.solid.set(i, j, 0.3);
-                }
-            }
+    fn frozen_volume_reaches_the_terrain_exactly_once() {
+        let (mut t, mut field) = setup();
+        let mut imprint = TerrainImprint::new(&t, &field);
+        // Cells span x in [10.05, 42.05]: node footprints 5 ([9, 11]) to 21 ([41, 43]).
+        assert_eq!(imprint.region(), NodeRegion { i0: 5, j0: 5, ni: 17, nj: 17 });
+        for (k, v) in field.solid.data_mut().iter_mut().enumerate() {
+            *v = if k % 3 == 0 { 0.3 } else { 0.0 };
         }
         let frozen = field.solid().data().iter().sum::<f64>() * 0.25;
-        let before = terrain.sum();
-        let changed = imprint.apply(&mut terrain, &field, 1e-3);
-        assert_eq!(changed, 25);
-        let gained = (terrain.sum() - before) * 4.0;
-        assert!((gained - frozen).abs() < 1e-4 * frozen, "terrain gained {gained} m³ of {frozen}");
-        assert!((terrain.get(10, 10) - 10.3).abs() < 1e-5);
-        assert_eq!(terrain.get(5, 5), 10.0, "outside the field");
-        assert_eq!(imprint.apply(&mut terrain, &field, 1e-3), 0, "nothing new to write");
+        let moved = imprint.apply(&mut t, &field).unwrap();
+        assert!(!moved.is_empty());
+        let rel = (t.added_volume() - frozen).abs() / frozen;
+        assert!(rel < 1e-13, "terrain gained {} m³ of {frozen} (rel {rel:e})", t.added_volume());
+        assert_eq!(t.heights().get(2, 2), 2500.0, "outside the field");
+        assert!(t.heights().get(12, 12) > 2500.05);
+        // Nothing new: nothing written, nothing moved.
+        assert!(imprint.apply(&mut t, &field).unwrap().is_empty());
+        assert!((t.added_volume() - frozen).abs() < 1e-13 * frozen);
+        // More freezes in one cell: only the difference is added.
+        field.solid.data_mut()[1] += 0.4;
+        imprint.apply(&mut t, &field).unwrap();
+        let rel = (t.added_volume() - (frozen + 0.1)).abs() / frozen;
+        assert!(rel < 1e-13, "{rel:e}");
     }
 
     #[test]
-    fn a_field_between_nodes_covers_nothing() {
-        let terrain = Grid2::new(8, 8, 100.0, Vec2::ZERO, 0.0f32).unwrap();
-        let ground = Grid2::new(16, 16, 0.5, Vec2::new(110.0, 110.0), 0.0f64).unwrap();
-        let field = FlowField::new(ground, Edges::default(), 300.0).unwrap();
-        let mut imprint = TerrainImprint::new(&terrain, &field);
-        assert!(imprint.is_empty());
-        let mut t2 = terrain.clone();
-        assert_eq!(imprint.apply(&mut t2, &field, 0.0), 0);
-        assert_eq!(t2, terrain);
+    fn a_changed_terrain_grid_is_an_error() {
+        let (t, mut field) = setup();
+        let mut imprint = TerrainImprint::new(&t, &field);
+        field.solid.data_mut()[0] = 1.0;
+        let mut other = terrain(40, 2.0, 0.0);
+        assert!(imprint.apply(&mut other, &field).is_err());
+        assert!(other.added().is_none(), "nothing written");
     }
 }

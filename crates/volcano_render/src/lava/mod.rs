@@ -20,12 +20,15 @@ use bevy::image::ImageSampler;
 use bevy::mesh::Indices;
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+use volcano_core::Terrain;
 use volcano_lava::{LavaField, LavaState};
+
+use crate::terrain::{MeshSurface, TerrainMesh};
 
 pub use folds::FoldInstance;
 pub use surface::{
     REFERENCE_TEMPERATURE, crust_albedo, debug_crust, emissive_texels, frozen_albedo, incandescent,
-    surface_mesh,
+    keep_over_terrain, surface_mesh,
 };
 
 /// How lava is drawn (a resource; switch it live from a panel).
@@ -145,6 +148,8 @@ fn update_surfaces(
     settings: Res<LavaRenderSettings>,
     fields: Query<FieldItem>,
     mut surfaces: Query<(&mut LavaSurface, &Mesh3d, &mut Visibility)>,
+    terrains: Query<(&Terrain, &Children)>,
+    terrain_meshes: Query<&TerrainMesh>,
     mut meshes: Option<ResMut<Assets<Mesh>>>,
     mut images: Option<ResMut<Assets<Image>>>,
     mut materials: Option<ResMut<Assets<StandardMaterial>>>,
@@ -194,7 +199,14 @@ fn update_surfaces(
             continue;
         }
         let crust = &state.surface.crust;
-        let mesh = surface_mesh(&state.flow, crust, &field.params, *mode);
+        let mut mesh = surface_mesh(&state.flow, crust, &field.params, *mode);
+        // On the drawn terrain under the field, if it has a mesh.
+        let under = state.imprint.as_ref().and_then(|l| terrains.get(l.terrain).ok());
+        let stride = under.and_then(|(_, c)| c.iter().find_map(|c| terrain_meshes.get(c).ok()));
+        if let (Some((terrain, _)), Some(m)) = (under, stride) {
+            let drawn = MeshSurface::new(terrain, m.stride);
+            keep_over_terrain(&mut mesh, &state.flow, &field.params, |x, z| drawn.height_at(x, z));
+        }
         let empty = mesh.indices().is_none_or(Indices::is_empty);
         let shown = if empty { Visibility::Hidden } else { Visibility::Inherited };
         if *visibility != shown {

@@ -5,7 +5,7 @@
 use bevy::asset::RenderAssetUsages;
 use bevy::color::{ColorToComponents, ColorToPacked, LinearRgba, Mix, Srgba};
 use bevy::math::Vec3;
-use bevy::mesh::{Indices, Mesh, PrimitiveTopology};
+use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
 use volcano_lava::model::thermal::surface_temperature;
 use volcano_lava::scenario::maps::crust_colour;
 use volcano_lava::{FlowField, LavaParams};
@@ -162,6 +162,37 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
         .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
         .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
         .with_inserted_indices(Indices::U32(indices))
+}
+
+/// Keeps a [`surface_mesh`] of `flow` on the right side of the drawn terrain, whose altitude
+/// at world `(x, z)` is `terrain(x, z)`: covered vertices at least [`LIFT`] above it, dry ones
+/// at least [`SINK`] below. The field's ground is the terrain's bilinear surface, while the
+/// terrain mesh is made of triangles; on a 40 m grid the two differ by decimetres, enough to
+/// hide a lava sheet. Returns how many vertices moved.
+pub fn keep_over_terrain(
+    mesh: &mut Mesh,
+    flow: &FlowField,
+    params: &LavaParams,
+    terrain: impl Fn(f32, f32) -> f32,
+) -> usize {
+    let (h, solid) = (flow.thickness().data(), flow.solid().data());
+    let Some(VertexAttributeValues::Float32x3(pos)) = mesh.attribute_mut(Mesh::ATTRIBUTE_POSITION) else {
+        return 0;
+    };
+    if pos.len() != h.len() {
+        return 0;
+    }
+    let mut moved = 0;
+    for (k, p) in pos.iter_mut().enumerate() {
+        let ground = terrain(p[0], p[2]);
+        let covered = h[k] > params.min_thickness || solid[k] > params.min_thickness;
+        let y = if covered { p[1].max(ground + LIFT) } else { p[1].min(ground - SINK) };
+        if y != p[1] {
+            p[1] = y;
+            moved += 1;
+        }
+    }
+    moved
 }
 
 /// Emissive texels (`Rgba8UnormSrgb`, `nx × ny`, row `j` = cell row `j`) of the lit view: the
