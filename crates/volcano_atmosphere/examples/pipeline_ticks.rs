@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use volcano_atmosphere::{AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, spawn_scenario};
+use volcano_atmosphere::{
+    AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, spawn_scenario,
+};
 use volcano_core::prelude::*;
 
 fn run(grid: usize, seconds: u64, off_thread: bool) {
@@ -31,7 +33,11 @@ fn run(grid: usize, seconds: u64, off_thread: bool) {
         app.update();
         let spent = t0.elapsed();
         let tick = app.world().resource::<SimTick>().0;
-        if tick.is_multiple_of(50) { weather.push(spent) } else { other.push(spent) }
+        if tick.is_multiple_of(50) {
+            weather.push(spent)
+        } else {
+            other.push(spent)
+        }
         if let Some(rest) = period.checked_sub(spent) {
             std::thread::sleep(rest);
         }

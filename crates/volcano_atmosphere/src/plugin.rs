@@ -15,7 +15,9 @@ use volcano_core::prelude::*;
 pub use components::{
     AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped, WeatherSystems,
 };
-pub use pipeline::{AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather};
+pub use pipeline::{
+    AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,
+};
 pub use spawn::{spawn_atmosphere, spawn_scenario, spawn_scenario_with};
 
 /// The layered atmosphere: systems in [`WeatherStep`] and [`WeatherSystems`], and the messages

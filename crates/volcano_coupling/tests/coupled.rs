@@ -10,7 +10,8 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_atmosphere::{
-    AirLayer, AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep, spawn_scenario,
+    AirLayer, AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep,
+    spawn_scenario,
 };
 use volcano_core::prelude::*;
 use volcano_coupling::plugin::ash_ledger;

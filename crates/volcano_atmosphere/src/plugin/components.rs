@@ -4,10 +4,10 @@
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 
+use crate::model::fields::{Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::scenario::Event;
 use crate::model::step::StepReport;
-use crate::model::fields::{Ground, LayerFields};
 
 /// Schedule of the weather domain: it *starts* a step (docs/ARCHITECTURE.md §3.3).
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]

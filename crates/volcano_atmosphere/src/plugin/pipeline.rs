@@ -15,9 +15,11 @@ use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on};
 use volcano_core::prelude::*;
 
-use super::components::{AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped};
+use super::components::{
+    AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped,
+};
 use super::snapshot::{merge_ground, snapshot};
-use crate::model::fields::{AtmosphereState, Ground, GridSpec, LayerFields};
+use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::run::apply_event;
 use crate::model::step::{StepReport, Workspace, step};
@@ -157,13 +159,22 @@ struct Target<'a, 'w> {
 
 /// Writes a finished step into the components and returns the message to send. A result that
 /// no longer fits (layers added, removed or regridded since it started) is dropped.
-fn write_back(t: Target, work: &mut AtmosphereWork, done: Stepped, started_tick: u64, now: u64) -> Option<WeatherStepped> {
+fn write_back(
+    t: Target,
+    work: &mut AtmosphereWork,
+    done: Stepped,
+    started_tick: u64,
+    now: u64,
+) -> Option<WeatherStepped> {
     let Stepped { mut state, work: scratch, result, valid } = done;
     work.work = Some(scratch);
     t.status.in_flight_since = None;
     debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
     let fits = t.layers.len() == state.layers.len()
-        && t.layers.iter().zip(&state.layers).all(|(l, s)| l.fields.t.nx() == s.t.nx() && l.fields.t.ny() == s.t.ny())
+        && t.layers
+            .iter()
+            .zip(&state.layers)
+            .all(|(l, s)| l.fields.t.nx() == s.t.nx() && l.fields.t.ny() == s.t.ny())
         && t.ground.ash.data().len() == state.ground.ash.data().len();
     if !fits {
         warn_once!("atmosphere {}: its layers changed during a weather step; the step is dropped", t.entity);
@@ -254,8 +265,13 @@ pub(crate) fn start_weather(
         let mut mine = layers_of(entity, &mut layers);
         if let Some(flight) = work.in_flight.take() {
             let (done, _, started) = flight.join();
-            let target =
-                Target { entity, atmo: &mut atmo, ground: &mut ground.0, layers: &mut mine, status: &mut status };
+            let target = Target {
+                entity,
+                atmo: &mut atmo,
+                ground: &mut ground.0,
+                layers: &mut mine,
+                status: &mut status,
+            };
             if let Some(m) = write_back(target, &mut work, done, started, now) {
                 stepped.write(m);
             }

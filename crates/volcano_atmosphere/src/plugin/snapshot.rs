@@ -99,7 +99,9 @@ pub(crate) fn snapshot(
     template: AtmosphereState,
 ) -> AtmosphereState {
     let mut state = match spare {
-        Some(s) if s.layers.len() == layers.len() => AtmosphereState { layers: s.layers, ground: s.ground, ..template },
+        Some(s) if s.layers.len() == layers.len() => {
+            AtmosphereState { layers: s.layers, ground: s.ground, ..template }
+        }
         _ => AtmosphereState {
             layers: layers.iter().map(|l| (*l).clone()).collect(),
             ground: ground.clone(),
