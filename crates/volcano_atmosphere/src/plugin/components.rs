@@ -76,7 +76,8 @@ pub struct WeatherStepped {
     pub report: StepReport,
     /// Base tick (`SimTick`) at which the step started from a snapshot of the components.
     pub started_tick: u64,
-    /// Base tick at which its result was written back (the next weather tick: `started_tick`
-    /// + the cadence's k for `EveryNthTick(k)`; earlier only after a flush).
+    /// Base tick at which its result was written back: the next weather tick, k ticks after
+    /// `started_tick` for `EveryNthTick(k)`; earlier only after a flush, or while the weather
+    /// domain is paused.
     pub applied_tick: u64,
 }

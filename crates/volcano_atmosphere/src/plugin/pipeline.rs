@@ -74,7 +74,7 @@ struct Stepped {
 
 enum Job {
     Running(Task<Stepped>),
-    Done(Stepped),
+    Done(Box<Stepped>),
 }
 
 struct InFlight {
@@ -86,7 +86,7 @@ impl InFlight {
     /// Waits for the step if needed; also says whether it had to wait.
     fn join(self) -> (Stepped, bool, u64) {
         match self.job {
-            Job::Done(s) => (s, false, self.started_tick),
+            Job::Done(s) => (*s, false, self.started_tick),
             Job::Running(task) => {
                 let waited = !task.is_finished();
                 (block_on(task), waited, self.started_tick)
@@ -124,7 +124,7 @@ impl AtmosphereWork {
     fn finish(&mut self) {
         if let Some(InFlight { started_tick, job }) = self.in_flight.take() {
             let job = match job {
-                Job::Running(task) => Job::Done(block_on(task)),
+                Job::Running(task) => Job::Done(Box::new(block_on(task))),
                 done => done,
             };
             self.in_flight = Some(InFlight { started_tick, job });
@@ -307,7 +307,7 @@ pub(crate) fn start_weather(
                 status.off_thread += 1;
                 Job::Running(pool.spawn(async move { run_step(state, &params, scratch, dt) }))
             }
-            None => Job::Done(run_step(state, &params, scratch, dt)),
+            None => Job::Done(Box::new(run_step(state, &params, scratch, dt))),
         };
         work.in_flight = Some(InFlight { started_tick: now, job });
         status.in_flight_since = Some(now);
@@ -347,11 +347,11 @@ pub fn join_weather(world: &mut World) -> usize {
 /// step earlier, so a run with a flush differs from one without. Returns how many were applied.
 pub fn flush_weather(world: &mut World) -> usize {
     let pending = world.query::<&AtmosphereWork>().iter(world).filter(|w| w.in_flight()).count();
-    if pending > 0 {
-        if let Err(e) = world.run_system_cached(apply_weather) {
-            warn!("weather flush failed: {e}");
-            return 0;
-        }
+    if pending > 0
+        && let Err(e) = world.run_system_cached(apply_weather)
+    {
+        warn!("weather flush failed: {e}");
+        return 0;
     }
     pending
 }
