@@ -149,7 +149,7 @@ mod tests {
 
     #[test]
     fn merging_keeps_uncollected_ash_and_adds_the_fallen() {
-        let s = Scenario::builtin("island").unwrap().build(Some(8)).unwrap();
+        let s = Scenario::builtin("island").unwrap().build(Some(16)).unwrap();
         let mut current = s.ground.clone();
         current.ash.data_mut()[3] = 1.5;
         let mut result = s.ground.clone();
