@@ -15,6 +15,7 @@ pub use model::run::{AtmosphereSummary, run_scenario};
 pub use model::scenario::Scenario;
 pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
-    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherStep, WeatherStepped,
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherPipelineSettings,
+    WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, flush_weather, join_weather,
     spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

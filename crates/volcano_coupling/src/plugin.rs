@@ -1,14 +1,16 @@
 //! [`CouplingPlugin`]: the plume ↔ atmosphere transfers around each weather step (thesis
 //! §4.3.3). Plume → air runs in `SimSystems::BeforeWeather` on the ticks where the weather is
-//! about to step; air → plume and the ash deposit run in `SimSystems::AfterWeather` on the
-//! ticks where it stepped. Systems gather slices, spheres and layers, call [`crate::model`],
-//! write back.
+//! about to step, after the atmosphere has written back the step started one weather step
+//! earlier (`WeatherSystems::Apply`), so it writes into the state the next step starts from;
+//! air → plume and the ash deposit run in `SimSystems::AfterWeather` on the ticks where the
+//! weather stepped and read that written-back result (the lag: docs/ARCHITECTURE.md §3.3).
+//! Systems gather slices, spheres and layers, call [`crate::model`], write back.
 
 use bevy::math::DVec2;
 use bevy::prelude::*;
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
 use volcano_atmosphere::plugin::AtmosphereGround;
-use volcano_atmosphere::{AirLayer, Atmosphere, WeatherStep, WeatherStepped};
+use volcano_atmosphere::{AirLayer, Atmosphere, WeatherStep, WeatherStepped, WeatherSystems};
 use volcano_core::prelude::*;
 use volcano_plume::{
     AshReleased, DepositMap, Eruption, LayeredAmbient, PlumeAmbient, PlumeAshBudget, PlumeSlice, Umbrella,
@@ -20,7 +22,7 @@ use crate::model::inject::{Delivered, cell_at, inject_ash};
 /// Public sets of the coupling, so games can order their own systems against the transfers.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum CouplingSystems {
-    /// Plume → air (in `SimSystems::BeforeWeather`).
+    /// Plume → air (in `SimSystems::BeforeWeather`, after `WeatherSystems::Apply`).
     PlumeToAir,
     /// Air → plume and the ash deposit (in `SimSystems::AfterWeather`).
     AirToPlume,
@@ -78,7 +80,10 @@ impl Plugin for CouplingPlugin {
             .register_type::<CouplingSettings>()
             .register_type::<CouplingBudget>()
             .register_required_components::<Atmosphere, CouplingBudget>()
-            .configure_sets(FixedUpdate, CouplingSystems::PlumeToAir.in_set(SimSystems::BeforeWeather))
+            .configure_sets(
+                FixedUpdate,
+                CouplingSystems::PlumeToAir.in_set(SimSystems::BeforeWeather).after(WeatherSystems::Apply),
+            )
             .configure_sets(FixedUpdate, CouplingSystems::AirToPlume.in_set(SimSystems::AfterWeather))
             .add_systems(
                 FixedUpdate,

@@ -9,7 +9,10 @@ use std::time::Duration;
 
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use volcano_atmosphere::{AirLayer, AtmospherePlugin, Scenario, WeatherStep, spawn_scenario};
+use volcano_atmosphere::{
+    AirLayer, AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep,
+    spawn_scenario,
+};
 use volcano_core::prelude::*;
 use volcano_coupling::plugin::ash_ledger;
 use volcano_coupling::{CouplingBudget, CouplingPlugin, CouplingSettings};
@@ -130,22 +133,25 @@ fn plinian_with_ash() -> Eruption {
 }
 
 #[test]
-fn ash_books_close_and_runs_do_not_depend_on_the_frame_rate() {
+fn ash_books_close_and_runs_do_not_depend_on_the_frame_rate_or_the_weather_thread() {
     let ticks = 50 * 150;
-    let mut apps: Vec<App> = [1, 5]
+    // Weather off the main thread at 1 and 5 ticks per update, and the synchronous reference:
+    // each step run on the main thread as it starts, written back one weather step later.
+    let mut apps: Vec<App> = [(1, true), (5, true), (5, false)]
         .into_iter()
-        .map(|per_update| {
+        .map(|(per_update, off_thread)| {
             let mut a = app(
                 plinian_with_ash(),
                 Some(sheared_air(40_000.0, 32)),
                 CouplingSettings::default(),
                 per_update,
             );
+            a.insert_resource(WeatherPipelineSettings { off_thread });
             run(&mut a, ticks);
             a
         })
         .collect();
-    let mut states = Vec::new();
+    let (mut states, mut off_thread) = (Vec::new(), Vec::new());
     for a in apps.iter_mut() {
         let world = a.world_mut();
         let atmo = world.query_filtered::<Entity, With<CouplingBudget>>().single(world).unwrap();
@@ -175,9 +181,13 @@ fn ash_books_close_and_runs_do_not_depend_on_the_frame_rate() {
         layers.sort_by_key(|l| l.0);
         let steps = world.resource::<Time<DomainClock<WeatherStep>>>().context().steps_run();
         states.push((slices, layers, l, steps));
+        let status = world.query::<&WeatherPipelineStatus>().single(world).unwrap();
+        off_thread.push((status.off_thread, status.applied));
     }
+    assert_eq!(off_thread, [(150, 149), (150, 149), (0, 149)], "steps off the main thread, written back");
     assert_eq!(states[0].3, 150);
     assert!(states[0] == states[1], "1 and 5 ticks per update differ");
+    assert!(states[1] == states[2], "the weather off the main thread differs from the synchronous reference");
 }
 
 /// Compass bearing (degrees clockwise from north) of world offset `(x, z)`; north is −z.

@@ -1,0 +1,83 @@
+//! The weather domain's ECS vocabulary: its schedule label and system set, the atmosphere and
+//! layer components, and the message sent when a step's result is applied.
+
+use bevy::ecs::schedule::ScheduleLabel;
+use bevy::prelude::*;
+
+use crate::model::fields::{Ground, LayerFields};
+use crate::model::params::AtmosphereParams;
+use crate::model::scenario::Event;
+use crate::model::step::StepReport;
+
+/// Schedule of the weather domain: it *starts* a step (docs/ARCHITECTURE.md §3.3).
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+pub struct WeatherStep;
+
+/// Systems of the atmosphere outside its domain schedule, so other plugins can order against
+/// them.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum WeatherSystems {
+    /// In `SimSystems::BeforeWeather`, on the ticks where the weather is about to step: joins
+    /// the step started one weather step earlier and writes its result into the components.
+    /// Transfers into the air (plume → air) belong after it.
+    Apply,
+}
+
+/// The atmosphere over one terrain: grid, coefficients, clock and budgets.
+#[derive(Component, Debug, Clone, Reflect)]
+pub struct Atmosphere {
+    /// Cells per side.
+    pub n: usize,
+    /// Cell size (m).
+    pub dx: f64,
+    /// Model coefficients (live-editable; invalid edits freeze the weather until fixed).
+    pub params: AtmosphereParams,
+    /// Simulated weather time of the applied state (s): one weather step behind the weather
+    /// clock while a step is in flight.
+    pub time_s: f64,
+    /// Local solar time at the start (h).
+    pub start_hour: f64,
+    /// Day of the year at the start.
+    pub day_of_year: f64,
+    /// Latitude (degrees).
+    pub latitude_deg: f64,
+    /// Water precipitated so far (g).
+    pub precipitated: f64,
+}
+
+/// One air layer's fields (thesis Table 4.2), on its own entity.
+#[derive(Component, Debug, Clone, Reflect)]
+#[reflect(opaque)]
+pub struct AirLayer {
+    /// The [`Atmosphere`] entity it belongs to.
+    pub atmosphere: Entity,
+    /// Position in the stack (0 = lowest).
+    pub index: usize,
+    /// The fields.
+    pub fields: LayerFields,
+}
+
+/// The ground under an atmosphere (terrain heights, cover, temperature, water).
+#[derive(Component, Debug, Clone, Reflect)]
+#[reflect(opaque)]
+pub struct AtmosphereGround(pub Ground);
+
+/// Timeline events still to fire (sorted by time), from a scenario.
+#[derive(Component, Debug, Clone, Default, Reflect)]
+#[reflect(opaque)]
+pub struct AtmosphereTimeline(pub Vec<Event>);
+
+/// Sent when the result of a weather step is applied to an atmosphere's components.
+#[derive(Message, Debug, Clone)]
+pub struct WeatherStepped {
+    /// The atmosphere entity.
+    pub atmosphere: Entity,
+    /// What the step did.
+    pub report: StepReport,
+    /// Base tick (`SimTick`) at which the step started from a snapshot of the components.
+    pub started_tick: u64,
+    /// Base tick at which its result was written back: the next weather tick, k ticks after
+    /// `started_tick` for `EveryNthTick(k)`; earlier only after a flush, or while the weather
+    /// domain is paused.
+    pub applied_tick: u64,
+}

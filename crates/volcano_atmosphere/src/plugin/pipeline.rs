@@ -1,0 +1,357 @@
+//! Weather steps off the main thread, pipelined deterministically (docs/ARCHITECTURE.md §3.3).
+//!
+//! At a weather tick k the domain schedule ([`WeatherStep`]) copies the components into a
+//! snapshot and starts the model step on it: on Bevy's `AsyncComputeTaskPool` when the pool
+//! exists and [`WeatherPipelineSettings::off_thread`] is set, otherwise at once on the main
+//! thread. The result is written back at the next weather tick (k + k_cadence for
+//! `EveryNthTick(k_cadence)`), in [`WeatherSystems::Apply`] before the coupling's transfers;
+//! that join only blocks if the worker has not finished. The components therefore always hold
+//! a complete state one weather step behind the weather clock, and the state at every tick is
+//! the same whichever thread ran the step and whatever the frame rate.
+
+use std::time::Instant;
+
+use bevy::prelude::*;
+use bevy::tasks::{AsyncComputeTaskPool, Task, block_on};
+use volcano_core::prelude::*;
+
+use super::components::{
+    AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped,
+};
+use super::snapshot::{merge_ground, snapshot};
+use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
+use crate::model::params::AtmosphereParams;
+use crate::model::run::apply_event;
+use crate::model::step::{StepReport, Workspace, step};
+
+/// Where weather steps run (a resource of [`crate::AtmospherePlugin`]).
+#[derive(Resource, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Resource, Default)]
+pub struct WeatherPipelineSettings {
+    /// Run each step on Bevy's `AsyncComputeTaskPool` (when the app has one, e.g. through
+    /// `TaskPoolPlugin`). When false, or without the pool, the step runs on the main thread
+    /// as it starts and its result still waits for the next weather tick: the state is
+    /// bit-identical either way, only the thread differs.
+    pub off_thread: bool,
+}
+
+impl Default for WeatherPipelineSettings {
+    fn default() -> Self {
+        Self { off_thread: true }
+    }
+}
+
+/// What the weather pipeline of one atmosphere did (diagnostics; the `*_ms` and `waited`
+/// fields are wall-clock measurements, never part of the simulated state).
+#[derive(Component, Debug, Clone, Default, PartialEq, Reflect)]
+#[reflect(Component, Default)]
+pub struct WeatherPipelineStatus {
+    /// Base tick (`SimTick`) at which the step now in flight started; `None` when idle.
+    pub in_flight_since: Option<u64>,
+    /// Steps started.
+    pub started: u64,
+    /// Steps whose result was written back.
+    pub applied: u64,
+    /// Of the started steps, those run on the `AsyncComputeTaskPool`.
+    pub off_thread: u64,
+    /// Write-backs that had to wait for the worker to finish.
+    pub waited: u64,
+    /// Main-thread time of the last start (snapshot copy and spawn; the whole step when it
+    /// ran on the main thread), ms.
+    pub last_start_ms: f64,
+    /// Main-thread time of the last write-back (join included), ms.
+    pub last_apply_ms: f64,
+}
+
+/// A finished step: its state, the scratch buffers it used and what it reported.
+struct Stepped {
+    state: AtmosphereState,
+    work: Workspace,
+    result: Result<StepReport, ConfigError>,
+    /// `state.is_valid()` in debug builds (checked on the worker, asserted on write-back).
+    valid: bool,
+}
+
+enum Job {
+    Running(Task<Stepped>),
+    Done(Box<Stepped>),
+}
+
+struct InFlight {
+    started_tick: u64,
+    job: Job,
+}
+
+impl InFlight {
+    /// Waits for the step if needed; also says whether it had to wait.
+    fn join(self) -> (Stepped, bool, u64) {
+        match self.job {
+            Job::Done(s) => (*s, false, self.started_tick),
+            Job::Running(task) => {
+                let waited = !task.is_finished();
+                (block_on(task), waited, self.started_tick)
+            }
+        }
+    }
+}
+
+/// An atmosphere's weather pipeline: the step in flight and the buffers reused between steps
+/// (not reflected: it holds a task; see [`WeatherPipelineStatus`]).
+#[derive(Component)]
+pub struct AtmosphereWork {
+    work: Option<Workspace>,
+    spare: Option<AtmosphereState>,
+    in_flight: Option<InFlight>,
+}
+
+impl std::fmt::Debug for AtmosphereWork {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AtmosphereWork")
+            .field("in_flight_since", &self.in_flight.as_ref().map(|i| i.started_tick))
+            .finish_non_exhaustive()
+    }
+}
+
+impl AtmosphereWork {
+    pub(crate) fn new(work: Workspace) -> Self {
+        Self { work: Some(work), spare: None, in_flight: None }
+    }
+    /// Whether a step has started and not been written back.
+    pub fn in_flight(&self) -> bool {
+        self.in_flight.is_some()
+    }
+    /// Waits until the step in flight (if any) has finished, without writing it back.
+    fn finish(&mut self) {
+        if let Some(InFlight { started_tick, job }) = self.in_flight.take() {
+            let job = match job {
+                Job::Running(task) => Job::Done(Box::new(block_on(task))),
+                done => done,
+            };
+            self.in_flight = Some(InFlight { started_tick, job });
+        }
+    }
+}
+
+fn run_step(mut state: AtmosphereState, params: &AtmosphereParams, mut work: Workspace, dt: f64) -> Stepped {
+    let result = step(&mut state, params, &mut work, dt);
+    // docs/ARCHITECTURE.md §7.1: debug builds check that the state stays finite and
+    // non-negative.
+    let valid = !cfg!(debug_assertions) || state.is_valid();
+    Stepped { state, work, result, valid }
+}
+
+/// The layers of `atmosphere`, sorted by index (read through `Mut` without marking them
+/// changed until written).
+fn layers_of<'a>(atmosphere: Entity, layers: &'a mut Query<&mut AirLayer>) -> Vec<Mut<'a, AirLayer>> {
+    let mut mine: Vec<Mut<AirLayer>> = layers.iter_mut().filter(|l| l.atmosphere == atmosphere).collect();
+    mine.sort_by_key(|l| l.index);
+    mine
+}
+
+/// One atmosphere's components, as the write-back needs them.
+struct Target<'a, 'w> {
+    entity: Entity,
+    atmo: &'a mut Atmosphere,
+    ground: &'a mut Ground,
+    layers: &'a mut [Mut<'w, AirLayer>],
+    status: &'a mut WeatherPipelineStatus,
+}
+
+/// Writes a finished step into the components and returns the message to send. A result that
+/// no longer fits (layers added, removed or regridded since it started) is dropped.
+fn write_back(
+    t: Target,
+    work: &mut AtmosphereWork,
+    done: Stepped,
+    started_tick: u64,
+    now: u64,
+) -> Option<WeatherStepped> {
+    let Stepped { mut state, work: scratch, result, valid } = done;
+    work.work = Some(scratch);
+    t.status.in_flight_since = None;
+    debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
+    let fits = t.layers.len() == state.layers.len()
+        && t.layers
+            .iter()
+            .zip(&state.layers)
+            .all(|(l, s)| l.fields.t.nx() == s.t.nx() && l.fields.t.ny() == s.t.ny())
+        && t.ground.ash.data().len() == state.ground.ash.data().len();
+    if !fits {
+        warn_once!("atmosphere {}: its layers changed during a weather step; the step is dropped", t.entity);
+        return None;
+    }
+    for (layer, fields) in t.layers.iter_mut().zip(state.layers.iter_mut()) {
+        std::mem::swap(&mut layer.fields, fields);
+    }
+    merge_ground(t.ground, &mut state.ground);
+    t.status.applied += 1;
+    let message = match result {
+        Ok(report) => {
+            t.atmo.time_s = state.time_s;
+            t.atmo.precipitated = state.precipitated;
+            Some(WeatherStepped { atmosphere: t.entity, report, started_tick, applied_tick: now })
+        }
+        Err(e) => {
+            warn_once!("atmosphere {} not stepped: {e}", t.entity);
+            None
+        }
+    };
+    work.spare = Some(state);
+    message
+}
+
+type AtmosphereItems<'a> = (
+    Entity,
+    &'a mut Atmosphere,
+    &'a mut AtmosphereGround,
+    &'a mut AtmosphereWork,
+    &'a mut WeatherPipelineStatus,
+);
+
+/// Run condition of [`apply_weather`]: this base tick runs and the weather steps in it, or
+/// the weather domain is paused (a paused weather shows its latest step, and edits made while
+/// it is paused, such as paint strokes, are not overwritten by a step started before).
+pub(crate) fn weather_due(
+    control: Option<Res<SimControl>>,
+    clock: Option<Res<Time<DomainClock<WeatherStep>>>>,
+) -> bool {
+    let Some(clock) = clock else { return false };
+    let ctx = clock.context();
+    ctx.is_paused() || (control.is_none_or(|c| c.running_this_tick()) && ctx.steps_at_next_tick() > 0)
+}
+
+/// [`WeatherSystems::Apply`](super::components::WeatherSystems::Apply): writes back the steps
+/// started one weather step ago (waiting for them if they are still running).
+pub(crate) fn apply_weather(
+    tick: Option<Res<SimTick>>,
+    mut atmospheres: Query<AtmosphereItems>,
+    mut layers: Query<&mut AirLayer>,
+    mut stepped: MessageWriter<WeatherStepped>,
+) {
+    let now = tick.map_or(0, |t| t.0);
+    for (entity, mut atmo, mut ground, mut work, mut status) in &mut atmospheres {
+        let Some(flight) = work.in_flight.take() else { continue };
+        let clock = Instant::now();
+        let (done, waited, started) = flight.join();
+        let mut mine = layers_of(entity, &mut layers);
+        let target =
+            Target { entity, atmo: &mut atmo, ground: &mut ground.0, layers: &mut mine, status: &mut status };
+        if let Some(m) = write_back(target, &mut work, done, started, now) {
+            stepped.write(m);
+        }
+        status.waited += u64::from(waited);
+        status.last_apply_ms = clock.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+/// The [`WeatherStep`] system: writes back a step still in flight (several steps per base
+/// tick), fires due timeline events on a snapshot of the components and starts the step.
+pub(crate) fn start_weather(
+    time: Res<Time>,
+    tick: Option<Res<SimTick>>,
+    settings: Res<WeatherPipelineSettings>,
+    mut atmospheres: Query<(AtmosphereItems, Option<&mut AtmosphereTimeline>)>,
+    mut layers: Query<&mut AirLayer>,
+    mut stepped: MessageWriter<WeatherStepped>,
+) {
+    let dt = time.delta_secs_f64();
+    if dt <= 0.0 {
+        return;
+    }
+    let now = tick.map_or(0, |t| t.0);
+    let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
+    for ((entity, mut atmo, mut ground, mut work, mut status), timeline) in &mut atmospheres {
+        let clock = Instant::now();
+        let mut mine = layers_of(entity, &mut layers);
+        if let Some(flight) = work.in_flight.take() {
+            let (done, _, started) = flight.join();
+            let target = Target {
+                entity,
+                atmo: &mut atmo,
+                ground: &mut ground.0,
+                layers: &mut mine,
+                status: &mut status,
+            };
+            if let Some(m) = write_back(target, &mut work, done, started, now) {
+                stepped.write(m);
+            }
+        }
+        let Ok(grid) = GridSpec::new(atmo.n, atmo.dx) else { continue };
+        if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != grid.n) {
+            continue;
+        }
+        let Some(scratch) = work.work.take() else { continue };
+        let template = AtmosphereState {
+            grid,
+            layers: Vec::new(),
+            ground: Ground::default(),
+            time_s: atmo.time_s,
+            start_hour: atmo.start_hour,
+            day_of_year: atmo.day_of_year,
+            latitude_deg: atmo.latitude_deg,
+            precipitated: atmo.precipitated,
+        };
+        let fields: Vec<&LayerFields> = mine.iter().map(|l| &l.fields).collect();
+        let mut state = snapshot(work.spare.take(), &fields, &ground.0, template);
+        if let Some(mut timeline) = timeline {
+            let due = timeline.0.iter().take_while(|e| e.at_s <= state.time_s).count();
+            if due > 0 {
+                for event in timeline.0.drain(..due) {
+                    apply_event(&mut state, &event);
+                }
+            }
+        }
+        let params = atmo.params.clone();
+        let job = match pool {
+            Some(pool) => {
+                status.off_thread += 1;
+                Job::Running(pool.spawn(async move { run_step(state, &params, scratch, dt) }))
+            }
+            None => Job::Done(Box::new(run_step(state, &params, scratch, dt))),
+        };
+        work.in_flight = Some(InFlight { started_tick: now, job });
+        status.in_flight_since = Some(now);
+        status.started += 1;
+        status.last_start_ms = clock.elapsed().as_secs_f64() * 1e3;
+    }
+}
+
+/// In `Last`: when the app is exiting, waits for the steps in flight, so no worker is left
+/// computing while the world is torn down.
+pub(crate) fn join_on_exit(mut exit: MessageReader<AppExit>, mut works: Query<&mut AtmosphereWork>) {
+    if exit.read().next().is_some() {
+        for mut w in &mut works {
+            w.finish();
+        }
+    }
+}
+
+/// Waits until every weather step in flight has finished, without writing it back (it is
+/// still applied at its regular tick, so the run is unchanged). Returns how many were in
+/// flight.
+pub fn join_weather(world: &mut World) -> usize {
+    let mut q = world.query::<&mut AtmosphereWork>();
+    let mut n = 0;
+    for mut w in q.iter_mut(world) {
+        if w.in_flight() {
+            w.finish();
+            n += 1;
+        }
+    }
+    n
+}
+
+/// Writes back every weather step in flight now (sending [`WeatherStepped`]), e.g. before a
+/// scene is saved, so the components hold everything simulated so far. The next weather tick
+/// then has nothing to write back and only starts a step: a flush moves the results of that one
+/// step earlier, so a run with a flush differs from one without. Returns how many were applied.
+pub fn flush_weather(world: &mut World) -> usize {
+    let pending = world.query::<&AtmosphereWork>().iter(world).filter(|w| w.in_flight()).count();
+    if pending > 0
+        && let Err(e) = world.run_system_cached(apply_weather)
+    {
+        warn!("weather flush failed: {e}");
+        return 0;
+    }
+    pending
+}

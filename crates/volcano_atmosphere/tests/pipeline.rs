@@ -1,0 +1,191 @@
+//! The weather pipeline: a step started at weather tick k is written back at the next weather
+//! tick, whichever thread ran it; the state does not depend on the frame rate; a flush writes a
+//! step in flight back at once.
+
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano_atmosphere::model::fields::{Ground, LayerFields};
+use volcano_atmosphere::model::step::{Workspace, step};
+use volcano_atmosphere::{
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereState, Scenario, WeatherPipelineSettings,
+    WeatherPipelineStatus, WeatherStep, WeatherStepped, flush_weather, join_weather, spawn_atmosphere,
+    spawn_scenario,
+};
+use volcano_core::prelude::*;
+
+#[derive(Resource, Default)]
+struct Stepped(Vec<(u64, u64)>);
+
+fn record(mut reader: MessageReader<WeatherStepped>, mut seen: ResMut<Stepped>) {
+    seen.0.extend(reader.read().map(|m| (m.started_tick, m.applied_tick)));
+}
+
+fn app(cadence: u32, ticks_per_update: u32, off_thread: bool) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        VolcanoCorePlugin,
+        AtmospherePlugin { cadence: Cadence::EveryNthTick(cadence) },
+    ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
+    .insert_resource(WeatherPipelineSettings { off_thread })
+    .init_resource::<Stepped>()
+    .add_systems(Last, record);
+    app
+}
+
+fn run(app: &mut App, ticks: u64) {
+    while app.world().resource::<SimTick>().0 < ticks {
+        app.update();
+    }
+    assert_eq!(app.world().resource::<SimTick>().0, ticks, "overshot the tick count");
+}
+
+/// The components' layers (by index), ground and clock fields.
+fn components(app: &mut App) -> (Vec<LayerFields>, f64, f64) {
+    let world = app.world_mut();
+    let mut layers: Vec<(usize, LayerFields)> =
+        world.query::<&AirLayer>().iter(world).map(|l| (l.index, l.fields.clone())).collect();
+    layers.sort_by_key(|l| l.0);
+    let atmo = world.query::<&Atmosphere>().single(world).unwrap();
+    (layers.into_iter().map(|l| l.1).collect(), atmo.time_s, atmo.precipitated)
+}
+
+fn direct(
+    state: &AtmosphereState,
+    params: &volcano_atmosphere::AtmosphereParams,
+    steps: u32,
+    dt: f64,
+) -> AtmosphereState {
+    let mut s = state.clone();
+    let mut work = Workspace::new(&s).unwrap();
+    for _ in 0..steps {
+        step(&mut s, params, &mut work, dt).unwrap();
+    }
+    s
+}
+
+#[test]
+fn components_hold_the_state_one_weather_step_behind_the_clock() {
+    let scenario = Scenario::builtin("convection").unwrap();
+    let state = scenario.build(Some(16)).unwrap();
+    let mut app = app(5, 1, true);
+    let (s2, params) = (state.clone(), scenario.params.clone());
+    app.add_systems(Startup, move |mut commands: Commands| {
+        spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
+    });
+    // Weather ticks 5, 10, …, 40: eight steps started, seven written back.
+    run(&mut app, 42);
+    let clock_steps = app.world().resource::<Time<DomainClock<WeatherStep>>>().context().steps_run();
+    assert_eq!(clock_steps, 8);
+    let behind = direct(&state, &scenario.params, 7, 0.1);
+    let (layers, time_s, precipitated) = components(&mut app);
+    assert!(layers == behind.layers, "the components hold seven steps, the eighth is in flight");
+    assert_eq!((time_s, precipitated), (behind.time_s, behind.precipitated));
+    let seen = app.world().resource::<Stepped>().0.clone();
+    let want: Vec<(u64, u64)> = (1..8).map(|j| (5 * j, 5 * j + 5)).collect();
+    assert_eq!(seen, want, "each step written back one cadence after it started");
+    let world = app.world_mut();
+    let status = world.query::<&WeatherPipelineStatus>().single(world).unwrap().clone();
+    assert_eq!((status.started, status.applied, status.in_flight_since), (8, 7, Some(40)));
+    assert_eq!(status.off_thread, 8, "MinimalPlugins has the AsyncComputeTaskPool");
+
+    // Joining changes nothing; flushing writes the eighth step back now.
+    assert_eq!(join_weather(app.world_mut()), 1);
+    assert!(components(&mut app).0 == behind.layers, "joining changed the components");
+    assert_eq!(flush_weather(app.world_mut()), 1);
+    assert_eq!(flush_weather(app.world_mut()), 0, "nothing left in flight");
+    let now = direct(&state, &scenario.params, 8, 0.1);
+    let (layers, time_s, _) = components(&mut app);
+    assert!(layers == now.layers, "the flush wrote back the eighth step");
+    assert_eq!(time_s, now.time_s);
+    assert_eq!(app.world().resource::<Stepped>().0.len(), 7, "the flush's message is read next update");
+    app.update();
+    assert_eq!(app.world().resource::<Stepped>().0.last(), Some(&(40, 42)));
+}
+
+/// Layers, ground, weather time, precipitation and events left of the single atmosphere.
+type Full = (Vec<LayerFields>, Ground, f64, f64, usize);
+
+/// Full state of the single atmosphere, for bit-for-bit comparisons.
+fn snapshot_of(app: &mut App) -> Full {
+    let (layers, time_s, precipitated) = components(app);
+    let world = app.world_mut();
+    let ground =
+        world.query::<&volcano_atmosphere::plugin::AtmosphereGround>().single(world).unwrap().0.clone();
+    let timeline = world.query::<&volcano_atmosphere::AtmosphereTimeline>().single(world).unwrap().0.len();
+    (layers, ground, time_s, precipitated, timeline)
+}
+
+#[test]
+fn off_thread_equals_on_the_spot_at_any_frame_rate() {
+    // The mixed scenario (7 layers, terrain, timeline events at 1800 s and later) with 300 s
+    // weather steps every 2 ticks, so the events fire inside the run.
+    let scenario = Scenario::builtin("mixed").unwrap();
+    let runs: Vec<_> = [(true, 1), (true, 5), (false, 1), (false, 5)]
+        .into_iter()
+        .map(|(off_thread, per_update)| {
+            let mut a = app(2, per_update, off_thread);
+            a.world_mut()
+                .resource_mut::<Time<DomainClock<WeatherStep>>>()
+                .context_mut()
+                .set_time_scale(7_500.0)
+                .unwrap();
+            let sc = scenario.clone();
+            a.add_systems(Startup, move |mut commands: Commands| {
+                spawn_scenario(&mut commands, &sc, Some(16)).unwrap();
+            });
+            run(&mut a, 30);
+            let world = a.world_mut();
+            let status = world.query::<&WeatherPipelineStatus>().single(world).unwrap().clone();
+            assert_eq!(status.off_thread, if off_thread { 15 } else { 0 });
+            (snapshot_of(&mut a), a.world().resource::<Stepped>().0.clone())
+        })
+        .collect();
+    assert!(runs[0].0.2 > 1800.0, "weather time {} s: the first event is due", runs[0].0.2);
+    assert!(runs[0].0.4 < scenario.events.len(), "a timeline event fired");
+    for (i, r) in runs.iter().enumerate().skip(1) {
+        assert!(r.0 == runs[0].0, "run {i} differs from off-thread at 1 tick per update");
+        assert_eq!(r.1, runs[0].1, "run {i} wrote back at other ticks");
+    }
+}
+
+#[test]
+fn pausing_the_weather_writes_back_so_edits_while_paused_stay() {
+    let scenario = Scenario::builtin("convection").unwrap();
+    let state = scenario.build(Some(16)).unwrap();
+    let mut app = app(5, 1, true);
+    let (s2, params) = (state.clone(), scenario.params.clone());
+    app.add_systems(Startup, move |mut commands: Commands| {
+        spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
+    });
+    // Steps started at ticks 5 and 10; the first is written back at 10.
+    run(&mut app, 12);
+    app.world_mut().resource_mut::<Time<DomainClock<WeatherStep>>>().context_mut().set_paused(true);
+    run(&mut app, 20);
+    let mut expected = direct(&state, &scenario.params, 2, 0.1);
+    assert!(components(&mut app).0 == expected.layers, "the paused weather shows both steps");
+    // A stroke while paused (as the atmosphere window paints).
+    {
+        let world = app.world_mut();
+        let mut q = world.query::<&mut AirLayer>();
+        let mut layer = q.iter_mut(world).find(|l| l.index == 0).unwrap();
+        layer.fields.t.data_mut()[17] = 250.0;
+    }
+    expected.layers[0].t.data_mut()[17] = 250.0;
+    run(&mut app, 24);
+    app.world_mut().resource_mut::<Time<DomainClock<WeatherStep>>>().context_mut().set_paused(false);
+    // The clock saw 24 ticks, so the weather steps at 25 and 30; pause again to see the second.
+    run(&mut app, 31);
+    app.world_mut().resource_mut::<Time<DomainClock<WeatherStep>>>().context_mut().set_paused(true);
+    run(&mut app, 32);
+    let mut work = Workspace::new(&expected).unwrap();
+    for _ in 0..2 {
+        step(&mut expected, &scenario.params, &mut work, 0.1).unwrap();
+    }
+    let (layers, time_s, _) = components(&mut app);
+    assert_eq!(time_s, expected.time_s);
+    assert!(layers == expected.layers, "the stroke made while paused was kept and stepped");
+}
