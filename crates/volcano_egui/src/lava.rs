@@ -14,7 +14,7 @@ use volcano_lava::scenario::terrains::scenario_terrain;
 use volcano_lava::{
     FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, ScenarioKind, ViscosityModel,
 };
-use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, PointerCaptured};
+use volcano_render::{LavaRenderMode, LavaRenderSettings, PointerCaptured, VolcanoViewer};
 
 /// Window state.
 #[derive(Resource, Debug, Clone, Reflect)]
@@ -46,9 +46,14 @@ impl Default for LavaPanel {
     }
 }
 
+/// Whether the "Lava" window was drawn in the last egui pass (Ctrl + click acts only then).
+#[derive(Resource, Debug, Default)]
+struct LavaWindowShown(bool);
+
 pub(crate) fn build(app: &mut App) {
     app.register_type::<LavaPanel>()
         .init_resource::<LavaPanel>()
+        .init_resource::<LavaWindowShown>()
         .add_systems(Update, place_source_on_click)
         .add_systems(bevy_egui::EguiPrimaryContextPass, lava_window);
 }
@@ -169,7 +174,9 @@ fn lava_window(
     mut sources: Query<(Entity, &mut LavaSource)>,
     mut mode: Option<ResMut<LavaRenderMode>>,
     mut settings: Option<ResMut<LavaRenderSettings>>,
+    mut shown: ResMut<LavaWindowShown>,
 ) -> Result {
+    shown.0 = false;
     if !panel.visible {
         return Ok(());
     }
@@ -177,6 +184,7 @@ fn lava_window(
         return Ok(());
     };
     let ctx = contexts.ctx_mut()?;
+    shown.0 = true;
     let mut edited = field.clone();
     let mut changed = false;
     let mut error = panel.error.clone();
@@ -298,7 +306,8 @@ fn lava_window(
     Ok(())
 }
 
-/// Ctrl + left click on the terrain (when no UI has the pointer) places a source there.
+/// Ctrl + left click on the terrain places a source there, only while the "Lava" window is
+/// shown and no UI has the pointer.
 #[allow(clippy::too_many_arguments)]
 fn place_source_on_click(
     mut commands: Commands,
@@ -306,12 +315,16 @@ fn place_source_on_click(
     keys: Option<Res<ButtonInput<KeyCode>>>,
     captured: Option<Res<PointerCaptured>>,
     panel: Res<LavaPanel>,
+    shown: Res<LavaWindowShown>,
     windows: Query<&Window, With<PrimaryWindow>>,
-    cameras: Query<(&Camera, &GlobalTransform), With<MainCamera>>,
+    cameras: Query<(&Camera, &GlobalTransform), With<VolcanoViewer>>,
     terrains: Query<&Terrain>,
     fields: Query<&LavaState>,
 ) {
     let (Some(buttons), Some(keys)) = (buttons, keys) else { return };
+    if !(panel.visible && shown.0) {
+        return;
+    }
     let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
     if !(ctrl && buttons.just_pressed(MouseButton::Left)) || captured.is_some_and(|c| c.0) {
         return;

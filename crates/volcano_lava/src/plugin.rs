@@ -146,19 +146,11 @@ fn step_fields(
     }
 }
 
-/// Steps between two write-backs of frozen lava into the terrain (1 s at 50 Hz).
-const IMPRINT_EVERY: u64 = 50;
-
 /// Writes each field's frozen lava into the first `Terrain` (the one the fields are built
-/// on) once per simulated second; the terrain is marked changed only when a node moved by
-/// at least 1 mm.
-fn imprint_terrain(
-    mut steps: Local<u64>,
-    mut terrains: Query<&mut Terrain>,
-    mut fields: Query<&mut LavaState>,
-) {
-    *steps += 1;
-    if !steps.is_multiple_of(IMPRINT_EVERY) {
+/// on) once per simulated second of the lava clock, whatever the fixed rate; the terrain is
+/// marked changed only when a node moved by at least 1 mm.
+fn imprint_terrain(time: Res<Time>, mut terrains: Query<&mut Terrain>, mut fields: Query<&mut LavaState>) {
+    if !volcano_core::clock::crossed_period(time.elapsed(), time.delta(), std::time::Duration::from_secs(1)) {
         return;
     }
     let Some(mut terrain) = terrains.iter_mut().next() else { return };

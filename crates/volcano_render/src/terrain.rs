@@ -23,6 +23,12 @@ pub struct TerrainMesh {
     pub stride: usize,
 }
 
+/// On a [`Terrain`] entity: no mesh for it (a game that draws its own ground, or a collision-
+/// only terrain). Adding it later removes the mesh child.
+#[derive(Component, Debug, Clone, Copy, Default, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct UnrenderedTerrain;
+
 /// Marks the child that shows a [`Volcano`]'s vent (an emissive short cylinder of the vent
 /// radius, centred on [`VentPosition`]).
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]
@@ -37,7 +43,8 @@ impl Plugin for TerrainRenderPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<TerrainMesh>()
             .register_type::<VentMarker>()
-            .add_systems(Update, (build_terrain_meshes, update_vent_markers));
+            .register_type::<UnrenderedTerrain>()
+            .add_systems(Update, (drop_unrendered_meshes, build_terrain_meshes, update_vent_markers));
     }
 
     fn finish(&self, app: &mut App) {
@@ -196,10 +203,24 @@ pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
     (mesh, stride)
 }
 
-/// Builds or replaces the mesh child of every added or changed [`Terrain`].
+/// Despawns the mesh child of terrains that became [`UnrenderedTerrain`].
+fn drop_unrendered_meshes(
+    mut commands: Commands,
+    terrains: Query<&Children, (With<Terrain>, Added<UnrenderedTerrain>)>,
+    meshes: Query<(), With<TerrainMesh>>,
+) {
+    for child in terrains.iter().flatten() {
+        if meshes.contains(*child) {
+            commands.entity(*child).despawn();
+        }
+    }
+}
+
+/// Builds or replaces the mesh child of every added or changed [`Terrain`] (not of
+/// [`UnrenderedTerrain`]s).
 fn build_terrain_meshes(
     mut commands: Commands,
-    terrains: Query<(Entity, &Terrain, Option<&Children>), Changed<Terrain>>,
+    terrains: Query<(Entity, &Terrain, Option<&Children>), (Changed<Terrain>, Without<UnrenderedTerrain>)>,
     mut mesh_children: Query<(&Mesh3d, &mut TerrainMesh)>,
     mut meshes: ResMut<Assets<Mesh>>,
     assets: Option<Res<TerrainAssets>>,
