@@ -280,7 +280,7 @@ impl Plugin for VolcanoScenePlugin {
 /// xvfb-run) takes a screenshot after 60 frames and exits. An unknown or invalid scene prints
 /// the error and exits with an error code.
 #[cfg(feature = "render")]
-pub fn run_scene_window<M>(name: &str, extra: impl Plugins<M>) -> AppExit {
+pub fn run_scene_window<M>(name: &str, extra: impl bevy::app::Plugins<M>) -> AppExit {
     let scene = match VolcanoScenePlugin::builtin(name) {
         Ok(scene) => scene,
         Err(e) => {
