@@ -216,11 +216,14 @@ fn drop_unrendered_meshes(
     }
 }
 
+/// A changed terrain that is drawn.
+type RenderedTerrainChanged = (Changed<Terrain>, Without<UnrenderedTerrain>);
+
 /// Builds or replaces the mesh child of every added or changed [`Terrain`] (not of
 /// [`UnrenderedTerrain`]s).
 fn build_terrain_meshes(
     mut commands: Commands,
-    terrains: Query<(Entity, &Terrain, Option<&Children>), (Changed<Terrain>, Without<UnrenderedTerrain>)>,
+    terrains: Query<(Entity, &Terrain, Option<&Children>), RenderedTerrainChanged>,
     mut mesh_children: Query<(&Mesh3d, &mut TerrainMesh)>,
     mut meshes: ResMut<Assets<Mesh>>,
     assets: Option<Res<TerrainAssets>>,

@@ -233,9 +233,10 @@ fn resolve_sky(
 fn spawn_default_sun(
     mut commands: Commands,
     settings: Res<SkySettings>,
-    lights: Query<(), Or<(With<Sun>, With<DirectionalLight>)>>,
+    suns: Query<(), With<Sun>>,
+    lights: Query<(), With<DirectionalLight>>,
 ) {
-    if settings.spawn_default_sun && lights.is_empty() {
+    if settings.spawn_default_sun && suns.is_empty() && lights.is_empty() {
         commands.spawn(sun_bundle(Sun::default()));
     }
 }
