@@ -5,7 +5,9 @@
 //! time). The same scene renders headless with `volcano render --scene eruption`.
 
 use bevy::prelude::AppExit;
+use bevy_egui::EguiPlugin;
+use volcano_egui::VolcanoDebugPlugins;
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("eruption")
+    volcano::scenes::run_scene_window("eruption", (EguiPlugin::default(), VolcanoDebugPlugins))
 }

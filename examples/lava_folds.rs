@@ -11,7 +11,9 @@
 //! numbers: `volcano lava --scenario obstacle --seconds 240 --out DIR`.
 
 use bevy::prelude::AppExit;
+use bevy_egui::EguiPlugin;
+use volcano_egui::VolcanoDebugPlugins;
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("lava_folds")
+    volcano::scenes::run_scene_window("lava_folds", (EguiPlugin::default(), VolcanoDebugPlugins))
 }

@@ -8,7 +8,9 @@
 //! right-drag to pan, wheel to zoom. Headless: `volcano render --scene plinian_plume`.
 
 use bevy::prelude::AppExit;
+use bevy_egui::EguiPlugin;
+use volcano_egui::VolcanoDebugPlugins;
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("plinian_plume")
+    volcano::scenes::run_scene_window("plinian_plume", (EguiPlugin::default(), VolcanoDebugPlugins))
 }

@@ -9,7 +9,9 @@
 //! `volcano pyroclastic --preset pyroclastic_showcase --seconds 120 --out DIR`.
 
 use bevy::prelude::AppExit;
+use bevy_egui::EguiPlugin;
+use volcano_egui::VolcanoDebugPlugins;
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("pyroclastic_flow")
+    volcano::scenes::run_scene_window("pyroclastic_flow", (EguiPlugin::default(), VolcanoDebugPlugins))
 }

@@ -7,7 +7,9 @@
 //! `volcano render --scene skyscape --ticks 500 --out sky.png`.
 
 use bevy::prelude::AppExit;
+use bevy_egui::EguiPlugin;
+use volcano_egui::VolcanoDebugPlugins;
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("skyscape")
+    volcano::scenes::run_scene_window("skyscape", (EguiPlugin::default(), VolcanoDebugPlugins))
 }

@@ -3,7 +3,13 @@
 //! Real-time, plausible volcanic eruptions for Bevy 0.19, after Lastic (2023), *Efficient visual
 //! simulation of volcanic phenomena*. Add [`VolcanoPlugins`] (or [`VolcanoSimPlugins`] for
 //! headless games and tests), put a [`Terrain`](volcano_core::Terrain) and a
-//! [`Volcano`](volcano_core::Volcano) in the world, and the simulation steps at fixed rates.
+//! [`Volcano`](volcano_core::Volcano) in the world, and the simulation steps on the game's
+//! `Time<Fixed>`, whatever its rate.
+//!
+//! The plugins leave the game's cameras, lights, fog and clocks alone: the sun, ambient light
+//! and sky are the opt-in `volcano::render::VolcanoSkyPlugin`, the debug panels the opt-in
+//! `volcano::debug::VolcanoDebugPlugins` (feature `debug`), and the camera tagged
+//! `volcano::render::VolcanoViewer` is the one the ash billboards face and the clouds fog.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
@@ -21,8 +27,8 @@
 //!
 //! Crates: [`volcano_core`] (units, atmosphere profiles, grids, terrain, RNG, multi-rate
 //! clock), [`volcano_plume`] (eruption columns), [`volcano_atmosphere`] (layered atmosphere),
-//! [`volcano_coupling`] (plume ↔ atmosphere, ash), [`volcano_lava`] (pahoehoe lava), `volcano_render` (feature `render`) and
-//! `volcano_egui` (feature `egui`).
+//! [`volcano_coupling`] (plume ↔ atmosphere, ash), [`volcano_lava`] (pahoehoe lava),
+//! `volcano_render` (feature `render`, default) and `volcano_egui` (feature `debug`).
 
 pub mod lava_scene;
 pub mod scenes;
@@ -32,8 +38,8 @@ use bevy::app::{PluginGroup, PluginGroupBuilder};
 pub use volcano_atmosphere as atmosphere;
 pub use volcano_core as core;
 pub use volcano_coupling as coupling;
-#[cfg(feature = "egui")]
-pub use volcano_egui as egui;
+#[cfg(feature = "debug")]
+pub use volcano_egui as debug;
 pub use volcano_lava as lava;
 pub use volcano_plume as plume;
 #[cfg(feature = "render")]
@@ -49,15 +55,17 @@ impl PluginGroup for VolcanoSimPlugins {
             .add(volcano_core::VolcanoCorePlugin)
             .add(volcano_plume::PlumePlugin)
             .add(volcano_lava::LavaPlugin)
-            // Costs one empty query every 50 ticks when no `Atmosphere` entity exists.
+            // Costs one empty query per simulated second when no `Atmosphere` entity exists.
             .add(volcano_atmosphere::AtmospherePlugin::default())
             // A volcano inside an atmosphere's grid couples to it (thesis §4.3.3).
             .add(volcano_coupling::CouplingPlugin)
     }
 }
 
-/// Everything: the simulation, its rendering (feature `render`) and the tuning panel (feature
-/// `egui`). Needs `DefaultPlugins` (or the headless set in `volcano_render::headless`).
+/// The simulation and its visuals (feature `render`: `volcano_render::VolcanoRenderPlugins`);
+/// every member can be disabled (`VolcanoPlugins.build().disable::<LavaRenderPlugin>()`). Not
+/// the sky (`VolcanoSkyPlugin`) nor the debug panels (`VolcanoDebugPlugins`): both opt-in.
+/// Needs `DefaultPlugins` (or the headless set in `volcano_render::headless`) with `render`.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct VolcanoPlugins;
 
@@ -67,11 +75,7 @@ impl PluginGroup for VolcanoPlugins {
         let mut group = PluginGroupBuilder::start::<Self>().add_group(VolcanoSimPlugins);
         #[cfg(feature = "render")]
         {
-            group = group.add(volcano_render::VolcanoRenderPlugin);
-        }
-        #[cfg(feature = "egui")]
-        {
-            group = group.add(volcano_egui::VolcanoEguiPlugin);
+            group = group.add_group(volcano_render::VolcanoRenderPlugins);
         }
         group
     }

@@ -216,8 +216,9 @@ impl SceneSpec {
 }
 
 /// Spawns a scene at startup: the terrain and the volcano, plus the camera and sun when the
-/// `render` feature is on. The terrain is built when the plugin is created, so a bad file or
-/// parameter is an error there, not a panic later.
+/// `render` feature is on (a scene is lit by its own sun and sky, so with `render` it adds
+/// `VolcanoSkyPlugin`). The terrain is built when the plugin is created, so
+/// a bad file or parameter is an error there, not a panic later.
 #[derive(Debug, Clone)]
 pub struct VolcanoScenePlugin {
     spec: SceneSpec,
@@ -250,6 +251,9 @@ impl Plugin for VolcanoScenePlugin {
         let spec = self.spec.clone();
         let terrain = self.terrain.clone();
         app.insert_resource(ActiveScene(spec.clone()));
+        // Harmless if the game adds it too, before or after.
+        #[cfg(feature = "render")]
+        app.add_plugins(volcano_render::VolcanoSkyPlugin);
         if let Some(a) = &spec.atmosphere {
             atmosphere::build(app, a, &terrain);
         }
@@ -271,11 +275,13 @@ impl Plugin for VolcanoScenePlugin {
     }
 }
 
-/// Runs built-in scene `name` in a window with every plugin (the examples' whole `main`).
-/// `VOLCANO_SCREENSHOT=out.png` (e.g. under xvfb-run) takes a screenshot after 60 frames and
-/// exits. An unknown or invalid scene prints the error and exits with an error code.
-#[cfg(feature = "egui")]
-pub fn run_scene_window(name: &str) -> AppExit {
+/// Runs built-in scene `name` in a window with `VolcanoPlugins`, the scene's sky and `extra`
+/// (the examples pass `EguiPlugin` and the debug panels), at the thesis' fixed rate
+/// (`THESIS_TICK_HZ`, the game's choice here). `VOLCANO_SCREENSHOT=out.png` (e.g. under
+/// xvfb-run) takes a screenshot after 60 frames and exits. An unknown or invalid scene prints
+/// the error and exits with an error code.
+#[cfg(feature = "render")]
+pub fn run_scene_window<M>(name: &str, extra: impl bevy::app::Plugins<M>) -> AppExit {
     let scene = match VolcanoScenePlugin::builtin(name) {
         Ok(scene) => scene,
         Err(e) => {
@@ -288,7 +294,9 @@ pub fn run_scene_window(name: &str) -> AppExit {
         primary_window: Some(Window { title: format!("volcano: {name}"), ..default() }),
         ..default()
     }))
-    .add_plugins((crate::VolcanoPlugins, scene));
+    .add_plugins((crate::VolcanoPlugins, scene))
+    .add_plugins(extra)
+    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
     if let Some(capture) = volcano_render::WindowScreenshotPlugin::from_env() {
         app.add_plugins(capture);
     }

@@ -13,6 +13,7 @@ fn headless_app(ticks_per_update: u32) -> App {
     let (volcano, transform) = spec.volcano.build().unwrap();
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update));
     app.world_mut().spawn(terrain);
     app.world_mut().spawn((volcano, transform));

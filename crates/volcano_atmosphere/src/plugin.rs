@@ -1,5 +1,5 @@
-//! [`AtmospherePlugin`]: the weather domain (`WeatherStep`, `EveryNthTick(50)` = 1 s per step
-//! by default, docs/ARCHITECTURE.md §3.4). An [`Atmosphere`] entity carries the grid,
+//! [`AtmospherePlugin`]: the weather domain (`WeatherStep`, `Period(1 s)` = one 1 s step per
+//! simulated second at any fixed rate by default, docs/ARCHITECTURE.md §3.4). An [`Atmosphere`] entity carries the grid,
 //! coefficients, clock and ground; each [`AirLayer`] entity holds one layer's fields in one
 //! component. Each weather tick writes back the step started one weather step earlier and
 //! starts the next one off the main thread on a snapshot ([`pipeline`], §3.3).
@@ -24,13 +24,13 @@ pub use spawn::{spawn_atmosphere, spawn_scenario, spawn_scenario_with};
 /// they send.
 #[derive(Debug, Clone)]
 pub struct AtmospherePlugin {
-    /// How often the weather steps relative to the 50 Hz base tick.
+    /// How often the weather steps (default once per simulated second).
     pub cadence: Cadence,
 }
 
 impl Default for AtmospherePlugin {
     fn default() -> Self {
-        Self { cadence: Cadence::EveryNthTick(50) }
+        Self { cadence: Cadence::Period(std::time::Duration::from_secs(1)) }
     }
 }
 

@@ -28,6 +28,7 @@ fn plugin_steps_layers_like_the_model() {
         VolcanoCorePlugin,
         AtmospherePlugin { cadence: Cadence::EveryNthTick(5) },
     ))
+    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
     .init_resource::<Steps>()
     .add_systems(Update, count);
@@ -72,6 +73,7 @@ fn plugin_fires_timeline_events() {
         VolcanoCorePlugin,
         AtmospherePlugin { cadence: Cadence::EveryNthTick(1) },
     ))
+    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
     app.world_mut()
         .resource_mut::<Time<DomainClock<volcano_atmosphere::WeatherStep>>>()

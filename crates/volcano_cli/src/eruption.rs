@@ -162,13 +162,13 @@ pub fn run(which: EruptionScenario, seconds: f64, grid: usize, dir: &Path) -> Ex
             error!("atmosphere not spawned: {e}");
         }
     });
-    let ticks = (seconds * 50.0).round() as u64;
+    let ticks = (seconds * crate::TICK_HZ).round() as u64;
     let mut next_report = 3_000;
     while app.world().resource::<SimTick>().0 < ticks {
         app.update();
         let t = app.world().resource::<SimTick>().0;
         if t >= next_report {
-            eprintln!("  {:.0} / {seconds:.0} s simulated", t as f64 / 50.0);
+            eprintln!("  {:.0} / {seconds:.0} s simulated", t as f64 / crate::TICK_HZ);
             next_report += 3_000;
         }
     }

@@ -84,11 +84,12 @@ pub fn export(
         eprintln!("error: cannot create {}: {e}", dir.display());
         return ExitCode::FAILURE;
     }
-    let ticks_per_frame = ((frame_seconds * 50.0).round() as u64).max(1);
-    let start_ticks = (start_seconds * 50.0).round() as u64;
+    let ticks_per_frame = ((frame_seconds * crate::TICK_HZ).round() as u64).max(1);
+    let start_ticks = (start_seconds * crate::TICK_HZ).round() as u64;
     let seed = 1;
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+        .insert_resource(Time::<Fixed>::from_hz(crate::TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
     app.world_mut()
         .spawn(Terrain::flat(3, 1_000.0, params.vent_altitude as f32).expect("valid flat terrain"));

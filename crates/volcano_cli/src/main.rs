@@ -29,7 +29,7 @@ struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Simulate a scene for N base ticks (50 Hz) and write one rendered frame as PNG.
+    /// Simulate a scene for N base ticks (the thesis' 50 Hz) and write one rendered frame as PNG.
     Render {
         /// Scene name from the registry (see `volcano scenes`).
         #[arg(long, default_value = "eruption")]
@@ -229,11 +229,15 @@ impl From<LavaView> for volcano::render::LavaRenderMode {
     }
 }
 
-/// A headless simulation app (no rendering) advancing 5 base ticks per update, for the runs
-/// that only need numbers (`pyroclastic`, `eruption`).
+/// The CLI runs at the thesis' fixed rate (the plugins follow whatever rate a game sets).
+pub(crate) const TICK_HZ: f64 = volcano::core::units::THESIS_TICK_HZ;
+
+/// A headless simulation app (no rendering) advancing 5 base ticks (50 Hz) per update, for the
+/// runs that only need numbers (`pyroclastic`, `eruption`).
 pub(crate) fn sim_app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+        .insert_resource(Time::<Fixed>::from_hz(TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
     app
 }
@@ -281,8 +285,9 @@ fn render(
     let mut app = App::new();
     app.add_plugins(headless_default_plugins())
         .add_plugins(VolcanoSimPlugins)
-        .add_plugins(volcano::render::VolcanoRenderPlugin)
+        .add_plugins(volcano::render::VolcanoRenderPlugins)
         .add_plugins(scene)
+        .insert_resource(Time::<Fixed>::from_hz(TICK_HZ))
         .insert_resource(view)
         .insert_resource(lava_view)
         // Several base ticks per update so long runs do not render thousands of software

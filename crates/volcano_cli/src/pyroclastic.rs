@@ -92,7 +92,7 @@ pub fn run(params: &PlumeParams, seconds: f64, dir: &Path) -> ExitCode {
     app.init_resource::<Tracks>().add_systems(FixedUpdate, record.in_set(SimSystems::End));
     app.world_mut().spawn(terrain.clone());
     app.world_mut().spawn((volcano, eruption, transform));
-    let ticks = (seconds * 50.0).round() as u64;
+    let ticks = (seconds * crate::TICK_HZ).round() as u64;
     while app.world().resource::<SimTick>().0 < ticks {
         app.update();
     }

@@ -3,23 +3,21 @@
 
 use bevy::app::{App, FixedUpdate, Plugin, Update};
 use bevy::ecs::schedule::IntoScheduleConfigs;
-use bevy::time::{Fixed, Time};
 
 use crate::clock::driver::{begin_tick, tick_is_running};
 use crate::clock::{SimControl, SimSystems, SimTick};
-use crate::units::BASE_TICK_HZ;
 use crate::volcano;
 
-/// Core plugin: sets `Time<Fixed>` to the 50 Hz base tick, orders [`SimSystems`] in
-/// `FixedUpdate`, and snaps [`crate::Volcano`] vents to the terrain. Requires `TimePlugin`
-/// (in `MinimalPlugins` and `DefaultPlugins`).
+/// Core plugin: orders [`SimSystems`] in `FixedUpdate`, adds [`SimControl`] and [`SimTick`],
+/// and snaps [`crate::Volcano`] vents to the terrain. The base tick is the game's
+/// `Time<Fixed>`, whatever rate it set; this plugin never changes it (nor `Time<Virtual>`).
+/// Requires `TimePlugin` (in `MinimalPlugins` and `DefaultPlugins`).
 #[derive(Debug, Default, Clone)]
 pub struct VolcanoCorePlugin;
 
 impl Plugin for VolcanoCorePlugin {
     fn build(&self, app: &mut App) {
-        app.insert_resource(Time::<Fixed>::from_hz(BASE_TICK_HZ))
-            .init_resource::<SimControl>()
+        app.init_resource::<SimControl>()
             .init_resource::<SimTick>()
             .register_type::<SimControl>()
             .register_type::<SimTick>()

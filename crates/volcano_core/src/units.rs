@@ -18,7 +18,8 @@ pub const EARTH_RADIUS: f64 = 6_356_766.0;
 pub const P_SEA: f64 = 101_325.0;
 /// Sea-level standard temperature (K).
 pub const T_SEA: f64 = 288.15;
-/// Base simulation tick: 50 Hz (docs/ARCHITECTURE.md §3.1).
-pub const BASE_TICK_HZ: f64 = 50.0;
-/// Base simulation tick length in seconds.
-pub const BASE_TICK_SECONDS: f64 = 1.0 / BASE_TICK_HZ;
+/// The fixed rate the thesis' step lengths assume: 50 Hz (Table 3.1's 0.002 s plume step is a
+/// tenth of it, Table 5.2's lava Δt is one tick). The plugins never set it: the base tick is
+/// whatever `Time<Fixed>` the game runs (docs/ARCHITECTURE.md §3.1). The CLI and the tests
+/// that compare with the thesis set it with `Time::<Fixed>::from_hz(THESIS_TICK_HZ)`.
+pub const THESIS_TICK_HZ: f64 = 50.0;

@@ -29,6 +29,7 @@ fn log_slow(mut log: ResMut<Log>, time: Res<Time>, tick: Res<SimTick>) {
 fn app(ticks_per_update: u32) -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update));
     app
 }
@@ -199,4 +200,66 @@ fn vent_snaps_to_terrain() {
     assert!((e.get::<Transform>().unwrap().translation.y - 110.0).abs() < 1e-3);
     assert!((e.get::<VentPosition>().unwrap().0 - Vec3::new(20.0, 110.0, 3.0)).length() < 1e-3);
     assert_eq!(e.get::<VolcanoRng>().unwrap().seed(), 4);
+}
+
+/// An app at `hz` whose every update is one base tick.
+fn app_at(hz: f64) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin)).insert_resource(Time::<Fixed>::from_hz(hz));
+    let step = app.world().resource::<Time<Fixed>>().timestep();
+    app.insert_resource(TimeUpdateStrategy::ManualDuration(step));
+    app
+}
+
+#[test]
+fn the_game_keeps_its_fixed_rate_and_periods_follow_it() {
+    for (hz, per_second) in [(50.0, 50u64), (64.0, 64)] {
+        let mut app = app_at(hz);
+        app.init_resource::<Log>()
+            .add_sim_domain::<SlowStep>(SimSystems::Weather, Cadence::Period(Duration::from_secs(1)))
+            .add_systems(SlowStep, log_slow);
+        run_until_tick(&mut app, 3 * per_second);
+        let base = app.world().resource::<Time<Fixed>>().timestep();
+        assert_eq!(base, Duration::from_nanos(1_000_000_000 / per_second), "{hz} Hz: the game's rate");
+        let log = &app.world().resource::<Log>().0;
+        let ticks: Vec<u64> = log.iter().map(|e| e.1).collect();
+        assert_eq!(ticks, vec![per_second, 2 * per_second, 3 * per_second], "{hz} Hz: once per second");
+        assert!(log.iter().all(|e| e.2 == Duration::from_secs(1)), "{hz} Hz: 1 s steps");
+        assert_eq!(app.world().resource::<SimControl>().simulated(), Duration::from_secs(3));
+    }
+    // 60 Hz does not divide a second in whole nanoseconds: still one step per 60 ticks.
+    assert_eq!(Cadence::Period(Duration::from_secs(1)).ticks_per_step(Duration::from_nanos(16_666_667)), 60);
+    assert!(Cadence::Period(Duration::ZERO).validate().is_err());
+}
+
+#[test]
+fn once_per_second_work_inside_a_domain_at_50_60_and_64_hz() {
+    use volcano_core::clock::crossed_period;
+    let second = Duration::from_secs(1);
+    for hz in [50u32, 64] {
+        let dt = Duration::from_nanos(1_000_000_000 / hz as u64);
+        let hits: Vec<u32> = (1..=10 * hz).filter(|&k| crossed_period(dt * k, dt, second)).collect();
+        assert_eq!(hits, (1..=10).map(|s| s * hz).collect::<Vec<_>>(), "{hz} Hz: on every 1 s step");
+    }
+    // 60 Hz steps are 16,666,666 ns: once per whole second of the domain's own time.
+    let dt = Duration::from_nanos(16_666_666);
+    let hits = (1..=6000u32).filter(|&k| crossed_period(dt * k, dt, second)).count() as u64;
+    assert_eq!(hits, (dt * 6000).as_secs());
+    assert!(!crossed_period(second, second, Duration::ZERO));
+}
+
+#[test]
+fn speed_scales_the_simulation_not_the_games_clocks() {
+    let mut app = logging_app(1);
+    app.world_mut().resource_mut::<SimControl>().set_speed(2.0).unwrap();
+    run_until_tick(&mut app, 10);
+    let fast = app.world().resource::<Time<DomainClock<FastStep>>>().elapsed();
+    assert_eq!(fast, Duration::from_millis(400), "10 ticks of 20 ms at 2×");
+    assert_eq!(app.world().resource::<SimControl>().simulated(), Duration::from_millis(400));
+    assert_eq!(app.world().resource::<Time<Virtual>>().relative_speed(), 1.0, "the game's time untouched");
+    assert_eq!(app.world().resource::<Time<Fixed>>().timestep(), Duration::from_millis(20));
+    let mut control = app.world_mut().resource_mut::<SimControl>();
+    assert!(control.set_speed(f64::NAN).is_err() && control.set_speed(0.0).is_err());
+    assert!(control.set_speed(1e3).is_err());
+    assert_eq!(control.speed(), 2.0, "a rejected speed leaves the old one");
 }

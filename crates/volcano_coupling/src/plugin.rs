@@ -95,8 +95,11 @@ impl Plugin for CouplingPlugin {
     }
 }
 
-fn weather_steps_this_tick(clock: Option<Res<Time<DomainClock<WeatherStep>>>>) -> bool {
-    clock.is_some_and(|c| c.context().steps_at_next_tick() > 0)
+fn weather_steps_this_tick(
+    clock: Option<Res<Time<DomainClock<WeatherStep>>>>,
+    fixed: Res<Time<Fixed>>,
+) -> bool {
+    clock.is_some_and(|c| c.context().steps_at_next_tick(fixed.timestep()) > 0)
 }
 
 /// Every tick: keeps what expiring umbrella spheres released until the next weather step.

@@ -67,6 +67,7 @@ fn app(
         AtmospherePlugin::default(),
         CouplingPlugin,
     ))
+    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
     .init_resource::<Apexes>()
     .add_systems(FixedUpdate, record.in_set(SimSystems::End));

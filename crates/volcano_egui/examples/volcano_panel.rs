@@ -4,9 +4,10 @@
 //! window is captured after 60 frames and the app exits (handy under `xvfb-run`).
 
 use bevy::prelude::*;
+use bevy_egui::EguiPlugin;
 use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
-use volcano_egui::VolcanoEguiPlugin;
-use volcano_render::{OrbitCamera, VolcanoRenderPlugin, camera_bundle};
+use volcano_egui::VolcanoDebugPlugins;
+use volcano_render::{OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle};
 
 fn main() -> AppExit {
     let mut app = App::new();
@@ -18,7 +19,8 @@ fn main() -> AppExit {
         }),
         ..default()
     }))
-    .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin, VolcanoEguiPlugin))
+    .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
+    .add_plugins((EguiPlugin::default(), VolcanoDebugPlugins))
     .add_systems(Startup, scene);
     if let Some(capture) = volcano_render::WindowScreenshotPlugin::from_env() {
         app.add_plugins(capture);

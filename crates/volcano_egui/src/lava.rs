@@ -18,7 +18,7 @@ use volcano_lava::{
     FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, Placement, ScenarioKind,
     ViscosityModel,
 };
-use volcano_render::{LavaRenderMode, LavaRenderSettings, MainCamera, OrbitCamera, PointerCaptured};
+use volcano_render::{LavaRenderMode, LavaRenderSettings, OrbitCamera, PointerCaptured, VolcanoViewer};
 
 /// Window state.
 #[derive(Resource, Debug, Clone, Reflect)]
@@ -59,9 +59,14 @@ impl Default for LavaPanel {
     }
 }
 
+/// Whether the "Lava" window was drawn in the last egui pass (Ctrl + click acts only then).
+#[derive(Resource, Debug, Default)]
+struct LavaWindowShown(bool);
+
 pub(crate) fn build(app: &mut App) {
     app.register_type::<LavaPanel>()
         .init_resource::<LavaPanel>()
+        .init_resource::<LavaWindowShown>()
         .add_systems(Update, place_source_on_click)
         .add_systems(bevy_egui::EguiPrimaryContextPass, lava_window);
 }
@@ -182,8 +187,10 @@ fn lava_window(
     mut sources: Query<(Entity, &mut LavaSource)>,
     mut mode: Option<ResMut<LavaRenderMode>>,
     mut settings: Option<ResMut<LavaRenderSettings>>,
-    cameras: Query<&OrbitCamera, With<MainCamera>>,
+    cameras: Query<&OrbitCamera, With<VolcanoViewer>>,
+    mut shown: ResMut<LavaWindowShown>,
 ) -> Result {
+    shown.0 = false;
     if !panel.visible {
         return Ok(());
     }
@@ -197,6 +204,7 @@ fn lava_window(
     let table_terrain = under.or_else(|| terrains.iter().min_by_key(|(e, _)| *e));
     let mut selected = chosen;
     let ctx = contexts.ctx_mut()?;
+    shown.0 = true;
     let mut edited = field.clone();
     let mut changed = false;
     let mut error = panel.error.clone();
@@ -347,8 +355,9 @@ fn lava_window(
     Ok(())
 }
 
-/// Ctrl + left click on a terrain (when no UI has the pointer) places a source there: on the
-/// patch under the point, or on a new patch (the panel's size) started on the clicked terrain.
+/// Ctrl + left click on a terrain places a source there, only while the "Lava" window is shown
+/// and no UI has the pointer: on the patch under the point, or on a new patch (the panel's size)
+/// started on the clicked terrain.
 #[allow(clippy::too_many_arguments)]
 fn place_source_on_click(
     mut commands: Commands,
@@ -356,12 +365,16 @@ fn place_source_on_click(
     keys: Option<Res<ButtonInput<KeyCode>>>,
     captured: Option<Res<PointerCaptured>>,
     mut panel: ResMut<LavaPanel>,
+    shown: Res<LavaWindowShown>,
     windows: Query<&Window, With<PrimaryWindow>>,
-    cameras: Query<(&Camera, &GlobalTransform), With<MainCamera>>,
+    cameras: Query<(&Camera, &GlobalTransform), With<VolcanoViewer>>,
     terrains: Query<(Entity, &Terrain)>,
     fields: Query<&LavaState>,
 ) {
     let (Some(buttons), Some(keys)) = (buttons, keys) else { return };
+    if !(panel.visible && shown.0) {
+        return;
+    }
     let ctrl = keys.any_pressed([KeyCode::ControlLeft, KeyCode::ControlRight]);
     if !(ctrl && buttons.just_pressed(MouseButton::Left)) || captured.is_some_and(|c| c.0) {
         return;

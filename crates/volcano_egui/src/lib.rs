@@ -1,11 +1,16 @@
 //! egui tuning panels for the volcano plugin set (bevy_egui 0.40, the version
 //! bevy-inspector-egui 0.37 uses, so both can share an app).
 //!
-//! [`VolcanoEguiPlugin`] adds `EguiPlugin` unless the app already has it, draws a "Volcano" side
-//! panel (simulation pause/step/speed, tick counters, frame time and FPS) and an "Eruption"
-//! window ([`EruptionPanel`]: every eruption parameter, presets, wind, view, live density plot) in
-//! `EguiPrimaryContextPass`, and keeps [`volcano_render::PointerCaptured`] up to date so the
-//! orbit camera ignores the mouse while egui uses it.
+//! [`VolcanoDebugPlugins`] (opt-in; not part of `volcano::VolcanoPlugins`) draws, in
+//! `EguiPrimaryContextPass`, a "Volcano" side panel ([`VolcanoPanelPlugin`]: simulation
+//! pause/step/speed on the volcano's own clocks, tick counters, frame time and FPS), the
+//! "Eruption", "Lava" and "Atmosphere" windows (each its own plugin, so any can be disabled),
+//! and keeps [`volcano_render::PointerCaptured`] up to date so the orbit camera ignores the mouse
+//! while egui uses it.
+//!
+//! The game adds `EguiPlugin` itself, before or after these plugins (as bevy_egui asks of
+//! plugins built on it: they must not add `EguiPlugin` for the user); without it the panels are
+//! not drawn and a warning says so.
 
 mod atmosphere;
 mod eruption;
@@ -15,40 +20,90 @@ pub use atmosphere::{AtmospherePanel, map_rgb, map_to_grid, ramp};
 pub use eruption::EruptionPanel;
 pub use lava::LavaPanel;
 
+use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::prelude::*;
 use bevy::time::Real;
 use bevy_egui::input::EguiWantsInput;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
-use volcano_core::units::BASE_TICK_SECONDS;
 use volcano_core::{SimControl, SimTick};
 use volcano_render::PointerCaptured;
 
-/// Range of the simulation speed slider (multiples of real time).
-pub const SPEED_RANGE: std::ops::RangeInclusive<f32> = 0.1..=4.0;
+/// Range of the simulation speed slider (multiples of the game's time; see
+/// [`SimControl::set_speed`]).
+pub const SPEED_RANGE: std::ops::RangeInclusive<f64> = 0.1..=4.0;
 
-/// The volcano tuning panel. Needs a render app with a window (`DefaultPlugins`) and
-/// `volcano_core::VolcanoCorePlugin`; works alongside another egui user: it adds `EguiPlugin`
-/// only if missing, so an app that configures its own must add it *before* this plugin.
+/// The debug panels: [`VolcanoPanelPlugin`], [`EruptionPanelPlugin`], [`LavaPanelPlugin`],
+/// [`AtmospherePanelPlugin`]. Need a render app with a window (`DefaultPlugins`),
+/// `volcano_core::VolcanoCorePlugin` and the game's `EguiPlugin` (added before or after).
 ///
-/// The panel draws on the primary egui context, which bevy_egui puts on the first camera. With
+/// The panels draw on the primary egui context, which bevy_egui puts on the first camera. With
 /// bevy_egui 0.40 nothing is drawn on an HDR camera (seen with llvmpipe), which is why
 /// `volcano_render::camera_bundle` cameras are LDR.
-#[derive(Debug, Default, Clone)]
-pub struct VolcanoEguiPlugin;
+#[derive(Debug, Default, Clone, Copy)]
+pub struct VolcanoDebugPlugins;
 
-impl Plugin for VolcanoEguiPlugin {
+impl PluginGroup for VolcanoDebugPlugins {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(VolcanoPanelPlugin)
+            .add(EruptionPanelPlugin)
+            .add(LavaPanelPlugin)
+            .add(AtmospherePanelPlugin)
+    }
+}
+
+/// The "Volcano" side panel (pause, step, speed, ticks, simulated time, frame time) and the
+/// pointer hand-off to the orbit camera.
+#[derive(Debug, Default, Clone)]
+pub struct VolcanoPanelPlugin;
+
+impl Plugin for VolcanoPanelPlugin {
     fn build(&self, app: &mut App) {
-        if !app.is_plugin_added::<EguiPlugin>() {
-            app.add_plugins(EguiPlugin::default());
-        }
         app.register_type::<PanelState>()
             .init_resource::<PanelState>()
             .init_resource::<PointerCaptured>()
             .add_systems(PreUpdate, capture_pointer)
             .add_systems(Update, measure_frame_time)
             .add_systems(EguiPrimaryContextPass, volcano_panel);
+    }
+
+    fn finish(&self, app: &mut App) {
+        // In `finish`, so a game may add `EguiPlugin` after these plugins.
+        if !app.is_plugin_added::<EguiPlugin>() {
+            warn!(
+                "VolcanoDebugPlugins: no EguiPlugin in the app, so the volcano panels are not drawn; add EguiPlugin"
+            );
+        }
+    }
+}
+
+/// The "Eruption" window ([`EruptionPanel`]).
+#[derive(Debug, Default, Clone)]
+pub struct EruptionPanelPlugin;
+
+impl Plugin for EruptionPanelPlugin {
+    fn build(&self, app: &mut App) {
         eruption::build(app);
+    }
+}
+
+/// The "Lava" window ([`LavaPanel`]) and Ctrl + click source placement while it is open.
+#[derive(Debug, Default, Clone)]
+pub struct LavaPanelPlugin;
+
+impl Plugin for LavaPanelPlugin {
+    fn build(&self, app: &mut App) {
+        app.init_resource::<PointerCaptured>();
         lava::build(app);
+    }
+}
+
+/// The "Atmosphere" window ([`AtmospherePanel`]).
+#[derive(Debug, Default, Clone)]
+pub struct AtmospherePanelPlugin;
+
+impl Plugin for AtmospherePanelPlugin {
+    fn build(&self, app: &mut App) {
         atmosphere::build(app);
     }
 }
@@ -104,17 +159,11 @@ fn measure_frame_time(time: Res<Time<Real>>, mut panel: ResMut<PanelState>) {
     panel.record_frame(time.delta_secs_f64());
 }
 
-/// Simulated time in seconds for a number of base ticks.
-pub fn simulated_seconds(ticks: u64) -> f64 {
-    ticks as f64 * BASE_TICK_SECONDS
-}
-
 fn volcano_panel(
     mut contexts: EguiContexts,
     panel: Res<PanelState>,
     control: Option<ResMut<SimControl>>,
     tick: Option<Res<SimTick>>,
-    mut virtual_time: ResMut<Time<Virtual>>,
 ) -> Result {
     if !panel.visible {
         return Ok(());
@@ -148,18 +197,27 @@ fn volcano_panel(
                 ui.label("(no VolcanoCorePlugin)");
             }
         }
-        let mut speed = virtual_time.relative_speed();
-        let slider = egui::Slider::new(&mut speed, SPEED_RANGE).logarithmic(true).suffix("×").text("speed");
-        if ui.add(slider).changed() && speed.is_finite() {
-            virtual_time.set_relative_speed(speed.clamp(*SPEED_RANGE.start(), *SPEED_RANGE.end()));
+        if let Some(control) = control.as_deref_mut() {
+            let mut speed = control.speed();
+            let slider =
+                egui::Slider::new(&mut speed, SPEED_RANGE).logarithmic(true).suffix("×").text("sim speed");
+            if ui
+                .add(slider)
+                .on_hover_text("longer simulation steps; the game's clocks are untouched")
+                .changed()
+                && control.set_speed(speed).is_err()
+            {
+                warn!("simulation speed {speed} rejected");
+            }
         }
+        let simulated = control.as_deref().map_or(0.0, |c| c.simulated().as_secs_f64());
         let ticks = tick.map_or(0, |t| t.0);
         egui::Grid::new("volcano_sim_stats").num_columns(2).show(ui, |ui| {
             ui.label("ticks");
             ui.monospace(format!("{ticks}"));
             ui.end_row();
             ui.label("simulated");
-            ui.monospace(format!("{:.2} s", simulated_seconds(ticks)));
+            ui.monospace(format!("{simulated:.2} s"));
             ui.end_row();
         });
         ui.separator();
@@ -193,6 +251,5 @@ mod tests {
             p.record_frame(0.01);
         }
         assert!((p.frame_time - 0.01).abs() < 1e-6);
-        assert!((simulated_seconds(150) - 3.0).abs() < 1e-12);
     }
 }

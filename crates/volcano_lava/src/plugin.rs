@@ -183,21 +183,18 @@ fn step_fields(
     }
 }
 
-/// Steps between two write-backs of frozen lava into the terrain (1 s at 50 Hz).
-const IMPRINT_EVERY: u64 = 50;
-
 /// Writes each field's new frozen lava into the terrain it was built on once per simulated
-/// second (fields in entity order), and one [`TerrainChanged`] per terrain whose heights moved.
-/// The terrain's change detection is bypassed: readers of `Changed<Terrain>` would otherwise
-/// redo the whole terrain each second for a few nodes.
+/// second of the lava clock, whatever the fixed rate (fields in entity order), and one
+/// [`TerrainChanged`] per terrain whose heights moved. The terrain's change detection is
+/// bypassed: readers of `Changed<Terrain>` would otherwise redo the whole terrain each second
+/// for a few nodes.
 fn imprint_terrain(
-    mut steps: Local<u64>,
+    time: Res<Time>,
     mut terrains: Query<&mut Terrain>,
     mut fields: Query<(Entity, &mut LavaState)>,
     mut changed: MessageWriter<TerrainChanged>,
 ) {
-    *steps += 1;
-    if !steps.is_multiple_of(IMPRINT_EVERY) {
+    if !volcano_core::clock::crossed_period(time.elapsed(), time.delta(), std::time::Duration::from_secs(1)) {
         return;
     }
     let mut order: Vec<Entity> = fields.iter().map(|(e, _)| e).collect();

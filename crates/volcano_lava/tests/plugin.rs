@@ -26,6 +26,7 @@ fn probe(mut out: ResMut<Probe>, lava: LavaQuery) {
 fn app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
         .init_resource::<Reached>()
         .init_resource::<Probe>()
@@ -119,6 +120,7 @@ fn bad_sources_and_fields_are_rejected_not_panicking() {
 fn run_with_frame(ms: u64, ticks: u64) -> (Vec<f64>, usize) {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(ms)));
     let mut terrain = Terrain::flat(65, 1.0, 10.0).unwrap();
     for (k, h) in terrain.heights_mut().data_mut().iter_mut().enumerate() {

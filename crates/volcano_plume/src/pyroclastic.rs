@@ -73,7 +73,6 @@ pub struct DepositMap {
     pub bulk_density: f64,
     /// Bumped whenever the deposit changes (renderers redraw when it moves).
     pub revision: u64,
-    ticks: u64,
     scratch: Vec<f64>,
 }
 
@@ -314,14 +313,18 @@ fn finite(p: &Particle) -> bool {
     p.position.is_finite() && p.velocity.is_finite() && p.mass.is_finite()
 }
 
-/// Once per second (50 base ticks) the deposit relaxes to its angle of repose (a few Jacobi
-/// passes) and the collision surface follows.
-fn relax_deposit(eruptions: Query<&Eruption>, terrains: Query<&Terrain>, mut map: ResMut<DepositMap>) {
-    const EVERY: u64 = 50;
+/// Once per simulated second of the pyroclastic clock (every 50 steps at 50 Hz, 64 at 64 Hz)
+/// the deposit relaxes to its angle of repose (a few Jacobi passes) and the collision surface
+/// follows.
+fn relax_deposit(
+    time: Res<Time>,
+    eruptions: Query<&Eruption>,
+    terrains: Query<&Terrain>,
+    mut map: ResMut<DepositMap>,
+) {
     const PASSES: usize = 4;
     let map = &mut *map;
-    map.ticks += 1;
-    if !map.ticks.is_multiple_of(EVERY) {
+    if !volcano_core::clock::crossed_period(time.elapsed(), time.delta(), std::time::Duration::from_secs(1)) {
         return;
     }
     let (Some(terrain), Some(mass), Some(surface)) =

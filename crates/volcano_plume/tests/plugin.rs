@@ -37,6 +37,7 @@ fn count(
 fn app(eruption: Eruption, ticks_per_update: u32) -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
         .init_resource::<Seen>()
         .add_systems(FixedUpdate, count.in_set(SimSystems::End));

@@ -8,13 +8,15 @@ use bevy::camera::{PerspectiveProjection, Projection};
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll, MouseScrollUnit};
 use bevy::prelude::*;
 
-use crate::sky::{SkySettings, sky_camera_components};
+use crate::sky::{SkySettings, VolcanoSkyCamera, sky_camera_components};
 
-/// Marks the scene's main camera: the one [`crate::HeadlessCapturePlugin`] retargets to its
-/// image and the one UI panels steer.
+/// Marks the camera the volcano is watched from: the ash billboards face it, the clouds add
+/// `VolumetricFog` to it (only while an atmosphere has clouds), [`crate::HeadlessCapturePlugin`]
+/// renders it, and the debug panels pick the terrain through it. A game tags its own camera;
+/// without one the plume and clouds still simulate, they are just drawn for no viewer.
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]
 #[reflect(Component, Default, Debug)]
-pub struct MainCamera;
+pub struct VolcanoViewer;
 
 /// Whether a UI owns the pointer this frame; while `true` the orbit camera ignores the mouse.
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
@@ -137,9 +139,10 @@ fn wrap_angle(a: f32) -> f32 {
     if w <= -PI { w + TAU } else { w }
 }
 
-/// Components of the scene's main camera: [`Camera3d`] with a perspective projection for
-/// kilometre scenes, tonemapping and exposure ([`sky_camera_components`]; the sky plugin adds
-/// the skybox and fog), [`MainCamera`] and the orbit with its transform.
+/// Components of a scene camera: [`Camera3d`] with a perspective projection for kilometre
+/// scenes, tonemapping and exposure ([`sky_camera_components`]), [`VolcanoViewer`],
+/// [`VolcanoSkyCamera`] (so `VolcanoSkyPlugin`, when added, gives it the skybox and fog) and the
+/// orbit with its transform.
 pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
     let near = 1.0;
     let projection = Projection::Perspective(PerspectiveProjection {
@@ -154,7 +157,8 @@ pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
         Camera3d::default(),
         projection,
         sky_camera_components(SkySettings::default().exposure_ev100),
-        MainCamera,
+        VolcanoViewer,
+        VolcanoSkyCamera,
         // The instanced ash draw issues direct (not indirect) draws.
         bevy::render::view::NoIndirectDrawing,
         orbit.transform(),
@@ -169,7 +173,7 @@ pub struct OrbitCameraPlugin;
 impl Plugin for OrbitCameraPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<OrbitCamera>()
-            .register_type::<MainCamera>()
+            .register_type::<VolcanoViewer>()
             .register_type::<PointerCaptured>()
             .init_resource::<PointerCaptured>()
             .add_systems(Update, (orbit_input, apply_orbit).chain());

@@ -1,13 +1,13 @@
 //! Offscreen rendering without a window or display: Bevy's renderer on any Vulkan adapter
-//! (llvmpipe works), the [`crate::MainCamera`] retargeted to an image, one screenshot written
+//! (llvmpipe works), the [`crate::VolcanoViewer`] camera retargeted to an image, one screenshot written
 //! to a PNG, then the app exits.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
-//! use volcano_render::{HeadlessCapturePlugin, VolcanoRenderPlugin, headless_default_plugins};
+//! use volcano_render::{HeadlessCapturePlugin, VolcanoRenderPlugins, headless_default_plugins};
 //!
 //! let exit = App::new()
-//!     .add_plugins((headless_default_plugins(), VolcanoRenderPlugin))
+//!     .add_plugins((headless_default_plugins(), VolcanoRenderPlugins))
 //!     .add_plugins(HeadlessCapturePlugin::new(640, 480, "frame.png"))
 //!     // … the same scene systems as the windowed app …
 //!     .run();
@@ -29,7 +29,7 @@ use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
 use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
 
-use crate::camera::MainCamera;
+use crate::camera::VolcanoViewer;
 
 /// `DefaultPlugins` (as enabled by this crate's features) for rendering without a window: no
 /// primary window and no winit, pipelines compiled synchronously (the first frames are
@@ -49,7 +49,7 @@ pub fn headless_default_plugins() -> PluginGroupBuilder {
         .add(ScheduleRunnerPlugin::run_loop(Duration::ZERO))
 }
 
-/// Renders every [`MainCamera`] into a `width × height` sRGB image, saves a screenshot of it to
+/// Renders every [`VolcanoViewer`] camera into a `width × height` sRGB image, saves a screenshot of it to
 /// `out` (PNG) after `capture_after_updates` app updates, and exits: `AppExit::Success` once the
 /// file is written, an error exit if writing fails or nothing was captured within
 /// [`HeadlessCapturePlugin::SAFETY_UPDATES`] further updates.
@@ -120,8 +120,8 @@ impl Plugin for HeadlessCapturePlugin {
     }
 }
 
-/// Points each new [`MainCamera`] at the capture image (scene code stays the windowed one).
-fn retarget_main_camera(add: On<Add, MainCamera>, target: Res<CaptureTarget>, mut commands: Commands) {
+/// Points each new [`VolcanoViewer`] at the capture image (scene code stays the windowed one).
+fn retarget_main_camera(add: On<Add, VolcanoViewer>, target: Res<CaptureTarget>, mut commands: Commands) {
     commands.entity(add.entity).insert(RenderTarget::from(target.image.clone()));
 }
 

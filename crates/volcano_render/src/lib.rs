@@ -1,18 +1,23 @@
-//! Rendering for the volcano plugin set: the terrain mesh and vent markers ([`terrain`]), the sun,
-//! ambient light and Bevy's physically based sky ([`sky`]), an orbit camera ([`camera`]) and
-//! windowless offscreen capture for tests and the CLI ([`headless`]).
+//! Rendering for the volcano plugin set: the terrain mesh and vent markers ([`terrain`]), the
+//! eruption column ([`plume`]), the ash deposit ([`deposit`]), lava ([`lava`]), volumetric
+//! clouds ([`clouds`]), an orbit camera ([`camera`]), the opt-in sun, ambient light and sky
+//! ([`sky`]) and windowless offscreen capture for tests and the CLI ([`headless`]).
 //!
-//! Scenes spawn one camera with [`camera_bundle`] and let [`VolcanoRenderPlugin`] do the rest;
-//! the same scene code renders to a window (with `DefaultPlugins`) or to a PNG (with
-//! [`headless_default_plugins`] and [`HeadlessCapturePlugin`]).
+//! [`VolcanoRenderPlugins`] draws the simulation and touches nothing of the game's lighting or
+//! cameras, except that the camera tagged [`VolcanoViewer`] gets `VolumetricFog` while clouds
+//! exist. Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
+//! with [`camera_bundle`] (a [`VolcanoViewer`] and [`VolcanoSkyCamera`]); the same scene code
+//! renders to a window (with `DefaultPlugins`) or to a PNG (with [`headless_default_plugins`]
+//! and [`HeadlessCapturePlugin`]). Any member of the group can be left out:
+//! `VolcanoRenderPlugins.build().disable::<LavaRenderPlugin>()`.
 //!
 //! ```no_run
 //! use bevy::prelude::*;
 //! use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
-//! use volcano_render::{OrbitCamera, VolcanoRenderPlugin, camera_bundle};
+//! use volcano_render::{OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle};
 //!
 //! App::new()
-//!     .add_plugins((DefaultPlugins, VolcanoCorePlugin, VolcanoRenderPlugin))
+//!     .add_plugins((DefaultPlugins, VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
 //!     .add_systems(Startup, |mut commands: Commands| {
 //!         commands.spawn(StratovolcanoParams::default().generate().unwrap());
 //!         commands.spawn((Volcano::default(), Transform::default()));
@@ -32,10 +37,10 @@ pub mod sky;
 pub mod terrain;
 pub mod window_capture;
 
-use bevy::app::{App, Plugin};
+use bevy::app::{PluginGroup, PluginGroupBuilder};
 
 pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
-pub use camera::{MainCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, camera_bundle};
+pub use camera::{OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle};
 pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use deposit::{DepositRenderPlugin, DepositTint};
 pub use headless::{
@@ -45,28 +50,40 @@ pub use headless::{
 pub use lava::{LavaRenderMode, LavaRenderPlugin, LavaRenderSettings};
 pub use plume::{AshCloud, PlumeRenderMode, PlumeRenderPlugin, PlumeVisuals};
 pub use sky::{
-    ActiveSky, GradientSky, SkyMode, SkyPlugin, SkySettings, Sun, VolcanoSky, sky_camera_components,
-    sun_bundle,
+    ActiveSky, GradientSky, SkyMode, SkySettings, Sun, VolcanoSky, VolcanoSkyCamera, VolcanoSkyPlugin,
+    sky_camera_components, sun_bundle,
 };
-pub use terrain::{TerrainMesh, TerrainRenderPlugin, VentMarker, cover_color, terrain_mesh};
+pub use terrain::{
+    TerrainMesh, TerrainRenderPlugin, UnrenderedTerrain, VentMarker, cover_color, terrain_mesh,
+};
 pub use window_capture::WindowScreenshotPlugin;
 
-/// Terrain mesh and vent markers, sun and sky, orbit camera. Needs the render plugins
-/// (`DefaultPlugins` or [`headless_default_plugins`]); does not add headless capture.
-#[derive(Debug, Default, Clone)]
-pub struct VolcanoRenderPlugin;
+/// The simulation's visuals, one plugin per part so any can be disabled: terrain meshes and
+/// vent markers, the orbit camera controller, the eruption column, the deposit tint, lava,
+/// volumetric clouds and the ash fall. Needs the render plugins (`DefaultPlugins` or
+/// [`headless_default_plugins`]). Does not add the sky ([`VolcanoSkyPlugin`]) nor headless
+/// capture.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct VolcanoRenderPlugins;
 
-impl Plugin for VolcanoRenderPlugin {
-    fn build(&self, app: &mut App) {
-        app.add_plugins((TerrainRenderPlugin, SkyPlugin, OrbitCameraPlugin, PlumeRenderPlugin));
-        app.add_plugins((DepositRenderPlugin, LavaRenderPlugin, CloudRenderPlugin, AshFallRenderPlugin));
+impl PluginGroup for VolcanoRenderPlugins {
+    fn build(self) -> PluginGroupBuilder {
+        PluginGroupBuilder::start::<Self>()
+            .add(TerrainRenderPlugin)
+            .add(OrbitCameraPlugin)
+            .add(PlumeRenderPlugin)
+            .add(DepositRenderPlugin)
+            .add(LavaRenderPlugin)
+            .add(CloudRenderPlugin)
+            .add(AshFallRenderPlugin)
     }
 }
 
 /// Everything a scene usually needs from this crate.
 pub mod prelude {
     pub use crate::{
-        HeadlessCapturePlugin, MainCamera, OrbitCamera, PlumeRenderMode, PointerCaptured, SkySettings, Sun,
-        VolcanoRenderPlugin, camera_bundle, headless_default_plugins, sun_bundle,
+        HeadlessCapturePlugin, OrbitCamera, PlumeRenderMode, PointerCaptured, SkySettings, Sun,
+        UnrenderedTerrain, VolcanoRenderPlugins, VolcanoSkyCamera, VolcanoSkyPlugin, VolcanoViewer,
+        camera_bundle, headless_default_plugins, sun_bundle,
     };
 }

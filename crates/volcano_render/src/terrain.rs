@@ -30,6 +30,12 @@ pub struct TerrainMesh {
     pub stride: usize,
 }
 
+/// On a [`Terrain`] entity: no mesh for it (a game that draws its own ground, or a collision-
+/// only terrain). Adding it later removes the mesh child.
+#[derive(Component, Debug, Clone, Copy, Default, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct UnrenderedTerrain;
+
 /// Marks the child that shows a [`Volcano`]'s vent (an emissive short cylinder of the vent
 /// radius, centred on [`VentPosition`]).
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]
@@ -44,10 +50,15 @@ impl Plugin for TerrainRenderPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<TerrainMesh>()
             .register_type::<VentMarker>()
+            .register_type::<UnrenderedTerrain>()
             .add_message::<TerrainChanged>()
             .add_systems(
                 Update,
-                ((build_terrain_meshes, update_changed_regions).chain(), update_vent_markers),
+                (
+                    drop_unrendered_meshes,
+                    (build_terrain_meshes, update_changed_regions).chain(),
+                    update_vent_markers,
+                ),
             );
     }
 
@@ -257,10 +268,27 @@ pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
     (mesh, stride)
 }
 
-/// Builds or replaces the mesh child of every added or changed [`Terrain`].
+/// Despawns the mesh child of terrains that became [`UnrenderedTerrain`].
+fn drop_unrendered_meshes(
+    mut commands: Commands,
+    terrains: Query<&Children, (With<Terrain>, Added<UnrenderedTerrain>)>,
+    meshes: Query<(), With<TerrainMesh>>,
+) {
+    for child in terrains.iter().flatten() {
+        if meshes.contains(*child) {
+            commands.entity(*child).despawn();
+        }
+    }
+}
+
+/// A changed terrain that is drawn.
+type RenderedTerrainChanged = (Changed<Terrain>, Without<UnrenderedTerrain>);
+
+/// Builds or replaces the mesh child of every added or changed [`Terrain`] (not of
+/// [`UnrenderedTerrain`]s).
 fn build_terrain_meshes(
     mut commands: Commands,
-    terrains: Query<(Entity, &Terrain, Option<&Children>), Changed<Terrain>>,
+    terrains: Query<(Entity, &Terrain, Option<&Children>), RenderedTerrainChanged>,
     mut mesh_children: Query<(&Mesh3d, &mut TerrainMesh)>,
     mut meshes: ResMut<Assets<Mesh>>,
     assets: Option<Res<TerrainAssets>>,

@@ -9,7 +9,7 @@ use bevy::prelude::*;
 use volcano_core::VolcanoCorePlugin;
 use volcano_plume::{AshInstance, PlumeInstances};
 use volcano_render::{
-    HeadlessCapturePlugin, MainCamera, OrbitCamera, VolcanoRenderPlugin, camera_bundle,
+    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
     headless_default_plugins, read_png_rgb, rgb_region_mean,
 };
 
@@ -23,7 +23,7 @@ fn scene(mut commands: Commands) {
 }
 
 /// Replaces the frame's instances (after the plume view built its empty list).
-fn wall(camera: Query<&GlobalTransform, With<MainCamera>>, mut instances: ResMut<PlumeInstances>) {
+fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut instances: ResMut<PlumeInstances>) {
     let Some(cam) = camera.iter().next() else { return };
     let (fwd, right, up) = (cam.forward().as_vec3(), cam.right().as_vec3(), cam.up().as_vec3());
     let mut list = Vec::new();
@@ -51,7 +51,7 @@ fn instanced_ash_covers_the_sky() {
     let _ = std::fs::remove_file(&out);
     let exit = App::new()
         .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
         .add_plugins(HeadlessCapturePlugin {
             width: W,
             height: H,

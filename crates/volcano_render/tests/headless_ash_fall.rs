@@ -14,7 +14,7 @@ use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
 use volcano_core::VolcanoCorePlugin;
 use volcano_render::{
-    AshFallVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugin, camera_bundle,
+    AshFallVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle,
     headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
 };
 
@@ -65,7 +65,7 @@ fn render(with_ash: bool, name: &str) -> ([f64; 3], [f64; 3], Vec<f32>) {
     let sink = seen.clone();
     let exit = App::new()
         .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
         .add_plugins(HeadlessCapturePlugin {
             width: W,
             height: H,

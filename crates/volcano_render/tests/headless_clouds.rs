@@ -11,8 +11,8 @@ use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
 use volcano_core::VolcanoCorePlugin;
 use volcano_render::{
-    CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugin, camera_bundle,
-    headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
+    CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins, VolcanoSkyPlugin,
+    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
 };
 
 const W: u32 = 256;
@@ -50,7 +50,7 @@ fn a_dense_cloud_wall_hides_the_sky() {
     let sink = seen.clone();
     let exit = App::new()
         .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
         .add_plugins(HeadlessCapturePlugin {
             width: W,
             height: H,

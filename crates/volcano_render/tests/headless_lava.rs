@@ -10,8 +10,8 @@ use volcano_core::{Terrain, VolcanoCorePlugin};
 use volcano_lava::model::breakout::BreakoutState;
 use volcano_lava::{Edges, FlowField, FoldSystem, LavaField, LavaParams, LavaState, Placement, SurfaceState};
 use volcano_render::{
-    HeadlessCapturePlugin, LavaRenderMode, OrbitCamera, VolcanoRenderPlugin, camera_bundle,
-    headless_default_plugins, read_png_rgb, rgb_region_mean,
+    HeadlessCapturePlugin, LavaRenderMode, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin,
+    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean,
 };
 
 const W: u32 = 320;
@@ -41,7 +41,7 @@ fn render(name: &str, crust: f64, mode: LavaRenderMode) -> ([f64; 3], [f64; 3]) 
     let exit = App::new()
         // One app after the other in this process: only the first may set the global logger.
         .add_plugins(headless_default_plugins().disable::<bevy::log::LogPlugin>())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
         .insert_resource(mode)
         .add_plugins(HeadlessCapturePlugin {
             width: W,

@@ -7,8 +7,8 @@ use std::path::PathBuf;
 use bevy::prelude::*;
 use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
 use volcano_render::{
-    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugin, camera_bundle, headless_default_plugins,
-    read_png_rgb, rgb_region_mean, rgb_stddev,
+    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle,
+    headless_default_plugins, read_png_rgb, rgb_region_mean, rgb_stddev,
 };
 
 const W: u32 = 320;
@@ -28,7 +28,7 @@ fn scene(mut commands: Commands) {
         ..default()
     };
     commands.spawn(camera_bundle(orbit));
-    // The sun: VolcanoRenderPlugin spawns its default one (south-west, 35° high).
+    // The sun: VolcanoSkyPlugin spawns its default one (south-west, 35° high).
 }
 
 #[test]
@@ -39,7 +39,7 @@ fn renders_a_volcano_under_a_sky() {
 
     let exit = App::new()
         .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugin))
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
         .add_plugins(HeadlessCapturePlugin {
             width: W,
             height: H,

@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use bevy::prelude::*;
 use volcano_render::{
-    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugin, camera_bundle, headless_default_plugins,
+    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle,
+    headless_default_plugins,
 };
 
 #[test]
@@ -13,7 +14,7 @@ fn unwritable_output_exits_with_an_error() {
     let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_write_error_is_a_dir");
     std::fs::create_dir_all(&out).unwrap();
     let mut app = App::new();
-    app.add_plugins((headless_default_plugins(), VolcanoRenderPlugin))
+    app.add_plugins((headless_default_plugins(), VolcanoRenderPlugins, VolcanoSkyPlugin))
         .add_plugins(HeadlessCapturePlugin {
             width: 64,
             height: 48,

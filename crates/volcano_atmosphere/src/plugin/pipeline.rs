@@ -214,10 +214,12 @@ type AtmosphereItems<'a> = (
 pub(crate) fn weather_due(
     control: Option<Res<SimControl>>,
     clock: Option<Res<Time<DomainClock<WeatherStep>>>>,
+    fixed: Option<Res<Time<Fixed>>>,
 ) -> bool {
-    let Some(clock) = clock else { return false };
+    let (Some(clock), Some(fixed)) = (clock, fixed) else { return false };
     let ctx = clock.context();
-    ctx.is_paused() || (control.is_none_or(|c| c.running_this_tick()) && ctx.steps_at_next_tick() > 0)
+    let base = fixed.timestep();
+    ctx.is_paused() || (control.is_none_or(|c| c.running_this_tick()) && ctx.steps_at_next_tick(base) > 0)
 }
 
 /// [`WeatherSystems::Apply`](super::components::WeatherSystems::Apply): writes back the steps

@@ -43,7 +43,11 @@ impl SimDomainAppExt for App {
 }
 
 /// `SimSystems::Begin`: decides whether this base tick is simulated and counts it.
-pub(crate) fn begin_tick(mut control: ResMut<SimControl>, mut tick: ResMut<SimTick>) {
+pub(crate) fn begin_tick(
+    mut control: ResMut<SimControl>,
+    mut tick: ResMut<SimTick>,
+    fixed: Res<Time<Fixed>>,
+) {
     let run = if !control.paused {
         true
     } else if control.pending_ticks > 0 {
@@ -55,6 +59,8 @@ pub(crate) fn begin_tick(mut control: ResMut<SimControl>, mut tick: ResMut<SimTi
     control.running_this_tick = run;
     if run {
         tick.0 += 1;
+        let step = scaled(fixed.timestep(), control.speed());
+        control.simulated += step;
     }
 }
 
@@ -70,6 +76,7 @@ pub(crate) fn drive_domain<D: ScheduleLabel + Default + Clone>(world: &mut World
         return;
     }
     let base = world.resource::<Time<Fixed>>().timestep();
+    let speed = world.resource::<SimControl>().speed();
     let (runs, step) = {
         let mut clock = world.resource_mut::<Time<DomainClock<D>>>();
         let ctx = clock.context_mut();
@@ -82,9 +89,9 @@ pub(crate) fn drive_domain<D: ScheduleLabel + Default + Clone>(world: &mut World
                 0
             }
         } else {
-            ctx.cadence.steps_at_tick(ctx.ticks_seen)
+            ctx.cadence.steps_at_tick(ctx.ticks_seen, base)
         };
-        (runs, ctx.step_duration(base))
+        (runs, scaled(ctx.step_duration(base), speed))
     };
     if runs == 0 {
         return;
@@ -102,4 +109,9 @@ pub(crate) fn drive_domain<D: ScheduleLabel + Default + Clone>(world: &mut World
         let _ = world.try_run_schedule(D::default());
     }
     *world.resource_mut::<Time>() = saved;
+}
+
+/// `d × speed`, exact at speed 1.
+fn scaled(d: std::time::Duration, speed: f64) -> std::time::Duration {
+    if speed == 1.0 { d } else { d.mul_f64(speed) }
 }

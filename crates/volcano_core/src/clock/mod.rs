@@ -1,17 +1,21 @@
 //! The multi-rate simulation clock (docs/ARCHITECTURE.md §3).
 //!
-//! Bevy's `Time<Fixed>` at 50 Hz is the *base tick*. Each simulation domain (plume, weather,
-//! lava, …) has its own [`ScheduleLabel`](bevy::ecs::schedule::ScheduleLabel), its own clock
+//! The *base tick* is the game's `Time<Fixed>`, at whatever rate the game set (Bevy's default
+//! is 64 Hz; the volcano never changes it). Each simulation domain (plume, weather, lava, …)
+//! has its own [`ScheduleLabel`](bevy::ecs::schedule::ScheduleLabel), its own clock
 //! `Time<DomainClock<D>>` and a [`Cadence`]: `Substeps(n)` runs the domain schedule `n` times
 //! per base tick with `Δt = base/n`; `EveryNthTick(k)` runs it once every `k` ticks with
-//! `Δt = k·base`. A driver system per domain, placed in a chained [`SimSystems`] set in
-//! `FixedUpdate`, swaps the generic `Time` for the domain clock while the domain runs and
-//! restores it afterwards, so systems inside a domain read their own `Res<Time>`. Because
-//! everything happens per base tick, results do not depend on the frame rate.
+//! `Δt = k·base`; `Period(p)` runs it once per `p` of simulated time (rounded to whole ticks).
+//! A driver system per domain, placed in a chained [`SimSystems`] set in `FixedUpdate`, swaps
+//! the generic `Time` for the domain clock while the domain runs and restores it afterwards, so
+//! systems inside a domain read their own `Res<Time>`. Because everything happens per base
+//! tick, results do not depend on the frame rate.
 //!
-//! Control: [`SimControl`] pauses all domains and single-steps base ticks; each
-//! [`DomainClock`] can be paused, single-stepped, and given a time scale (each step advances
-//! `scale × Δt` of domain time, e.g. 30 s of weather per step for a standalone skyscape).
+//! Control: [`SimControl`] pauses all domains, single-steps base ticks and sets the simulation
+//! speed (every domain step covers `speed ×` its length; the game's clocks are untouched); each
+//! [`DomainClock`] can be paused, single-stepped, and given its own time scale (each step
+//! advances `scale × Δt` of domain time, e.g. 30 s of weather per step for a standalone
+//! skyscape).
 
 pub(crate) mod driver;
 
@@ -34,6 +38,10 @@ pub enum Cadence {
     Substeps(u32),
     /// One step every `k ≥ 1` base ticks, `k·base` long.
     EveryNthTick(u32),
+    /// One step per `period > 0` of simulated time at any base rate: every
+    /// `k = max(1, round(period / base))` base ticks, `k·base` long (exactly `period` whenever
+    /// the base tick divides it, e.g. 1 s at 50 or 64 Hz).
+    Period(Duration),
 }
 
 impl Cadence {
@@ -42,33 +50,48 @@ impl Cadence {
         let (name, v) = match self {
             Cadence::Substeps(n) => ("Substeps", n),
             Cadence::EveryNthTick(k) => ("EveryNthTick", k),
+            Cadence::Period(p) if p.is_zero() => ("Period", 0),
+            Cadence::Period(_) => ("Period", 1),
         };
         if v == 0 {
             return Err(ConfigError::InvalidParameter {
                 name,
                 value: 0.0,
-                reason: "cadence counts must be at least 1".into(),
+                reason: "cadence counts and periods must be at least 1 (ns)".into(),
             });
         }
         Ok(self)
     }
 
-    /// Length of one domain step (before time scale) for a base tick of `base`.
+    /// Base ticks per domain step for a base tick of `base` (1 for `Substeps`).
+    pub fn ticks_per_step(self, base: Duration) -> u64 {
+        match self {
+            Cadence::Substeps(_) => 1,
+            Cadence::EveryNthTick(k) => u64::from(k.max(1)),
+            Cadence::Period(p) => {
+                let b = base.as_nanos().max(1);
+                ((p.as_nanos() + b / 2) / b).clamp(1, u64::MAX as u128) as u64
+            }
+        }
+    }
+
+    /// Length of one domain step (before time scales) for a base tick of `base`.
     /// Exact whenever the base tick in nanoseconds is divisible by `n`.
     pub fn step_duration(self, base: Duration) -> Duration {
         let nanos = base.as_nanos();
         let step = match self {
             Cadence::Substeps(n) => nanos / n.max(1) as u128,
-            Cadence::EveryNthTick(k) => nanos * k.max(1) as u128,
+            _ => nanos * self.ticks_per_step(base) as u128,
         };
         Duration::from_nanos(step.min(u64::MAX as u128) as u64)
     }
 
-    /// How many domain steps run at base tick number `tick` (1-based count of ticks run).
-    pub fn steps_at_tick(self, tick: u64) -> u32 {
+    /// How many domain steps run at base tick number `tick` (1-based count of ticks run) for
+    /// a base tick of `base`.
+    pub fn steps_at_tick(self, tick: u64, base: Duration) -> u32 {
         match self {
             Cadence::Substeps(n) => n,
-            Cadence::EveryNthTick(k) => u32::from(tick.is_multiple_of(k.max(1) as u64)),
+            _ => u32::from(tick.is_multiple_of(self.ticks_per_step(base))),
         }
     }
 }
@@ -148,14 +171,15 @@ impl<D> DomainClock<D> {
     pub fn steps_run(&self) -> u64 {
         self.steps_run
     }
-    /// How many steps the driver will run at the next simulated base tick (0 while paused
-    /// with no single step requested). Coupling systems that run just before a domain use it
-    /// to act only on the ticks where the domain steps.
-    pub fn steps_at_next_tick(&self) -> u32 {
+    /// How many steps the driver will run at the next simulated base tick of length `base`
+    /// (`Time<Fixed>::timestep()`; 0 while paused with no single step requested). Coupling
+    /// systems that run just before a domain use it to act only on the ticks where the domain
+    /// steps.
+    pub fn steps_at_next_tick(&self, base: Duration) -> u32 {
         if self.paused {
             u32::from(self.pending_steps > 0)
         } else {
-            self.cadence.steps_at_tick(self.ticks_seen + 1)
+            self.cadence.steps_at_tick(self.ticks_seen + 1, base)
         }
     }
     /// Length of one step of this domain, time scale included.
@@ -163,6 +187,18 @@ impl<D> DomainClock<D> {
         let d = self.cadence.step_duration(base);
         if self.time_scale == 1.0 { d } else { d.mul_f64(self.time_scale) }
     }
+}
+
+/// Whether a step that ended at `elapsed` after lasting `delta` crossed a whole multiple of
+/// `period` (for "once per simulated second" work inside a domain: pass the domain's
+/// `Res<Time>` elapsed and delta). Over any run it is true once per `period` of domain time,
+/// whatever the step length; false for a zero period.
+pub fn crossed_period(elapsed: Duration, delta: Duration, period: Duration) -> bool {
+    let p = period.as_nanos();
+    if p == 0 {
+        return false;
+    }
+    elapsed.as_nanos() / p != elapsed.saturating_sub(delta).as_nanos() / p
 }
 
 /// Chained system sets in `FixedUpdate`: every base tick runs them in this order, so coupling
@@ -187,16 +223,50 @@ pub enum SimSystems {
     End,
 }
 
-/// Global simulation control: pause all domains, single-step base ticks.
-#[derive(Resource, Debug, Clone, Default, Reflect)]
+/// Global simulation control: pause all domains, single-step base ticks, simulation speed.
+/// Acts on the volcano's clocks only, never on the game's `Time<Virtual>` or `Time<Fixed>`.
+#[derive(Resource, Debug, Clone, Reflect)]
 pub struct SimControl {
     /// While true no base tick runs (except requested single steps).
     pub paused: bool,
     pending_ticks: u32,
     running_this_tick: bool,
+    speed: f64,
+    simulated: Duration,
+}
+
+impl Default for SimControl {
+    fn default() -> Self {
+        Self {
+            paused: false,
+            pending_ticks: 0,
+            running_this_tick: false,
+            speed: 1.0,
+            simulated: Duration::ZERO,
+        }
+    }
 }
 
 impl SimControl {
+    /// Accepted simulation speeds (multiples of the game's time).
+    pub const SPEED_RANGE: (f64, f64) = (0.01, 100.0);
+
+    /// Simulation speed: every domain step covers `speed ×` its cadence's length, so the
+    /// volcano runs `speed` times faster than the game's fixed clock at the same cost per tick
+    /// (coarser steps above 1, finer below). Default 1.
+    pub fn speed(&self) -> f64 {
+        self.speed
+    }
+    /// Sets the speed; errors outside [`SimControl::SPEED_RANGE`] (and on NaN).
+    pub fn set_speed(&mut self, speed: f64) -> Result<(), ConfigError> {
+        let (lo, hi) = Self::SPEED_RANGE;
+        self.speed = crate::error::in_range("speed", speed, lo, hi)?;
+        Ok(())
+    }
+    /// Simulated time so far: the sum over the base ticks run of `timestep × speed`.
+    pub fn simulated(&self) -> Duration {
+        self.simulated
+    }
     /// While paused, run `n` more base ticks (one per fixed update).
     pub fn step_ticks(&mut self, n: u32) {
         self.pending_ticks = self.pending_ticks.saturating_add(n);
@@ -212,6 +282,7 @@ impl SimControl {
 }
 
 /// Number of base ticks simulated so far (not counting paused ticks): the simulation's
-/// deterministic time. Same seed + same `SimTick` = same state.
+/// deterministic time. Same seed + same `SimTick` (at the same fixed rate and speed) = same
+/// state.
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
 pub struct SimTick(pub u64);

@@ -2,8 +2,9 @@
 //! each [`Atmosphere`] gets one [`FogVolume`] over its footprint whose 3D density image is the
 //! crate's cloud density volume (`volcano_atmosphere::model::volume`: Table 4.3 forms,
 //! k-means++ coherence, type-keyed noise), rebuilt when the weather steps or a layer is
-//! edited, not every frame. Main cameras get [`VolumetricFog`] and suns [`VolumetricLight`]
-//! while a cloud volume exists, so scenes without an atmosphere pay nothing.
+//! edited, not every frame. [`VolcanoViewer`] cameras get [`VolumetricFog`] and [`Sun`]s
+//! [`VolumetricLight`] while a cloud volume exists, so scenes without an atmosphere pay nothing
+//! (a game lighting the clouds with its own `DirectionalLight` adds `VolumetricLight` to it).
 //!
 //! Bevy's fog shader attenuates the sunlight reaching a sample by
 //! `exp(−density · bounding_radius · extinction)` with the volume's bounding radius (tens of
@@ -22,7 +23,7 @@ use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
 
-use crate::camera::MainCamera;
+use crate::camera::VolcanoViewer;
 use crate::sky::Sun;
 
 /// How clouds are turned into fog (a resource; edits rebuild the volumes).
@@ -275,13 +276,13 @@ fn update_cloud_volumes(
 /// Fog volumes that need the cameras' volumetric fog: clouds and ash fall.
 type FogVolumes = Or<(With<CloudFog>, With<crate::ash_fall::AshFallFog>)>;
 
-/// Adds [`VolumetricFog`] to main cameras and [`VolumetricLight`] to suns while cloud or ash-fall
-/// volumes exist, and removes them when none is left.
+/// Adds [`VolumetricFog`] to [`VolcanoViewer`] cameras and [`VolumetricLight`] to suns while cloud
+/// or ash-fall volumes exist, and removes them when none is left.
 fn volumetric_views(
     mut commands: Commands,
     settings: Res<CloudRenderSettings>,
     fogs: Query<(), FogVolumes>,
-    cameras: Query<(Entity, Option<&VolumetricFog>), With<MainCamera>>,
+    cameras: Query<(Entity, Option<&VolumetricFog>), With<VolcanoViewer>>,
     suns: Query<(Entity, Has<VolumetricLight>), With<Sun>>,
 ) {
     let want = settings.enabled && !fogs.is_empty();

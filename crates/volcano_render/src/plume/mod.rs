@@ -18,7 +18,7 @@ use volcano_plume::{PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};
 pub use debug::PlumeVisuals;
 pub use pipeline::AshCloud;
 
-use crate::camera::MainCamera;
+use crate::camera::VolcanoViewer;
 
 /// What the column looks like (a resource; switch it live from a panel).
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
@@ -85,8 +85,11 @@ fn spawn_ash_cloud(mut commands: Commands, mut meshes: ResMut<Assets<Mesh>>) {
     ));
 }
 
-/// The projected spin needs the viewer's position.
-fn follow_camera(camera: Query<&GlobalTransform, With<MainCamera>>, mut viewpoint: ResMut<PlumeViewpoint>) {
+/// The projected spin needs the viewer's position (the first [`VolcanoViewer`]).
+fn follow_camera(
+    camera: Query<&GlobalTransform, With<VolcanoViewer>>,
+    mut viewpoint: ResMut<PlumeViewpoint>,
+) {
     let v = camera.iter().next().map(|t| t.translation());
     if viewpoint.0 != v {
         viewpoint.0 = v;

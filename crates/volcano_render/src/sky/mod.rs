@@ -1,12 +1,20 @@
 //! Sun, ambient light and sky, in physical light units (the sun is raw sunlight, 130 klx;
-//! cameras use a daylight exposure).
+//! cameras use a daylight exposure): [`VolcanoSkyPlugin`], opt-in, for scenes that have no
+//! lighting of their own (the examples and the CLI's scenes). A game with its own sun, ambient
+//! light, fog or exposure leaves it out; nothing else in the volcano touches them.
+//!
+//! What the plugin changes, and only while it is added: `GlobalAmbientLight` (from
+//! [`SkySettings`]); each [`Sun`] entity's transform and light; cameras tagged
+//! [`VolcanoSkyCamera`] get `Exposure`, and a gradient `Skybox` with `DistanceFog` or Bevy's
+//! `AtmosphereSettings`. It spawns a default [`Sun`] at startup when no `DirectionalLight` exists
+//! ([`SkySettings::spawn_default_sun`]).
 //!
 //! Two skies, chosen by [`SkySettings::mode`]:
 //! - [`SkyMode::Gradient`] (default): a procedural gradient [`bevy::light::Skybox`] with a sun
 //!   glow, [`bevy::pbr::DistanceFog`] for aerial perspective, and the sun tinted by a clear-sky
 //!   transmittance. Renders everywhere, including llvmpipe.
 //! - [`SkyMode::Atmosphere`]: Bevy's physically based [`Atmosphere`] (Hillaire 2020 scattering
-//!   LUTs) with its ground at `y = 0` (our altitudes are metres above sea level); main cameras
+//!   LUTs) with its ground at `y = 0` (our altitudes are metres above sea level); sky cameras
 //!   get [`AtmosphereSettings`], which makes them HDR (bevy_egui 0.40 panels then do not show on
 //!   them). On a software (CPU) adapter this falls back to the gradient: the atmosphere's
 //!   compute passes crash Mesa 22.3's lavapipe. Untested on hardware GPUs here.
@@ -25,8 +33,6 @@ use bevy::prelude::*;
 use bevy::render::renderer::RenderAdapterInfo;
 
 pub use gradient::{GradientSky, clear_sky_transmittance};
-
-use crate::camera::MainCamera;
 
 /// The sun: a shadow-casting [`DirectionalLight`] placed from azimuth and elevation. Spawn it
 /// with [`sun_bundle`]; edit it live (reflection, panels) and the light follows.
@@ -103,13 +109,13 @@ pub enum SkyMode {
 pub struct SkySettings {
     /// Requested sky (see [`ActiveSky`] for the one in use).
     pub mode: SkyMode,
-    /// Spawn a default [`Sun`] at startup when the scene has none.
+    /// Spawn a default [`Sun`] at startup when the scene has no `DirectionalLight`.
     pub spawn_default_sun: bool,
     /// Ambient (sky fill) light colour.
     pub ambient_color: Color,
     /// Ambient brightness (cd/m², physical units like the sun).
     pub ambient_brightness: f32,
-    /// Exposure (EV100) of [`MainCamera`]s.
+    /// Exposure (EV100) of [`VolcanoSkyCamera`]s.
     pub exposure_ev100: f32,
     /// Colours and visibility of the gradient sky.
     pub gradient: GradientSky,
@@ -138,13 +144,34 @@ pub struct ActiveSky(pub SkyMode);
 #[reflect(Component, Default, Debug)]
 pub struct VolcanoSky;
 
-/// Sun placement, ambient light and the sky.
-#[derive(Debug, Default, Clone)]
-pub struct SkyPlugin;
+/// Marks a camera [`VolcanoSkyPlugin`] dresses: exposure, and the skybox with distance fog (or
+/// the physical atmosphere). `camera_bundle` cameras carry it.
+#[derive(Component, Debug, Clone, Copy, Default, Reflect)]
+#[reflect(Component, Default, Debug)]
+pub struct VolcanoSkyCamera;
 
-impl Plugin for SkyPlugin {
+/// Sun placement, ambient light and the sky (opt-in; see the module docs for what it changes).
+/// Adding it more than once is harmless (a scene plugin and the game may both add it, in either
+/// order): later copies do nothing.
+#[derive(Debug, Default, Clone)]
+pub struct VolcanoSkyPlugin;
+
+/// Present once [`VolcanoSkyPlugin`] has been built.
+#[derive(Resource)]
+struct SkyPluginBuilt;
+
+impl Plugin for VolcanoSkyPlugin {
+    fn is_unique(&self) -> bool {
+        false
+    }
+
     fn build(&self, app: &mut App) {
-        app.register_type::<Sun>()
+        if app.world().contains_resource::<SkyPluginBuilt>() {
+            return;
+        }
+        app.insert_resource(SkyPluginBuilt)
+            .register_type::<Sun>()
+            .register_type::<VolcanoSkyCamera>()
             .register_type::<SkySettings>()
             .register_type::<ActiveSky>()
             .register_type::<VolcanoSky>()
@@ -158,7 +185,7 @@ impl Plugin for SkyPlugin {
 /// Camera components for the sky: ACES tonemapping and a daylight exposure of `exposure_ev100`.
 /// The camera stays LDR (no `Hdr`): bevy_egui 0.40 draws nothing on an HDR camera here. The
 /// sky-specific parts (gradient skybox and fog, or [`AtmosphereSettings`], which brings `Hdr`)
-/// are added to [`MainCamera`]s by [`SkyPlugin`].
+/// are added to [`VolcanoSkyCamera`]s by [`VolcanoSkyPlugin`].
 pub fn sky_camera_components(exposure_ev100: f32) -> impl Bundle {
     (Exposure { ev100: exposure_ev100 }, Tonemapping::AcesFitted)
 }
@@ -203,8 +230,13 @@ fn resolve_sky(
     active.set_if_neq(ActiveSky(mode));
 }
 
-fn spawn_default_sun(mut commands: Commands, settings: Res<SkySettings>, suns: Query<(), With<Sun>>) {
-    if settings.spawn_default_sun && suns.is_empty() {
+fn spawn_default_sun(
+    mut commands: Commands,
+    settings: Res<SkySettings>,
+    suns: Query<(), With<Sun>>,
+    lights: Query<(), With<DirectionalLight>>,
+) {
+    if settings.spawn_default_sun && suns.is_empty() && lights.is_empty() {
         commands.spawn(sun_bundle(Sun::default()));
     }
 }
@@ -239,8 +271,8 @@ fn update_sky_cameras(
     settings: Res<SkySettings>,
     active: Res<ActiveSky>,
     suns: Query<Ref<Sun>>,
-    new_cameras: Query<(), Added<MainCamera>>,
-    mut cameras: Query<(Entity, Option<&mut Exposure>), With<MainCamera>>,
+    new_cameras: Query<(), Added<VolcanoSkyCamera>>,
+    mut cameras: Query<(Entity, Option<&mut Exposure>), With<VolcanoSkyCamera>>,
     mut images: ResMut<Assets<Image>>,
     mut sky_image: Local<SkyImage>,
 ) {
