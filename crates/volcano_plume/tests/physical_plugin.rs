@@ -7,6 +7,7 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
+use volcano_core::units::BASE_TICK_SECONDS;
 use volcano_plume::model::run::run_single_slice;
 use volcano_plume::*;
 
@@ -75,7 +76,7 @@ fn emitted_mass_per_second_is_the_mass_eruption_rate() {
         let s = app.world_mut().query::<&EmissionState>().single(app.world()).unwrap();
         (s.emitted, s.backlog)
     };
-    assert!(emitted > 300, "{emitted} slices");
+    assert!(emitted > 200, "{emitted} slices");
     assert_eq!(backlog, 0);
     let mass = emitted as f64 * slice_mass;
     // Within one slice of MER × t (the last one may be due within the interval).
@@ -94,14 +95,15 @@ fn column_top_matches_the_single_slice_and_umbrella_spreads_as_t_two_thirds() {
     e.umbrella_lifetime = 3_600.0;
     let single = run_single_slice(&e.params, 3_600.0, 0.0).unwrap().0;
     let mut app = app(e);
-    run(&mut app, 50 * 390);
+    run(&mut app, 50 * 375);
     let seen = std::mem::take(&mut *app.world_mut().resource_mut::<Seen>());
+    println!("first umbrella at tick {:?}, apex {} m, single slice {:?}", seen.first_umbrella_tick, seen.apex, single);
     assert_eq!(seen.collapsed, 0);
     assert!((seen.apex / single.apex_m - 1.0).abs() <= 0.10, "in game {} m, single slice {} m", seen.apex, single.apex_m);
-    // Front of the umbrella: log-log slope between 20 s and 120 s after the first umbrella.
+    // Front of the umbrella: log-log slope between 15 s and 75 s after the first umbrella.
     let at = |t: f64| seen.front.iter().find(|f| f.0 >= t).map(|f| f.1).unwrap();
-    let slope = (at(120.0) / at(20.0)).ln() / (120.0f64 / 20.0).ln();
-    println!("apex {} m (single {}), front {} m at 20 s, {} m at 120 s, exponent {slope:.3}", seen.apex, single.apex_m, at(20.0), at(120.0));
+    let slope = (at(75.0) / at(15.0)).ln() / 5f64.ln();
+    println!("front {:.0} m at 15 s, {:.0} m at 75 s, exponent {slope:.4}", at(15.0), at(75.0));
     assert!((slope - 2.0 / 3.0).abs() < 0.07, "exponent {slope}");
 }
 

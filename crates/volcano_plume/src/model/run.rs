@@ -2,7 +2,6 @@
 //! `summary.json` / `trajectory.csv`.
 
 use bevy::math::DVec2;
-use volcano_core::atmosphere::AtmosphereProfile;
 use serde::Serialize;
 use volcano_core::error::ConfigError;
 
