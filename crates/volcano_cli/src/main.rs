@@ -152,7 +152,9 @@ fn main() -> ExitCode {
         }
         Command::Plume { params, out, target_height_km, export, frames, frame_seconds, start_seconds } => {
             match (export, out) {
-                (Some(dir), _) => with_params(&params, |p| export::export(p, &dir, frames, frame_seconds, start_seconds)),
+                (Some(dir), _) => {
+                    with_params(&params, |p| export::export(p, &dir, frames, frame_seconds, start_seconds))
+                }
                 (None, Some(out)) => plume::plume(&params, target_height_km, &out),
                 (None, None) => ExitCode::from(2),
             }
@@ -161,7 +163,9 @@ fn main() -> ExitCode {
         Command::PlumePlots { params, out } => with_params(&params, |p| plots::plume_plots(p, &out)),
         Command::Lava(args) => domains::lava(&args),
         Command::Atmosphere(args) => domains::atmosphere(&args),
-        Command::Pyroclastic { params, seconds, out } => with_params(&params, |p| pyroclastic::run(p, seconds, &out)),
+        Command::Pyroclastic { params, seconds, out } => {
+            with_params(&params, |p| pyroclastic::run(p, seconds, &out))
+        }
         Command::Eruption { scenario, seconds, grid, out } => eruption::run(scenario, seconds, grid, &out),
         Command::Render { scene, ticks, out, width, height, min_stddev, plume_view, lava_view } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
@@ -171,7 +175,10 @@ fn main() -> ExitCode {
 }
 
 /// Runs `f` with the command line's plume parameters, or exits 2 with the error.
-fn with_params(args: &plume::PlumeArgs, f: impl FnOnce(&volcano::plume::PlumeParams) -> ExitCode) -> ExitCode {
+fn with_params(
+    args: &plume::PlumeArgs,
+    f: impl FnOnce(&volcano::plume::PlumeParams) -> ExitCode,
+) -> ExitCode {
     match args.params() {
         Ok(p) => f(&p),
         Err(e) => {

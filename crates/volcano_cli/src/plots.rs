@@ -8,8 +8,8 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use plotters::prelude::*;
-use volcano::plume::model::run::{TrajectorySample, run_single_slice};
 use volcano::plume::model::params::Dynamics;
+use volcano::plume::model::run::{TrajectorySample, run_single_slice};
 use volcano::plume::{PlumeParams, WindProfile};
 
 type Plot = Result<(), Box<dyn std::error::Error>>;

@@ -8,7 +8,9 @@ use std::process::ExitCode;
 use clap::{Args, ValueEnum};
 use volcano::core::atmosphere::AtmosphereModel;
 use volcano::plume::model::inverse::mer_for_height;
-use volcano::plume::model::run::{SingleSliceSummary, TrajectorySample, collapse_threshold, run_single_slice};
+use volcano::plume::model::run::{
+    SingleSliceSummary, TrajectorySample, collapse_threshold, run_single_slice,
+};
 use volcano::plume::{PlumeParams, Preset, WindProfile};
 
 /// Preset names on the command line.

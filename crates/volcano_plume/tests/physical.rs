@@ -53,7 +53,13 @@ fn top_height_follows_mastin_within_30_percent() {
         let p = base.with_mer(mer, None).unwrap();
         let s = run(&p);
         let want = mastin_m(mer);
-        println!("MER {mer:.0e} kg/s (v0 {:.0} m/s, r0 {:.1} m): top {:.0} m, Mastin {want:.0} m, ratio {:.2}", p.v0, p.r0, s.apex_m, s.apex_m / want);
+        println!(
+            "MER {mer:.0e} kg/s (v0 {:.0} m/s, r0 {:.1} m): top {:.0} m, Mastin {want:.0} m, ratio {:.2}",
+            p.v0,
+            p.r0,
+            s.apex_m,
+            s.apex_m / want
+        );
         assert_eq!(s.regime, "plume", "{mer:e}");
         assert!((s.apex_m / want - 1.0).abs() <= 0.30, "MER {mer:e}: {} m vs Mastin {want} m", s.apex_m);
     }
@@ -71,7 +77,12 @@ fn costa_2016_cases_within_25_percent_and_wind_bends_the_weak_plume() {
         ..costa(false)
     };
     let w = run(&windy);
-    println!("weak in wind: top {:.0} m ({:.0} % lower), {:.0} m downwind", w.apex_m, 100.0 * (1.0 - w.apex_m / weak.apex_m), w.max_downwind_m);
+    println!(
+        "weak in wind: top {:.0} m ({:.0} % lower), {:.0} m downwind",
+        w.apex_m,
+        100.0 * (1.0 - w.apex_m / weak.apex_m),
+        w.max_downwind_m
+    );
     assert_eq!(w.regime, "plume");
     assert!(w.apex_m < 0.8 * weak.apex_m, "{} vs calm {}", w.apex_m, weak.apex_m);
     assert!(w.max_downwind_m > 1_000.0);
@@ -115,7 +126,11 @@ fn inverse_control_lands_within_5_percent() {
     for km in [4.0, 12.0, 30.0] {
         let e = Eruption::physical().with_target_height(km).unwrap();
         let s = run(&e.params);
-        println!("target {km} km: MER {:.3e} kg/s, forward top {:.0} m", e.params.mass_eruption_rate(), s.apex_m);
+        println!(
+            "target {km} km: MER {:.3e} kg/s, forward top {:.0} m",
+            e.params.mass_eruption_rate(),
+            s.apex_m
+        );
         assert!((s.apex_m / (km * 1_000.0) - 1.0).abs() <= 0.05, "{km} km: {}", s.apex_m);
     }
     // In wind the same height needs more mass.

@@ -97,9 +97,17 @@ fn column_top_matches_the_single_slice_and_umbrella_spreads_as_t_two_thirds() {
     let mut app = app(e);
     run(&mut app, 50 * 375);
     let seen = std::mem::take(&mut *app.world_mut().resource_mut::<Seen>());
-    println!("first umbrella at tick {:?}, apex {} m, single slice {:?}", seen.first_umbrella_tick, seen.apex, single);
+    println!(
+        "first umbrella at tick {:?}, apex {} m, single slice {:?}",
+        seen.first_umbrella_tick, seen.apex, single
+    );
     assert_eq!(seen.collapsed, 0);
-    assert!((seen.apex / single.apex_m - 1.0).abs() <= 0.10, "in game {} m, single slice {} m", seen.apex, single.apex_m);
+    assert!(
+        (seen.apex / single.apex_m - 1.0).abs() <= 0.10,
+        "in game {} m, single slice {} m",
+        seen.apex,
+        single.apex_m
+    );
     // Front of the umbrella: log-log slope between 15 s and 75 s after the first umbrella.
     let at = |t: f64| seen.front.iter().find(|f| f.0 >= t).map(|f| f.1).unwrap();
     let slope = (at(75.0) / at(15.0)).ln() / 5f64.ln();

@@ -71,7 +71,8 @@ pub(crate) fn step(s: &mut Slice, p: &PlumeParams, env: &SliceEnv, dt: f64) -> S
 
     // Entrainment velocity, eq 3.7.
     let vw = wind.length();
-    let cos_theta = if speed > 0.0 && vw > 0.0 { s.velocity.dot(wind.extend(0.0)) / (speed * vw) } else { 0.0 };
+    let cos_theta =
+        if speed > 0.0 && vw > 0.0 { s.velocity.dot(wind.extend(0.0)) / (speed * vw) } else { 0.0 };
     let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
     let u_e = p.ks * (speed - vw * cos_theta).abs() + p.kw * (vw * sin_theta).abs();
     // Air through the slice's side, 2π r h, during dt.
@@ -115,7 +116,8 @@ pub(crate) fn step(s: &mut Slice, p: &PlumeParams, env: &SliceEnv, dt: f64) -> S
     // Momentum: the slice's plus the entrained air's horizontal (wind) momentum, then weight
     // and buoyancy (eq 3.3–3.4 with the air's momentum, Bursik 2001).
     let f_vertical = (rho_a * volume - mass) * G0;
-    let mut v = (s.velocity * m_before + wind.extend(0.0) * m_air) / mass + DVec3::Z * (dt * f_vertical / mass);
+    let mut v =
+        (s.velocity * m_before + wind.extend(0.0) * m_air) / mass + DVec3::Z * (dt * f_vertical / mass);
     // Geometry before the forces that need it: length from the speed, radius from the volume.
     let length_speed = v.length();
     report.length_speed_floored = length_speed < MIN_LENGTH_SPEED;

@@ -42,7 +42,8 @@ fn top(base: &PlumeParams, mer: f64) -> Result<Option<(f64, PlumeParams)>, Confi
 pub fn mer_for_height(base: &PlumeParams, target_m: f64) -> Result<MerSolution, ConfigError> {
     in_range("target height (m)", target_m, 1.0, 100_000.0)?;
     base.validate()?;
-    let unreachable = |reason: String| ConfigError::InvalidParameter { name: "target height (m)", value: target_m, reason };
+    let unreachable =
+        |reason: String| ConfigError::InvalidParameter { name: "target height (m)", value: target_m, reason };
     let (mut lo, mut hi) = (MER_RANGE.0.ln(), MER_RANGE.1.ln());
     let mut runs = 2;
     let bottom = top(base, lo.exp())?;

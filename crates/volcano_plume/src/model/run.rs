@@ -65,7 +65,12 @@ pub fn run_single_slice(
 ) -> Result<(SingleSliceSummary, Vec<TrajectorySample>), ConfigError> {
     let air = p.air();
     let wind = |z: f64| p.wind.at(z);
-    run_single_slice_in(p, &SliceEnv { air: &air, vent_altitude: p.vent_altitude, wind: &wind }, max_seconds, sample_every)
+    run_single_slice_in(
+        p,
+        &SliceEnv { air: &air, vent_altitude: p.vent_altitude, wind: &wind },
+        max_seconds,
+        sample_every,
+    )
 }
 
 /// [`run_single_slice`] in a given air and wind (e.g. a coupled column's
