@@ -2,8 +2,12 @@
 //! numbers: Mastin et al. (2009), Costa et al. (2016), the collapse threshold of a Woods-type
 //! column, and the inverse control. Single slice, vent at sea level.
 
-use volcano_plume::model::inverse::mer_for_height;
+use bevy::math::DVec2;
+use volcano_core::AtmosphereProfile;
+use volcano_core::atmosphere::AtmosphereModel;
+use volcano_plume::model::inverse::{mer_for_height, mer_for_height_in};
 use volcano_plume::model::run::{SingleSliceSummary, collapse_threshold, run_single_slice};
+use volcano_plume::{AmbientLevel, LayeredAmbient, SliceEnv};
 use volcano_plume::{Eruption, PlumeParams, Preset, WindProfile};
 
 /// Mastin et al. (2009): top above the vent (m), `H[km] = 2.00 V^0.241`, V dense rock at
@@ -141,6 +145,24 @@ fn inverse_control_lands_within_5_percent() {
     let calm = mer_for_height(&Preset::Physical.params(), 8_000.0).unwrap();
     let blown = mer_for_height(&windy, 8_000.0).unwrap();
     assert!(blown.mer_kg_s > 1.5 * calm.mer_kg_s, "{} vs {}", blown.mer_kg_s, calm.mer_kg_s);
+    // Under a coupled column's ambient air (standard layers with a wind rising to 15 m/s at
+    // 12 km): the solver reads the given air and wind, not the parameters' calm.
+    let level = |z: f64| AmbientLevel {
+        altitude: z,
+        temperature: volcano_core::UsStandard1976.temperature(z),
+        humidity: 0.0,
+        wind: DVec2::new(15.0 * (z / 12_000.0).min(1.0), 0.0),
+    };
+    let ambient = LayeredAmbient::new(
+        AtmosphereModel::UsStandard1976,
+        (0..9).map(|k| level(2_000.0 * k as f64)).collect(),
+    )
+    .unwrap();
+    let wind = |z: f64| ambient.wind_at(z);
+    let env = SliceEnv { air: &ambient, vent_altitude: 0.0, wind: &wind };
+    let coupled = mer_for_height_in(&Preset::Physical.params(), 8_000.0, &env).unwrap();
+    assert!((coupled.top_m / 8_000.0 - 1.0).abs() <= 0.01);
+    assert!(coupled.mer_kg_s > 1.5 * calm.mer_kg_s, "{} vs {}", coupled.mer_kg_s, calm.mer_kg_s);
     // Out of reach: errors, not panics.
     assert!(Eruption::physical().with_target_height(150.0).is_err());
     assert!(Eruption::physical().with_target_height(0.05).is_err());

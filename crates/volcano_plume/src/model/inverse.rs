@@ -5,7 +5,8 @@ use serde::Serialize;
 use volcano_core::error::{ConfigError, in_range};
 
 use super::params::PlumeParams;
-use super::run::run_single_slice;
+use super::run::run_single_slice_in;
+use super::slice::SliceEnv;
 
 /// Range of mass eruption rates searched (kg/s).
 pub const MER_RANGE: (f64, f64) = (1e2, 1e10);
@@ -28,9 +29,9 @@ pub struct MerSolution {
 }
 
 /// Top of the column (m) for a rate, `None` if it collapses.
-fn top(base: &PlumeParams, mer: f64) -> Result<Option<(f64, PlumeParams)>, ConfigError> {
+fn top(base: &PlumeParams, mer: f64, env: &SliceEnv) -> Result<Option<(f64, PlumeParams)>, ConfigError> {
     let p = base.with_mer(mer, None)?;
-    let (s, _) = run_single_slice(&p, 7_200.0, 0.0)?;
+    let (s, _) = run_single_slice_in(&p, env, 7_200.0, 0.0)?;
     Ok((s.regime == "plume").then_some((s.apex_m, p)))
 }
 
@@ -40,14 +41,26 @@ fn top(base: &PlumeParams, mer: f64) -> Result<Option<(f64, PlumeParams)>, Confi
 /// the height grows with the rate. Errors (never panics) when the target is out of reach: below
 /// the lowest rate's top, above the highest's, or where the column collapses.
 pub fn mer_for_height(base: &PlumeParams, target_m: f64) -> Result<MerSolution, ConfigError> {
+    let air = base.air();
+    let wind = |z: f64| base.wind.at(z);
+    mer_for_height_in(base, target_m, &SliceEnv { air: &air, vent_altitude: base.vent_altitude, wind: &wind })
+}
+
+/// [`mer_for_height`] in a given air and wind (e.g. a coupled column's
+/// [`crate::LayeredAmbient`] around the vent) instead of the parameters' own.
+pub fn mer_for_height_in(
+    base: &PlumeParams,
+    target_m: f64,
+    env: &SliceEnv,
+) -> Result<MerSolution, ConfigError> {
     in_range("target height (m)", target_m, 1.0, 100_000.0)?;
     base.validate()?;
     let unreachable =
         |reason: String| ConfigError::InvalidParameter { name: "target height (m)", value: target_m, reason };
     let (mut lo, mut hi) = (MER_RANGE.0.ln(), MER_RANGE.1.ln());
     let mut runs = 2;
-    let bottom = top(base, lo.exp())?;
-    let Some((h_hi, p_hi)) = top(base, hi.exp())? else {
+    let bottom = top(base, lo.exp(), env)?;
+    let Some((h_hi, p_hi)) = top(base, hi.exp(), env)? else {
         return Err(unreachable(format!("the column of {:.0e} kg/s collapses", MER_RANGE.1)));
     };
     if target_m > h_hi {
@@ -62,7 +75,7 @@ pub fn mer_for_height(base: &PlumeParams, target_m: f64) -> Result<MerSolution, 
     for _ in 0..60 {
         let mid = 0.5 * (lo + hi);
         runs += 1;
-        match top(base, mid.exp())? {
+        match top(base, mid.exp(), env)? {
             // A collapsing column is too weak: more mass.
             None => lo = mid,
             Some((h, p)) => {
