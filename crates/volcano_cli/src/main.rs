@@ -73,6 +73,10 @@ enum Command {
         /// Output directory of the single-slice run.
         #[arg(long, required_unless_present = "export")]
         out: Option<PathBuf>,
+        /// Solve for the mass eruption rate whose column tops out this high above the vent
+        /// (km; inverse control, bisection on the single-slice model); written to summary.json.
+        #[arg(long, conflicts_with = "mer")]
+        target_height_km: Option<f64>,
         /// Export PLY frames to this directory instead.
         #[arg(long)]
         export: Option<PathBuf>,
@@ -151,16 +155,22 @@ fn main() -> ExitCode {
             }
             ExitCode::SUCCESS
         }
-        Command::Plume { params, out, export, frames, frame_seconds, start_seconds } => match (export, out) {
-            (Some(dir), _) => export::export(&params.params(), &dir, frames, frame_seconds, start_seconds),
-            (None, Some(out)) => plume::plume(&params, &out),
-            (None, None) => ExitCode::from(2),
-        },
+        Command::Plume { params, out, target_height_km, export, frames, frame_seconds, start_seconds } => {
+            match (export, out) {
+                (Some(dir), _) => {
+                    with_params(&params, |p| export::export(p, &dir, frames, frame_seconds, start_seconds))
+                }
+                (None, Some(out)) => plume::plume(&params, target_height_km, &out),
+                (None, None) => ExitCode::from(2),
+            }
+        }
         Command::PlumeThreshold { params } => plume::threshold(&params),
-        Command::PlumePlots { params, out } => plots::plume_plots(&params.params(), &out),
+        Command::PlumePlots { params, out } => with_params(&params, |p| plots::plume_plots(p, &out)),
         Command::Lava(args) => domains::lava(&args),
         Command::Atmosphere(args) => domains::atmosphere(&args),
-        Command::Pyroclastic { params, seconds, out } => pyroclastic::run(&params.params(), seconds, &out),
+        Command::Pyroclastic { params, seconds, out } => {
+            with_params(&params, |p| pyroclastic::run(p, seconds, &out))
+        }
         Command::Eruption { scenario, seconds, grid, out } => eruption::run(scenario, seconds, grid, &out),
         Command::Render { scene, ticks, out, width, height, min_stddev, plume_view, lava_view, camera } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
@@ -180,6 +190,20 @@ fn parse_camera(text: &str) -> Result<CameraSpec, String> {
         return Err(format!("expected 6 comma-separated numbers, got {}", v.len()));
     };
     Ok(CameraSpec { focus: (fx, fy, fz), yaw_deg, pitch_deg, distance })
+}
+
+/// Runs `f` with the command line's plume parameters, or exits 2 with the error.
+fn with_params(
+    args: &plume::PlumeArgs,
+    f: impl FnOnce(&volcano::plume::PlumeParams) -> ExitCode,
+) -> ExitCode {
+    match args.params() {
+        Ok(p) => f(&p),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
 }
 
 /// `--plume-view` values.

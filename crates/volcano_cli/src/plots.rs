@@ -1,11 +1,14 @@
 //! `volcano plume-plots`: the validation figures of thesis Fig 3.5 as PNG (plotters).
 //! A: slice density vs altitude with the air; B: altitude vs vertical speed for several v0;
 //! C: trajectories (downwind distance vs altitude) for winds of 15/45/105 m/s at 12 km.
+//! For the physical column also `height_vs_mer.png`: top height against mass eruption rate
+//! (10⁴–10⁹ kg/s) beside Mastin et al. (2009).
 
 use std::path::Path;
 use std::process::ExitCode;
 
 use plotters::prelude::*;
+use volcano::plume::model::params::Dynamics;
 use volcano::plume::model::run::{TrajectorySample, run_single_slice};
 use volcano::plume::{PlumeParams, WindProfile};
 
@@ -37,11 +40,15 @@ pub fn plume_plots(base: &PlumeParams, out: &Path) -> ExitCode {
         density(base, &out.join("fig3_5a.png"))?;
         speeds(base, &out.join("fig3_5b.png"))?;
         winds(base, &out.join("fig3_5c.png"))?;
+        if base.dynamics == Dynamics::Column {
+            height_vs_mer(base, &out.join("height_vs_mer.png"))?;
+        }
         Ok(())
     };
     match run() {
         Ok(()) => {
-            println!("wrote fig3_5a.png, fig3_5b.png, fig3_5c.png to {}", out.display());
+            let extra = if base.dynamics == Dynamics::Column { ", height_vs_mer.png" } else { "" };
+            println!("wrote fig3_5a.png, fig3_5b.png, fig3_5c.png{extra} to {}", out.display());
             ExitCode::SUCCESS
         }
         Err(e) => {
@@ -137,6 +144,61 @@ fn winds(base: &PlumeParams, path: &Path) -> Plot {
             .label(format!("wind {w} m/s at 12 km"))
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c));
     }
+    chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
+    root.present()?;
+    Ok(())
+}
+
+/// Mastin et al. (2009): top height above the vent (km) for a mass eruption rate (kg/s),
+/// `H = 2.00 V^0.241` with V the dense-rock volume rate at 2,500 kg/m³.
+pub fn mastin_km(mer: f64) -> f64 {
+    2.0 * (mer / 2_500.0).powf(0.241)
+}
+
+fn height_vs_mer(base: &PlumeParams, path: &Path) -> Plot {
+    // 26 rates, 5 per decade, each with the vent sized by the preset's rule.
+    let mers: Vec<f64> = (0..=25).map(|k| 10f64.powf(4.0 + 0.2 * k as f64)).collect();
+    let mut tops = Vec::new();
+    for &mer in &mers {
+        let p = base.with_mer(mer, None)?;
+        let s = run_single_slice(&p, 7_200.0, 0.0)?.0;
+        tops.push((mer, s.apex_m / 1_000.0, s.regime == "plume"));
+    }
+    let root = BitMapBackend::new(path, (800, 600)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Top height vs mass eruption rate (no wind)", ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(65)
+        .build_cartesian_2d((1e4f64..1e9).log_scale(), (1.0f64..80.0).log_scale())?;
+    chart
+        .configure_mesh()
+        .x_desc("mass eruption rate (kg/s, log)")
+        .y_desc("top above the vent (km, log)")
+        .draw()?;
+    let mastin = |f: f64| mers.iter().map(move |&m| (m, f * mastin_km(m)));
+    chart
+        .draw_series(LineSeries::new(mastin(1.0), BLACK.stroke_width(2)))?
+        .label("Mastin et al. (2009)")
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], BLACK));
+    let grey = RGBColor(150, 150, 150);
+    chart
+        .draw_series(LineSeries::new(mastin(1.3), grey.stroke_width(1)))?
+        .label("Mastin ±30 %")
+        .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], grey));
+    chart.draw_series(LineSeries::new(mastin(0.7), grey.stroke_width(1)))?;
+    chart
+        .draw_series(LineSeries::new(
+            tops.iter().filter(|t| t.2).map(|t| (t.0, t.1)),
+            COLORS[0].stroke_width(2),
+        ))?
+        .label(format!("physical column (n = {}, T0 = {} K)", base.gas_fraction, base.t0))
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], COLORS[0]));
+    chart.draw_series(tops.iter().map(|t| {
+        let style = if t.2 { COLORS[0].filled() } else { COLORS[1].filled() };
+        Circle::new((t.0, t.1.max(1.0)), 4, style)
+    }))?;
     chart.configure_series_labels().border_style(BLACK).background_style(WHITE).draw()?;
     root.present()?;
     Ok(())

@@ -7,7 +7,10 @@ use std::process::ExitCode;
 
 use clap::{Args, ValueEnum};
 use volcano::core::atmosphere::AtmosphereModel;
-use volcano::plume::model::run::{TrajectorySample, collapse_threshold, run_single_slice};
+use volcano::plume::model::inverse::mer_for_height;
+use volcano::plume::model::run::{
+    SingleSliceSummary, TrajectorySample, collapse_threshold, run_single_slice,
+};
 use volcano::plume::{PlumeParams, Preset, WindProfile};
 
 /// Preset names on the command line.
@@ -21,6 +24,9 @@ pub enum PresetArg {
     /// Table 3.1 at v0 = 70 m/s: collapsing column (Fig 3.6).
     #[value(name = "pyroclastic_showcase")]
     PyroclasticShowcase,
+    /// The physical column: vent density from the gas fraction, expansion with pressure,
+    /// Woods (1988) entrainment; calibrated against Mastin (2009) and Costa (2016).
+    Physical,
 }
 
 /// Atmosphere names on the command line.
@@ -59,6 +65,13 @@ pub struct PlumeArgs {
     /// Initial temperature T0 (K).
     #[arg(long, allow_negative_numbers = true)]
     t0: Option<f64>,
+    /// Mass eruption rate (kg/s): sizes the vent radius from MER = ρ0 π r0² v0 (with --v0 if
+    /// given, else the rule v0 = 40 (MER/1e4)^0.18 m/s, which keeps the column buoyant).
+    #[arg(long, allow_negative_numbers = true, conflicts_with = "r0")]
+    mer: Option<f64>,
+    /// Magmatic gas (water) mass fraction n; sets the vent density of the physical preset.
+    #[arg(long, allow_negative_numbers = true)]
+    gas_fraction: Option<f64>,
     /// Vent altitude above sea level (m).
     #[arg(long, allow_negative_numbers = true)]
     vent_altitude: Option<f64>,
@@ -77,13 +90,15 @@ pub struct PlumeArgs {
 }
 
 impl PlumeArgs {
-    /// The preset with the command-line overrides applied.
-    pub fn params(&self) -> PlumeParams {
+    /// The preset with the command-line overrides applied, validated.
+    pub fn params(&self) -> Result<PlumeParams, volcano::core::error::ConfigError> {
         let mut p = match self.preset {
             PresetArg::Thesis => Preset::Thesis.params(),
             PresetArg::PlinianShowcase => Preset::PlinianShowcase.params(),
             PresetArg::PyroclasticShowcase => Preset::PyroclasticShowcase.params(),
+            PresetArg::Physical => Preset::Physical.params(),
         };
+        p.gas_fraction = self.gas_fraction.unwrap_or(p.gas_fraction);
         p.v0 = self.v0.unwrap_or(p.v0);
         p.r0 = self.r0.unwrap_or(p.r0);
         p.rho0 = self.rho0.unwrap_or(p.rho0);
@@ -103,14 +118,48 @@ impl PlumeArgs {
                 AtmosphereArg::Ussa76 => AtmosphereModel::UsStandard1976,
             };
         }
-        p
+        p.validate()?;
+        match self.mer {
+            Some(mer) => p.with_mer(mer, self.v0),
+            None => Ok(p),
+        }
     }
 }
 
-/// `volcano plume`: writes `summary.json` and `trajectory.csv` into `out`.
-pub fn plume(args: &PlumeArgs, out: &Path) -> ExitCode {
-    let p = args.params();
-    let (summary, traj) = match run_single_slice(&p, 3_600.0, 0.1) {
+/// `summary.json` of `volcano plume`: the single-slice summary and the vent.
+#[derive(Debug, serde::Serialize)]
+struct PlumeSummary {
+    #[serde(flatten)]
+    run: SingleSliceSummary,
+    /// Mass delivered per second by the emitted slices (the thesis preset's is twice the vent
+    /// flux ρ0 π r0² v0; the physical preset's is the vent flux).
+    mer_kg_s: f64,
+    /// Vent density of the mixture (kg/m³).
+    vent_density_kg_m3: f64,
+    /// Vent radius (m).
+    vent_radius_m: f64,
+    /// Exit speed (m/s).
+    exit_speed_m_s: f64,
+    /// Requested top (km above the vent) when the rate was solved for it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    target_height_km: Option<f64>,
+}
+
+/// `volcano plume`: writes `summary.json` and `trajectory.csv` into `out`; with a target height
+/// the mass eruption rate is solved for first (inverse control).
+pub fn plume(args: &PlumeArgs, target_height_km: Option<f64>, out: &Path) -> ExitCode {
+    let solved = args.params().and_then(|p| match target_height_km {
+        Some(km) => mer_for_height(&p, km * 1_000.0).map(|s| s.params),
+        None => Ok(p),
+    });
+    let p = match solved {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let (run, traj) = match run_single_slice(&p, 7_200.0, 0.1) {
         Ok(r) => r,
         Err(e) => {
             eprintln!("error: {e}");
@@ -120,6 +169,14 @@ pub fn plume(args: &PlumeArgs, out: &Path) -> ExitCode {
     // Output frame: x downwind (the wind's direction aloft), whatever the input direction.
     let w = p.wind.at(1.0e5);
     let downwind_deg = if w.length() > 0.0 { w.y.atan2(w.x).to_degrees() } else { 0.0 };
+    let summary = PlumeSummary {
+        run,
+        mer_kg_s: p.mass_eruption_rate(),
+        vent_density_kg_m3: p.vent_density(),
+        vent_radius_m: p.r0,
+        exit_speed_m_s: p.v0,
+        target_height_km,
+    };
     if let Err(e) = write_outputs(out, &summary, &traj, downwind_deg) {
         eprintln!("error: cannot write to {}: {e}", out.display());
         return ExitCode::FAILURE;
@@ -155,7 +212,7 @@ fn write_outputs(
 
 /// `volcano plume-threshold`: the collapse threshold on v0 by bisection, as JSON.
 pub fn threshold(args: &PlumeArgs) -> ExitCode {
-    match collapse_threshold(&args.params(), 1.0, 1_000.0, 0.01) {
+    match args.params().and_then(|p| collapse_threshold(&p, 1.0, 1_000.0, 0.01)) {
         Ok(t) => {
             println!("{}", serde_json::json!({ "threshold_m_s": t }));
             ExitCode::SUCCESS

@@ -79,6 +79,24 @@ impl Eruption {
         Self { params: crate::Preset::PlinianShowcase.params(), ..Self::thesis() }
     }
 
+    /// The physical column (preset `physical`, docs/ARCHITECTURE.md §4.5): 3 wt% gas, 1,273 K,
+    /// r₀ = 100 m, v₀ = 150 m/s, 2.7·10⁷ kg/s.
+    pub fn physical() -> Self {
+        Self { params: crate::Preset::Physical.params(), ..Self::thesis() }
+    }
+
+    /// This eruption with the mass eruption rate that makes its column top out `km` above the
+    /// vent under its own atmosphere and wind (bisection on the single-slice model,
+    /// [`crate::model::inverse::mer_for_height`]; the vent follows
+    /// [`PlumeParams::with_mer`] without a given exit speed). Errors when no rate in
+    /// 10²–10¹⁰ kg/s reaches the height.
+    pub fn with_target_height(self, km: f64) -> Result<Self, ConfigError> {
+        let solved = crate::model::inverse::mer_for_height(&self.params, km * 1_000.0)?;
+        let e = Self { params: solved.params, ..self };
+        e.validate()?;
+        Ok(e)
+    }
+
     /// A collapsing column (preset `pyroclastic_showcase`, v₀ = 70 m/s): falls back from
     /// ≈255 m. Until the pyroclastic model lands, collapsed slices are removed.
     pub fn pyroclastic() -> Self {
@@ -93,6 +111,11 @@ pub struct EmissionState {
     pub since_last: f64,
     /// Slices emitted so far.
     pub emitted: u64,
+    /// Slices that were due at the end of the last step but not emitted (more than
+    /// `plugin::MAX_EMISSIONS_PER_STEP` per step); carried to the next steps.
+    pub backlog: u64,
+    /// Steps that ended with a backlog.
+    pub capped_steps: u64,
 }
 
 /// Where the solid (ash) mass an eruption emitted went, as far as the plume knows (kg). The

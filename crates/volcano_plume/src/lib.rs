@@ -17,7 +17,7 @@ pub use components::{
     PlumeCollapsed, PlumeSlice, S1, Umbrella, UmbrellaSpreading,
 };
 pub use model::ambient::{AmbientLevel, LayeredAmbient};
-pub use model::params::{PlumeParams, Preset};
+pub use model::params::{Dynamics, PlumeParams, Preset};
 pub use model::pyroclastic::PyroclasticParams;
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
 pub use model::wind::WindProfile;

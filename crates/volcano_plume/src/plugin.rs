@@ -8,9 +8,10 @@ use bevy::prelude::*;
 use volcano_core::prelude::*;
 
 use crate::components::*;
+use crate::model::params::Dynamics;
 use crate::model::slice::{Phase, Slice, SliceEnv};
 use crate::model::spheres::{SphereParams, s1_ring};
-use crate::model::umbrella::UmbrellaSphere;
+use crate::model::umbrella::{Spread, UmbrellaSphere, buoyancy_frequency, gravity_current_coefficient};
 
 /// Schedule of the plume domain.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
@@ -60,8 +61,9 @@ fn emit_slices(
         }
         emission.since_last += dt;
         let interval = eruption.params.emission_interval();
-        // Emit at most a few per step so a huge edit cannot flood the world.
-        let mut budget = 4;
+        // At most a few per step so a huge edit cannot flood the world; what is due beyond
+        // that is carried to the next steps and reported (`EmissionState::backlog`).
+        let mut budget = MAX_EMISSIONS_PER_STEP;
         while emission.since_last >= interval && budget > 0 {
             emission.since_last -= interval;
             budget -= 1;
@@ -73,12 +75,20 @@ fn emit_slices(
                 PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0, ash_pending: 0.0 };
             spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Plume slice {index}"));
         }
-        if emission.since_last >= interval {
-            // Drop the backlog rather than accumulate it.
-            emission.since_last = 0.0;
+        let backlog = (emission.since_last / interval).floor() as u64;
+        if backlog > 0 && emission.backlog == 0 {
+            warn!(
+                "eruption {entity}: slices are due every {interval:.2e} s, more than {MAX_EMISSIONS_PER_STEP} per \
+                 {dt:.2e} s step; {backlog} carried to the next steps (EmissionState::backlog)"
+            );
         }
+        emission.backlog = backlog;
+        emission.capped_steps += u64::from(backlog > 0);
     }
 }
+
+/// Most slices an eruption emits per plume step.
+pub const MAX_EMISSIONS_PER_STEP: u32 = 4;
 
 /// Spawns a slice and its s1 ring (sizes and offset from the slice's own random stream).
 pub(crate) fn spawn_slice(
@@ -138,7 +148,7 @@ fn step_slices(
             }
             None => {
                 let wind = |z: f64| p.wind.at(z);
-                slice.state.step(p, &SliceEnv { air: p.atmosphere.profile(), vent_altitude, wind: &wind }, dt)
+                slice.state.step(p, &SliceEnv { air: &p.air(), vent_altitude, wind: &wind }, dt)
             }
         };
         slice.ash_pending += report.sedimented;
@@ -193,6 +203,7 @@ fn step_slices(
             }
         }
         let share = 1.0 / ring.len().max(1) as f64;
+        let spread = umbrella_spread(&slice, eruptions.get(slice.volcano).ok().map(|(_, e, a, _)| (e, a)));
         for (k, &(sphere_entity, s1)) in ring.iter().enumerate() {
             if phase == Phase::Umbrella {
                 // Spread radially around the column axis in the direction of the sphere's place
@@ -201,14 +212,18 @@ fn step_slices(
                 let ring = s1.sphere.local_offset(s.r);
                 let axis = s.position.truncate();
                 let dir = DVec2::new(ring.x, ring.y).try_normalize().unwrap_or(DVec2::X);
+                // A gravity current is fed on the axis: its spheres start there and move at
+                // the front speed of wherever they are.
+                let d = if matches!(spread, Spread::Thesis) { 0.5 * s.r } else { 0.0 };
                 let kin = UmbrellaSphere {
                     axis,
                     direction: dir,
-                    d: 0.5 * s.r,
+                    d,
                     r: s.r,
                     v_neutral: s.neutral_speed.unwrap_or(0.0),
                     z_apex: s.apex,
                     z_neutral: s.neutral_altitude.unwrap_or(s.apex),
+                    spread,
                 };
                 commands.entity(sphere_entity).remove::<S1>().insert(Umbrella {
                     volcano: slice.volcano,
@@ -231,6 +246,28 @@ fn step_slices(
             commands.entity(entity).despawn();
         }
     }
+}
+
+/// How a slice's umbrella spheres spread: the thesis' law, or for a column slice a gravity
+/// current fed by the column's volume rate at the top (the slice's volume over the emission
+/// interval) in the air's buoyancy frequency at the neutral level.
+fn umbrella_spread(slice: &PlumeSlice, eruption: Option<(&Eruption, Option<&PlumeAmbient>)>) -> Spread {
+    let Some((eruption, ambient)) = eruption else { return Spread::Thesis };
+    let p = &eruption.params;
+    if p.dynamics != Dynamics::Column {
+        return Spread::Thesis;
+    }
+    let s = &slice.state;
+    let z = slice.vent.y as f64 + s.neutral_altitude.unwrap_or(s.apex);
+    let (n, floored) = match ambient {
+        Some(PlumeAmbient(a)) => buoyancy_frequency(a, z),
+        None => buoyancy_frequency(&p.air(), z),
+    };
+    if floored {
+        debug!("umbrella at {z:.0} m: unstable air, buoyancy frequency raised to its floor");
+    }
+    let q = s.volume() / p.emission_interval();
+    Spread::GravityCurrent { c: gravity_current_coefficient(p.umbrella_lambda, n, q) }
 }
 
 fn step_umbrella(

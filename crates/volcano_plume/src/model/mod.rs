@@ -2,7 +2,10 @@
 //! implements.
 
 pub mod ambient;
+pub mod column;
 pub mod deposit;
+pub mod humid;
+pub mod inverse;
 pub mod params;
 pub mod pyroclastic;
 pub mod run;

@@ -2,7 +2,7 @@
 
 use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
-use volcano_core::atmosphere::AtmosphereModel;
+use volcano_core::atmosphere::{AtmosphereModel, AtmosphereProfile};
 use volcano_core::error::{ConfigError, in_range, positive};
 
 use super::wind::WindProfile;
@@ -46,7 +46,41 @@ pub struct PlumeParams {
     /// Magmatic gas (water vapour) mass fraction n of the erupted mixture. The rest, `1 − n`,
     /// is solid (ash) that the column sheds into the atmosphere when coupled. The thesis has
     /// no gas fraction; 0.03 (3 wt%, the usual Plinian value, e.g. Woods 1988) is the default.
+    /// With [`Dynamics::Column`] it also sets the vent density ([`PlumeParams::vent_density`]).
     pub gas_fraction: f64,
+    /// Which slice equations run: the thesis' (Table 3.1 reading, docs/ARCHITECTURE.md §4.1)
+    /// or the physical column (§4.5). The thesis' ones by default.
+    pub dynamics: Dynamics,
+    /// Density of the solid (ash) phase (kg/m³), for the vent density and the column's
+    /// equation of state ([`Dynamics::Column`] only). 2,500 kg/m³ as the dense-rock density of
+    /// Mastin et al. (2009).
+    pub solid_density: f64,
+    /// Relative humidity (0–1) of the ambient air of a stand-alone run (a coupled column reads
+    /// the simulated atmosphere's moisture instead). 0: the dry standard profile.
+    pub relative_humidity: f64,
+    /// Seconds between the column's slices ([`Dynamics::Column`]); 0 (the default) takes
+    /// `r₀/v₀`, a first slice as long as it is wide. The column's dynamics do not depend on it
+    /// (every extensive quantity of a slice scales with it): it sets how finely the column is
+    /// cut into slices, i.e. how many entities it takes.
+    pub slice_interval: f64,
+    /// Spreading coefficient λ of the umbrella as a gravity current ([`Dynamics::Column`]),
+    /// `R = (3 λ N Q / 2π)^{1/3} t^{2/3}` (Woods & Kienle 1994; λ = 0.2 from Suzuki &
+    /// Koyaguchi 2009, as used by Costa et al. 2013).
+    pub umbrella_lambda: f64,
+}
+
+/// The slice equations a [`PlumeParams`] runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect, Serialize, Deserialize)]
+pub enum Dynamics {
+    /// The thesis' slice (§3.4 as read in docs/ARCHITECTURE.md §4.1): `V = π r³`, a slice every
+    /// `r₀/(2v₀)`, the ring entrainment of eq 3.7, contraction on mixing, the `v r/d` umbrella.
+    #[default]
+    Thesis,
+    /// A slice of a sustained column (docs/ARCHITECTURE.md §4.5, `model::column`): a cylinder as
+    /// long as the distance to the next slice, volume from the equation of state of gas and
+    /// solid (expands as the pressure falls), Woods' (1988) entrainment and enthalpy, a
+    /// gravity-current umbrella. Reduces to Woods' steady top-hat plume.
+    Column,
 }
 
 impl Default for PlumeParams {
@@ -68,6 +102,11 @@ impl Default for PlumeParams {
             vent_altitude: 0.0,
             wind: WindProfile::Calm,
             gas_fraction: 0.03,
+            dynamics: Dynamics::Thesis,
+            solid_density: 2_500.0,
+            relative_humidity: 0.0,
+            slice_interval: 0.0,
+            umbrella_lambda: 0.2,
         }
     }
 }
@@ -83,11 +122,15 @@ pub enum Preset {
     PlinianShowcase,
     /// Table 3.1 at v₀ = 70 m/s: a collapsing column (Fig 3.6).
     PyroclasticShowcase,
+    /// The physical column ([`Dynamics::Column`]) calibrated against Mastin et al. (2009) and
+    /// Costa et al. (2016): 3 wt% gas, 1,273 K, r₀ = 100 m, v₀ = 150 m/s (2.7·10⁷ kg/s).
+    Physical,
 }
 
 impl Preset {
     /// Every preset.
-    pub const ALL: [Preset; 3] = [Preset::Thesis, Preset::PlinianShowcase, Preset::PyroclasticShowcase];
+    pub const ALL: [Preset; 4] =
+        [Preset::Thesis, Preset::PlinianShowcase, Preset::PyroclasticShowcase, Preset::Physical];
 
     /// File name stem of the preset.
     pub fn name(self) -> &'static str {
@@ -95,6 +138,7 @@ impl Preset {
             Preset::Thesis => "thesis",
             Preset::PlinianShowcase => "plinian_showcase",
             Preset::PyroclasticShowcase => "pyroclastic_showcase",
+            Preset::Physical => "physical",
         }
     }
 
@@ -104,6 +148,7 @@ impl Preset {
             Preset::Thesis => include_str!("../../presets/thesis.ron"),
             Preset::PlinianShowcase => include_str!("../../presets/plinian_showcase.ron"),
             Preset::PyroclasticShowcase => include_str!("../../presets/pyroclastic_showcase.ron"),
+            Preset::Physical => include_str!("../../presets/physical.ron"),
         }
     }
 
@@ -140,6 +185,14 @@ impl PlumeParams {
         in_range("dt", self.dt, 1e-5, 0.1)?;
         in_range("vent_altitude", self.vent_altitude, -1_000.0, 9_000.0)?;
         in_range("gas_fraction", self.gas_fraction, 0.0, 0.99)?;
+        in_range("solid_density", self.solid_density, 100.0, 5_000.0)?;
+        in_range("relative_humidity", self.relative_humidity, 0.0, 1.0)?;
+        in_range("umbrella_lambda", self.umbrella_lambda, 0.01, 10.0)?;
+        in_range("slice_interval", self.slice_interval, 0.0, 600.0)?;
+        if self.dynamics == Dynamics::Column {
+            // The mixture must hold some gas to expand, and the vent density must be finite.
+            in_range("gas_fraction", self.gas_fraction, 1e-3, 0.99)?;
+        }
         self.wind.validate()
     }
 
@@ -150,11 +203,88 @@ impl PlumeParams {
         Ok(p)
     }
 
-    /// Seconds between slice emissions, `r₀ / (2 v₀)` (§3.4.1).
+    /// Seconds between slice emissions: `r₀ / (2 v₀)` for the thesis (§3.4.1); for the column
+    /// `slice_interval`, or `r₀ / v₀` when it is 0. A column slice leaves the vent as a
+    /// cylinder of radius r₀ and length `v₀ Δt_e`, so it carries exactly the vent's mass flux
+    /// `ρ₀ π r₀² v₀` over the interval.
     pub fn emission_interval(&self) -> f64 {
-        self.r0 / (2.0 * self.v0)
+        match self.dynamics {
+            Dynamics::Thesis => self.r0 / (2.0 * self.v0),
+            Dynamics::Column if self.slice_interval > 0.0 => self.slice_interval,
+            Dynamics::Column => self.r0 / self.v0,
+        }
+    }
+
+    /// Length of a slice at the vent (m): `r₀` for the thesis, `v₀ Δt_e` for the column.
+    pub fn vent_slice_length(&self) -> f64 {
+        match self.dynamics {
+            Dynamics::Thesis => self.r0,
+            Dynamics::Column => self.v0 * self.emission_interval(),
+        }
+    }
+
+    /// The ambient air of a stand-alone run: the chosen profile at `relative_humidity`.
+    pub fn air(&self) -> super::humid::HumidAir {
+        super::humid::HumidAir { base: self.atmosphere, relative_humidity: self.relative_humidity }
+    }
+
+    /// Density of the erupted mixture at the vent (kg/m³): `rho0` for the thesis; for the
+    /// column the gas–solid mixture at the vent's ambient pressure (pressure-balanced vent),
+    /// `1/ρ = n R_v T₀ / p + (1 − n)/ρ_s` (Woods 1988, eq 2).
+    pub fn vent_density(&self) -> f64 {
+        match self.dynamics {
+            Dynamics::Thesis => self.rho0,
+            Dynamics::Column => {
+                let p = self.air().pressure(self.vent_altitude);
+                mixture_density(self.gas_fraction, self.t0, p, self.solid_density)
+            }
+        }
+    }
+
+    /// Mass delivered per second by the emitted slices (kg/s): a slice's mass over the
+    /// emission interval. The column's equals the vent flux `ρ₀ π r₀² v₀` (the mass eruption
+    /// rate); the thesis' is twice it (a slice of `π r₀³` every `r₀/(2v₀)`).
+    pub fn mass_eruption_rate(&self) -> f64 {
+        let volume = std::f64::consts::PI * self.r0 * self.r0 * self.vent_slice_length();
+        self.vent_density() * volume / self.emission_interval()
+    }
+
+    /// The column's exit speed for a mass eruption rate when none is given (m/s):
+    /// `v₀ = 40 · (MER / 10⁴ kg/s)^0.18`, 40 m/s at 10⁴ kg/s, 318 m/s at 10⁹. The column's
+    /// collapse threshold at a fixed rate grows about as `MER^0.2` (17 m/s at 10⁴ kg/s, 170 m/s
+    /// at 10⁹ for 3 wt% and 1,273 K), so this keeps a margin of ≥ 1.5 over 10²–10¹⁰ kg/s
+    /// (tested from 10⁴ to 10⁹ with a 20 % slower vent; docs/ARCHITECTURE.md §4.5).
+    pub fn default_exit_speed(mer: f64) -> f64 {
+        40.0 * (mer / 1e4).powf(0.18)
+    }
+
+    /// These parameters with the vent sized for a mass eruption rate `mer` (kg/s): the exit
+    /// speed `v0` if given, else [`PlumeParams::default_exit_speed`]; the radius from
+    /// `MER = ρ₀ π r₀² v₀`. Errors if `mer` or the resulting vent is out of range.
+    pub fn with_mer(&self, mer: f64, v0: Option<f64>) -> Result<Self, ConfigError> {
+        in_range("mer", mer, 1.0, 1e11)?;
+        let mut p = self.clone();
+        p.v0 = v0.unwrap_or_else(|| Self::default_exit_speed(mer));
+        let rho = p.vent_density();
+        let r0 = match p.dynamics {
+            Dynamics::Column => (mer / (rho * std::f64::consts::PI * p.v0)).sqrt(),
+            Dynamics::Thesis => (mer / (2.0 * rho * std::f64::consts::PI * p.v0)).sqrt(),
+        };
+        p.r0 = r0;
+        p.validate()?;
+        Ok(p)
     }
 }
+
+/// Density of a gas–solid mixture (kg/m³) of gas mass fraction `n` (water vapour, perfect
+/// gas) at temperature `t` (K) and pressure `p` (Pa), solid density `rho_s`:
+/// `1/ρ = n R_v T/p + (1 − n)/ρ_s` (Woods 1988, eq 2).
+pub fn mixture_density(n: f64, t: f64, p: f64, rho_s: f64) -> f64 {
+    1.0 / (n * R_VAPOUR * t / p + (1.0 - n) / rho_s)
+}
+
+/// Gas constant of water vapour (J/kg/K): `R* / 18.015`.
+pub const R_VAPOUR: f64 = volcano_core::units::R_STAR / 18.015;
 
 #[cfg(test)]
 mod tests {
@@ -169,6 +299,7 @@ mod tests {
         assert_eq!(Preset::Thesis.params(), PlumeParams::default(), "thesis.ron is Table 3.1");
         assert_eq!(Preset::PlinianShowcase.params().v0, 200.0);
         assert_eq!(Preset::PyroclasticShowcase.params().v0, 70.0);
+        assert_eq!(Preset::Physical.params().dynamics, Dynamics::Column);
         assert!(Preset::by_name("vesuvius").unwrap_err().to_string().contains("plinian_showcase"));
     }
 }

@@ -360,6 +360,7 @@ pub fn secondary_column(particles: &[Particle], members: &[usize]) -> Option<Sli
     let r = (m / (rho * std::f64::consts::PI)).cbrt();
     Some(Slice {
         r,
+        length: r,
         position: c / m,
         velocity: {
             let v = mv / m;

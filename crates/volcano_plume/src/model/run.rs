@@ -63,13 +63,29 @@ pub fn run_single_slice(
     max_seconds: f64,
     sample_every: f64,
 ) -> Result<(SingleSliceSummary, Vec<TrajectorySample>), ConfigError> {
-    p.validate()?;
-    let air = p.atmosphere.profile();
+    let air = p.air();
     let wind = |z: f64| p.wind.at(z);
-    let env = SliceEnv { air, vent_altitude: p.vent_altitude, wind: &wind };
+    run_single_slice_in(
+        p,
+        &SliceEnv { air: &air, vent_altitude: p.vent_altitude, wind: &wind },
+        max_seconds,
+        sample_every,
+    )
+}
+
+/// [`run_single_slice`] in a given air and wind (e.g. a coupled column's
+/// [`crate::LayeredAmbient`]) instead of the parameters' own.
+pub fn run_single_slice_in(
+    p: &PlumeParams,
+    env: &SliceEnv,
+    max_seconds: f64,
+    sample_every: f64,
+) -> Result<(SingleSliceSummary, Vec<TrajectorySample>), ConfigError> {
+    p.validate()?;
+    let air = env.air;
     let mut s = Slice::at_vent(p);
     let wind_dir = {
-        let w = p.wind.at(1.0e5);
+        let w = (env.wind)(1.0e5);
         if w.length() > 0.0 { w.normalize() } else { DVec2::X }
     };
     let mut samples = Vec::new();
@@ -87,14 +103,14 @@ pub fn run_single_slice(
         r: s.r,
         rho: s.density,
         temperature: s.temperature,
-        rho_air: air.density(p.vent_altitude + s.position.z),
+        rho_air: air.density(env.vent_altitude + s.position.z),
     };
     for _ in 0..steps {
         if sample_every > 0.0 && s.age + 1e-9 >= next_sample {
             samples.push(sample(&s));
             next_sample += sample_every;
         }
-        s.step(p, &env, p.dt);
+        s.step(p, env, p.dt);
         max_downwind = max_downwind.max(s.position.truncate().dot(wind_dir));
         if matches!(s.phase, Phase::Umbrella | Phase::Collapsed) {
             break;

@@ -15,7 +15,7 @@ use bevy::reflect::Reflect;
 use volcano_core::atmosphere::AtmosphereProfile;
 use volcano_core::units::G0;
 
-use super::params::PlumeParams;
+use super::params::{Dynamics, PlumeParams};
 
 /// Density floor for sedimentation (kg/m³), far below any air density in the troposphere.
 pub const MIN_DENSITY: f64 = 1e-3;
@@ -36,8 +36,12 @@ pub enum Phase {
 /// State of one slice.
 #[derive(Debug, Clone, PartialEq, Reflect)]
 pub struct Slice {
-    /// Characteristic size r (m): radius and height of the slice, `V = π r³`.
+    /// Characteristic size r (m): radius of the slice (and its length for the thesis' slice,
+    /// `V = π r³`).
     pub r: f64,
+    /// Length of the slice along its motion (m): `r` for the thesis' slice; for a slice of a
+    /// sustained column the distance to the next one, `|v| Δt_e` (`model::column`).
+    pub length: f64,
     /// Centre position (m), z above the vent.
     pub position: DVec3,
     /// Velocity (m/s).
@@ -87,6 +91,9 @@ pub struct StepReport {
     pub reached_apex: bool,
     /// The slice collapsed during this step.
     pub collapsed: bool,
+    /// Column slices: the speed setting the slice's length was below
+    /// [`crate::model::column::MIN_LENGTH_SPEED`] and was raised to it (near the apex).
+    pub length_speed_floored: bool,
 }
 
 /// Ambient conditions a slice reads: air profile and wind.
@@ -101,14 +108,22 @@ pub struct SliceEnv<'a> {
 
 impl Slice {
     /// A new slice at the vent (§3.4.1): size r₀, velocity v₀ along `direction` (normally +z).
+    /// The column's slice is a cylinder of radius r₀ and length `v₀ Δt_e` at the vent
+    /// density ([`PlumeParams::vent_density`]).
     pub fn at_vent(p: &PlumeParams) -> Self {
-        let volume = std::f64::consts::PI * p.r0.powi(3);
-        let mass = p.rho0 * volume;
+        let (rho0, length) = (p.vent_density(), p.vent_slice_length());
+        let volume = if p.dynamics == Dynamics::Thesis {
+            std::f64::consts::PI * p.r0.powi(3)
+        } else {
+            std::f64::consts::PI * p.r0 * p.r0 * length
+        };
+        let mass = rho0 * volume;
         Self {
             r: p.r0,
+            length,
             position: DVec3::ZERO,
             velocity: DVec3::Z * p.v0,
-            density: p.rho0,
+            density: rho0,
             temperature: p.t0,
             mass,
             phase: Phase::Jet,
@@ -125,9 +140,14 @@ impl Slice {
         }
     }
 
-    /// Volume `V = π r³` (m³).
+    /// Volume (m³): `π r³` for a slice as long as it is wide (every thesis slice), else the
+    /// cylinder `π r² · length`.
     pub fn volume(&self) -> f64 {
-        std::f64::consts::PI * self.r.powi(3)
+        if self.length == self.r {
+            std::f64::consts::PI * self.r.powi(3)
+        } else {
+            std::f64::consts::PI * self.r * self.r * self.length
+        }
     }
 
     /// Advances the slice by `dt` seconds (`p.dt` in stand-alone runs, the plume domain's step
@@ -138,6 +158,9 @@ impl Slice {
         let mut report = StepReport::default();
         if matches!(self.phase, Phase::Umbrella | Phase::Collapsed) || !(dt.is_finite() && dt > 0.0) {
             return report;
+        }
+        if p.dynamics == Dynamics::Column {
+            return super::column::step(self, p, env, dt);
         }
         let air = env.air.sample(env.vent_altitude + self.position.z);
         let (rho_a, t_a) = (air.density, air.temperature);
@@ -175,6 +198,7 @@ impl Slice {
 
         self.temperature = t_new;
         self.r = (volume / std::f64::consts::PI).cbrt();
+        self.length = self.r;
         self.mass = mass;
         self.density = mass / volume;
         self.entrained_mass += m_air;
@@ -206,8 +230,14 @@ impl Slice {
         self.position += v * dt;
         self.age += dt;
         self.apex = self.apex.max(self.position.z);
+        self.update_phase(env, &mut report);
+        report
+    }
 
-        // Phases, evaluated after eq 3.3 (§3.6).
+    /// Phases, evaluated after the velocity update (§3.6): buoyant once lighter than the air,
+    /// neutral when it becomes as dense again, apex (umbrella) or collapse when the vertical
+    /// velocity turns negative.
+    pub(crate) fn update_phase(&mut self, env: &SliceEnv, report: &mut StepReport) {
         let air_here = env.air.density(env.vent_altitude + self.position.z);
         let lighter = self.density < air_here;
         if self.buoyant_from.is_none() && lighter {
@@ -235,7 +265,6 @@ impl Slice {
                 }
             }
         }
-        report
     }
 
     /// Whether every field is finite (debug checks and fuzzing).

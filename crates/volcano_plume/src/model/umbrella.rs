@@ -3,9 +3,53 @@
 //! the slice's expansion `π r² v` spread over a ring of radius `d`), with `v` the slice's vertical
 //! speed when it crossed the neutral-buoyancy altitude and `d ≥ r`, while their altitude
 //! relaxes from the apex toward `z_neutral` along a `1/d` profile.
+//!
+//! The physical column's umbrella ([`Spread::GravityCurrent`]) spreads instead as a gravity
+//! current fed at a constant volume rate Q in air of buoyancy frequency N: its front is at
+//! `R(t) = c t^{2/3}`, `c = (3 λ N Q / 2π)^{1/3}` (Woods & Kienle 1994; λ ≈ 0.2, Suzuki &
+//! Koyaguchi 2009). A sphere at distance d moves at the speed of a front there,
+//! `dd/dt = (2/3) c^{3/2} d^{−1/2}`.
 
 use bevy::math::DVec2;
 use bevy::reflect::Reflect;
+use volcano_core::atmosphere::AtmosphereProfile;
+use volcano_core::units::G0;
+
+/// How the umbrella spreads.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub enum Spread {
+    /// The thesis' `v r / d` (§3.5.2) with `v` the sphere's `v_neutral`.
+    Thesis,
+    /// A gravity current with front `R = c t^{2/3}`; `c` in m/s^{2/3}.
+    GravityCurrent {
+        /// `(3 λ N Q / 2π)^{1/3}`.
+        c: f64,
+    },
+}
+
+/// Coefficient `c = (3 λ N Q / 2π)^{1/3}` (m/s^{2/3}) of a gravity-current umbrella front
+/// `R = c t^{2/3}` (Woods & Kienle 1994), `q` the volume rate into the umbrella (m³/s), `n`
+/// the buoyancy frequency (1/s).
+pub fn gravity_current_coefficient(lambda: f64, n: f64, q: f64) -> f64 {
+    (3.0 * lambda * n * q / (2.0 * std::f64::consts::PI)).max(0.0).cbrt()
+}
+
+/// Smallest buoyancy frequency (1/s) used for the umbrella: where the air is neutral or
+/// unstable (N² ≤ 0) a gravity current is not held up; 10⁻³ s⁻¹ (a tenth of the troposphere's)
+/// keeps the law defined. [`buoyancy_frequency`] says when it acts.
+pub const MIN_BUOYANCY_FREQUENCY: f64 = 1e-3;
+
+/// Buoyancy (Brunt–Väisälä) frequency N (1/s) of the air at altitude `z` (m above sea level):
+/// `N² = (g/T)(dT/dz + g/c_p)` by central differences over ±100 m; the bool is true when N
+/// was raised to [`MIN_BUOYANCY_FREQUENCY`].
+pub fn buoyancy_frequency(air: &dyn AtmosphereProfile, z: f64) -> (f64, bool) {
+    let dz = 100.0;
+    let t = air.temperature(z);
+    let dtdz = (air.temperature(z + dz) - air.temperature(z - dz)) / (2.0 * dz);
+    let n2 = G0 / t * (dtdz + G0 / super::column::CP_AIR);
+    let n = n2.max(0.0).sqrt();
+    if n < MIN_BUOYANCY_FREQUENCY { (MIN_BUOYANCY_FREQUENCY, true) } else { (n, false) }
+}
 
 /// A detached sphere of the umbrella.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect)]
@@ -24,6 +68,8 @@ pub struct UmbrellaSphere {
     pub z_apex: f64,
     /// Neutral-buoyancy altitude (m).
     pub z_neutral: f64,
+    /// Spreading law.
+    pub spread: Spread,
 }
 
 /// Radial speed `v r / d` (m/s), with `d` clamped to at least `r` (§3.5.2).
@@ -50,7 +96,15 @@ impl UmbrellaSphere {
     /// Advances by `dt`. `dd/dt = v r / d` has the exact solution `d² = d₀² + 2 v r t`, used
     /// here so any time step is stable and step-size independent.
     /// Inside `d < r` the speed is `v` (the clamp), so the sphere moves linearly until `d = r`.
+    ///
+    /// A gravity current: `d^{3/2} = d₀^{3/2} + c^{3/2} t`, exact for any step.
     pub fn step(&mut self, dt: f64) {
+        if let Spread::GravityCurrent { c } = self.spread {
+            let t = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
+            let c = if c.is_finite() { c.max(0.0) } else { 0.0 };
+            self.d = (self.d.max(0.0).powf(1.5) + c.powf(1.5) * t).powf(2.0 / 3.0);
+            return;
+        }
         let v = self.v_neutral.max(0.0);
         let mut t = if dt.is_finite() { dt.max(0.0) } else { 0.0 };
         if v == 0.0 || t == 0.0 {
@@ -82,6 +136,7 @@ mod tests {
             v_neutral: 60.0,
             z_apex: 10_200.0,
             z_neutral: 7_400.0,
+            spread: Spread::Thesis,
         }
     }
 
@@ -128,5 +183,28 @@ mod tests {
         still.step(100.0);
         assert_eq!(still.d, 300.0);
         assert_eq!(radial_speed(50.0, 100.0, 10.0), 50.0, "d is clamped to r");
+    }
+
+    #[test]
+    fn gravity_current_front_grows_as_t_two_thirds_at_any_step() {
+        // From the axis, stepped finely: the front doubles its age → grows by 2^{2/3}.
+        let c = gravity_current_coefficient(0.2, 0.012, 4e8);
+        let mut s = UmbrellaSphere { d: 0.0, spread: Spread::GravityCurrent { c }, ..sphere() };
+        let mut at = Vec::new();
+        for k in 1..=4000 {
+            s.step(0.25);
+            if k % 1000 == 0 {
+                at.push(s.d);
+            }
+        }
+        let slope = (at[3] / at[1]).ln() / 2f64.ln();
+        assert!((slope - 2.0 / 3.0).abs() < 1e-9, "exponent {slope}");
+        // The same in one step, and the thesis law (d ∝ t^{1/2}) is a different exponent.
+        let mut one = UmbrellaSphere { d: 0.0, spread: Spread::GravityCurrent { c }, ..sphere() };
+        one.step(1000.0);
+        assert!((one.d - at[3]).abs() < 1e-6 * at[3]);
+        // A standard troposphere holds it up (N ≈ 0.011 /s); an isothermal-free adiabat does not.
+        let (n, floored) = buoyancy_frequency(&volcano_core::UsStandard1976, 5_000.0);
+        assert!((n - 0.0114).abs() < 0.001 && !floored, "N = {n}");
     }
 }
