@@ -30,6 +30,7 @@ fn app(cadence: u32, ticks_per_update: u32, off_thread: bool) -> App {
         AtmospherePlugin { cadence: Cadence::EveryNthTick(cadence) },
     ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
+    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
     .insert_resource(WeatherPipelineSettings { off_thread })
     .init_resource::<Stepped>()
     .add_systems(Last, record);

@@ -119,7 +119,8 @@ fn flank_patches_conserve_volume_and_the_terrain_gains_exactly_the_frozen_lava()
 fn a_patch_goes_on_the_terrain_that_contains_it() {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
     let small = app.world_mut().spawn(Terrain::flat(21, 1.0, 50.0).unwrap()).id();
     let big = app.world_mut().spawn(volcano()).id();
     let inside_both = patch(&mut app, Vec2::new(2.0, 3.0), 8, 1.0, (0.1, 1274.0));

@@ -21,6 +21,7 @@ fn column_app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin, PlumeViewPlugin))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
         .insert_resource(PlumeViewSettings { max_instances: u32::MAX, ..Default::default() });
     app.world_mut().spawn(Terrain::flat(33, 10.0, 0.0).expect("flat terrain"));
     let mut eruption = Eruption::plinian();

@@ -7,9 +7,12 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
-use volcano_core::units::BASE_TICK_SECONDS;
+use volcano_core::units::THESIS_TICK_HZ;
 use volcano_plume::model::run::run_single_slice;
 use volcano_plume::*;
+
+/// Seconds per base tick: these tests run at the thesis' 50 Hz.
+const BASE_TICK_SECONDS: f64 = 1.0 / THESIS_TICK_HZ;
 
 #[derive(Resource, Default, Debug)]
 struct Seen {
@@ -46,6 +49,7 @@ fn app_at(eruption: Eruption, ticks_per_update: u32) -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
+        .insert_resource(Time::<Fixed>::from_hz(THESIS_TICK_HZ))
         .init_resource::<Seen>()
         .add_systems(FixedUpdate, watch.in_set(SimSystems::End));
     app.world_mut().spawn(Terrain::flat(33, 10.0, 0.0).unwrap());
