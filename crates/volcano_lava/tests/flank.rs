@@ -54,7 +54,8 @@ fn patch(app: &mut App, centre: Vec2, n: usize, cell: f64, (rate, kelvin): (f64,
 fn flank_patches_conserve_volume_and_the_terrain_gains_exactly_the_frozen_lava() {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
     // A flat terrain beside the volcano, spawned first: the patches must not be built on it.
     let origin = Vec2::new(150.0, -160.0);
     let heights = Grid2::new(33, 33, 10.0, origin, 5.0f32).unwrap();
@@ -169,7 +170,8 @@ fn eruption_scene_patch_numbers() {
     let terrain = StratovolcanoParams::default().generate().unwrap();
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
     let t = app.world_mut().spawn(terrain).id();
     let placement = Placement { centre: Vec2::new(1721.0, 2457.0), nx: 256, ny: 256, cell: 1.0 };
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
