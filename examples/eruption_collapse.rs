@@ -7,7 +7,9 @@
 //! `volcano render --scene eruption_collapse --ticks 5000`.
 
 use bevy::prelude::AppExit;
+use bevy_egui::EguiPlugin;
+use volcano_egui::VolcanoDebugPlugins;
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("eruption_collapse")
+    volcano::scenes::run_scene_window("eruption_collapse", (EguiPlugin::default(), VolcanoDebugPlugins))
 }
