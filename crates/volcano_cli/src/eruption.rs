@@ -11,7 +11,7 @@ use bevy::prelude::*;
 use serde::Serialize;
 use volcano::coupling::plugin::ash_ledger;
 use volcano::coupling::{CouplingBudget, CouplingSettings};
-use volcano::plume::{DepositMap, Eruption, PlumeSlice, Umbrella, UmbrellaSpreading};
+use volcano::plume::{DepositMap, Eruption, PlumeSlice, Preset, Umbrella, UmbrellaSpreading};
 use volcano::prelude::*;
 use volcano_atmosphere::model::maps::png_bytes;
 use volcano_atmosphere::{AirLayer, Atmosphere, Scenario, spawn_scenario_with};
@@ -98,6 +98,25 @@ pub struct Summary {
     pub temperature_rise_vent_layer_k: f64,
     /// Net water the column wrote into the layers (g).
     pub water_written_g: f64,
+    /// Per layer, bottom up: what the column did to it.
+    pub layers: Vec<LayerSummary>,
+}
+
+/// One layer at the end of the run, and the slice nearest its altitude.
+#[derive(Debug, Serialize)]
+pub struct LayerSummary {
+    /// Centre altitude (m).
+    pub altitude_m: f64,
+    /// Largest condensed water of the layer (g/m³).
+    pub max_condensed_g_m3: f64,
+    /// Cells holding condensed water above the cloud threshold.
+    pub cloudy_cells: usize,
+    /// Largest ash concentration (g/m³).
+    pub max_ash_g_m3: f64,
+    /// Temperature of the slice nearest the layer's altitude (K), if any is within the layer.
+    pub slice_temperature_k: Option<f64>,
+    /// Its water mass fraction (kg/kg of the whole slice, ash included).
+    pub slice_water_fraction: Option<f64>,
 }
 
 #[derive(Resource, Default)]
@@ -114,7 +133,7 @@ fn bearing(east: f64, north: f64) -> f64 {
 }
 
 /// Runs the scenario and writes the outputs.
-pub fn run(which: EruptionScenario, seconds: f64, grid: usize, dir: &Path) -> ExitCode {
+pub fn run(which: EruptionScenario, seconds: f64, grid: usize, preset: Preset, dir: &Path) -> ExitCode {
     if !(seconds.is_finite() && seconds > 0.0 && seconds <= 7_200.0) {
         eprintln!("error: --seconds must be in (0, 7200]");
         return ExitCode::from(2);
@@ -137,7 +156,7 @@ pub fn run(which: EruptionScenario, seconds: f64, grid: usize, dir: &Path) -> Ex
     }
     let mut app = crate::sim_app();
     app.init_resource::<Apex>().add_systems(FixedUpdate, record.in_set(SimSystems::End));
-    let mut eruption = Eruption::plinian();
+    let mut eruption = Eruption { params: preset.params(), ..Eruption::thesis() };
     if which != EruptionScenario::CloudCap {
         // Coarse ash: out of the umbrella within a minute or so.
         eruption.umbrella_fallout_s = 60.0;
@@ -192,10 +211,12 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
     // Column and umbrella positions relative to the vent (east = +x, north = −z).
     let mut far: f64 = 0.0;
     let mut slices: Vec<(DVec2, f64, f64)> = Vec::new();
+    let mut slice_water: Vec<(f64, f64)> = Vec::new();
     for s in world.query::<&PlumeSlice>().iter(world) {
         let p = s.state.position;
         far = far.max(p.truncate().length());
         slices.push((DVec2::new(vent.x as f64 + p.x, vent.z as f64 - p.y), vent.y as f64 + p.z, s.state.r));
+        slice_water.push((s.state.temperature, s.state.water_mass / s.state.mass.max(1e-9)));
     }
     let (mut ue, mut un, mut count) = (0.0, 0.0, 0.0);
     for (u, t) in world.query::<(&Umbrella, &Transform)>().iter(world) {
@@ -306,6 +327,25 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
             }
         }
     }
+    let layer_rows = layers
+        .iter()
+        .map(|l| {
+            let f = &l.fields;
+            let inside = slices
+                .iter()
+                .zip(&slice_water)
+                .filter(|(s, _)| s.1 >= f.bottom && s.1 < f.bottom + f.thickness)
+                .min_by(|a, b| (a.0.1 - f.altitude).abs().total_cmp(&(b.0.1 - f.altitude).abs()));
+            LayerSummary {
+                altitude_m: f.altitude,
+                max_condensed_g_m3: f.w.data().iter().copied().fold(0.0, f64::max),
+                cloudy_cells: f.w.data().iter().filter(|&&w| w > threshold).count(),
+                max_ash_g_m3: f.ash.data().iter().copied().fold(0.0, f64::max),
+                slice_temperature_k: inside.map(|(_, w)| w.0),
+                slice_water_fraction: inside.map(|(_, w)| w.1),
+            }
+        })
+        .collect();
     let accounted = ledger.emitted - ledger.imbalance();
     Summary {
         scenario: format!("{which:?}"),
@@ -330,5 +370,6 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
         cloud_cover_far: far_cover,
         temperature_rise_vent_layer_k: rise,
         water_written_g: budget.water_written_g,
+        layers: layer_rows,
     }
 }

@@ -29,6 +29,18 @@ pub enum PresetArg {
     Physical,
 }
 
+impl PresetArg {
+    /// The model's preset of this name.
+    pub fn preset(self) -> Preset {
+        match self {
+            Self::Thesis => Preset::Thesis,
+            Self::PlinianShowcase => Preset::PlinianShowcase,
+            Self::PyroclasticShowcase => Preset::PyroclasticShowcase,
+            Self::Physical => Preset::Physical,
+        }
+    }
+}
+
 /// Atmosphere names on the command line.
 #[derive(Debug, Clone, Copy, ValueEnum)]
 pub enum AtmosphereArg {
@@ -92,12 +104,7 @@ pub struct PlumeArgs {
 impl PlumeArgs {
     /// The preset with the command-line overrides applied, validated.
     pub fn params(&self) -> Result<PlumeParams, volcano::core::error::ConfigError> {
-        let mut p = match self.preset {
-            PresetArg::Thesis => Preset::Thesis.params(),
-            PresetArg::PlinianShowcase => Preset::PlinianShowcase.params(),
-            PresetArg::PyroclasticShowcase => Preset::PyroclasticShowcase.params(),
-            PresetArg::Physical => Preset::Physical.params(),
-        };
+        let mut p = self.preset.preset().params();
         p.gas_fraction = self.gas_fraction.unwrap_or(p.gas_fraction);
         p.v0 = self.v0.unwrap_or(p.v0);
         p.r0 = self.r0.unwrap_or(p.r0);

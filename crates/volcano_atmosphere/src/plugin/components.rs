@@ -4,10 +4,11 @@
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 
-use crate::model::fields::{Ground, LayerFields};
+use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::scenario::Event;
 use crate::model::step::StepReport;
+use volcano_core::error::ConfigError;
 
 /// Schedule of the weather domain: it *starts* a step (docs/ARCHITECTURE.md §3.3).
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
@@ -43,6 +44,23 @@ pub struct Atmosphere {
     pub latitude_deg: f64,
     /// Water precipitated so far (g).
     pub precipitated: f64,
+}
+
+impl Atmosphere {
+    /// A model state with this atmosphere's grid, clock and books, no layers and a default
+    /// ground: the shell the weather snapshot and the cloud renderer fill with their layers.
+    pub fn state_shell(&self) -> Result<AtmosphereState, ConfigError> {
+        Ok(AtmosphereState {
+            grid: GridSpec::new(self.n, self.dx)?,
+            layers: Vec::new(),
+            ground: Ground::default(),
+            time_s: self.time_s,
+            start_hour: self.start_hour,
+            day_of_year: self.day_of_year,
+            latitude_deg: self.latitude_deg,
+            precipitated: self.precipitated,
+        })
+    }
 }
 
 /// One air layer's fields (thesis Table 4.2), on its own entity.

@@ -19,7 +19,7 @@ use super::components::{
     AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped,
 };
 use super::snapshot::{merge_ground, snapshot};
-use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
+use crate::model::fields::{AtmosphereState, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::run::apply_event;
 use crate::model::step::{StepReport, Workspace, step};
@@ -278,21 +278,11 @@ pub(crate) fn start_weather(
                 stepped.write(m);
             }
         }
-        let Ok(grid) = GridSpec::new(atmo.n, atmo.dx) else { continue };
-        if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != grid.n) {
+        let Ok(template) = atmo.state_shell() else { continue };
+        if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != template.grid.n) {
             continue;
         }
         let Some(scratch) = work.work.take() else { continue };
-        let template = AtmosphereState {
-            grid,
-            layers: Vec::new(),
-            ground: Ground::default(),
-            time_s: atmo.time_s,
-            start_hour: atmo.start_hour,
-            day_of_year: atmo.day_of_year,
-            latitude_deg: atmo.latitude_deg,
-            precipitated: atmo.precipitated,
-        };
         let fields: Vec<&LayerFields> = mine.iter().map(|l| &l.fields).collect();
         let mut state = snapshot(work.spare.take(), &fields, &ground.0, template);
         if let Some(mut timeline) = timeline {

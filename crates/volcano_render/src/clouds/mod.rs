@@ -17,7 +17,7 @@ pub use image::{bounding_radius, density_factor, density_image, density_texels, 
 
 use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
 use bevy::prelude::*;
-use volcano_atmosphere::model::fields::{AtmosphereState, GridSpec, Ground};
+use volcano_atmosphere::model::fields::AtmosphereState;
 use volcano_atmosphere::model::volume::{VolumeSpec, coherent_forms, density_volume};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
@@ -125,19 +125,9 @@ impl Plugin for CloudRenderPlugin {
 
 /// Builds the model state the volume functions read (layers only; the ground is not used).
 pub fn cloud_state(atmo: &Atmosphere, layers: &[&AirLayer]) -> Result<AtmosphereState, ConfigError> {
-    let grid = GridSpec::new(atmo.n, atmo.dx)?;
     let mut sorted: Vec<&AirLayer> = layers.to_vec();
     sorted.sort_by_key(|l| l.index);
-    Ok(AtmosphereState {
-        grid,
-        layers: sorted.iter().map(|l| l.fields.clone()).collect(),
-        ground: Ground::default(),
-        time_s: atmo.time_s,
-        start_hour: atmo.start_hour,
-        day_of_year: atmo.day_of_year,
-        latitude_deg: atmo.latitude_deg,
-        precipitated: atmo.precipitated,
-    })
+    Ok(AtmosphereState { layers: sorted.iter().map(|l| l.fields.clone()).collect(), ..atmo.state_shell()? })
 }
 
 /// The voxel grid over a state's layers: from the lowest layer's bottom to one thickness
