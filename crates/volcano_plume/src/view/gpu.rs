@@ -96,7 +96,9 @@ pub fn build_parents(
         let Some(e) = eruptions.get(p.eruption).filter(|_| count > 0) else { continue };
         let (angle, variant) = billboard_look(p, viewpoint);
         let n3 = e.spheres.s3_per_s2.min(255);
-        let rotation = p.rotation.normalize_or(Quat::IDENTITY);
+        // The shader's rotation formula wants a unit quaternion.
+        let q = p.rotation;
+        let rotation = if q.is_finite() && q.length_squared() > 1e-12 { q.normalize() } else { Quat::IDENTITY };
         out.parents.push(AshParent {
             center: p.center.to_array(),
             radius: p.radius,
