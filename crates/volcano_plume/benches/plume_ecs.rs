@@ -17,7 +17,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_core::prelude::*;
-use volcano_plume::view::{update_instances, update_parents};
+use volcano_plume::view::{gather_parents, update_instances, update_parents};
 use volcano_plume::{
     Eruption, PlumeInstances, PlumeParents, PlumePlugin, PlumeSlice, PlumeViewPlugin, PlumeViewSettings, S1,
 };
@@ -66,6 +66,9 @@ fn bench(c: &mut Criterion) {
     group.bench_function("one tick (10 substeps) + GPU-path parents", |b| b.iter(|| app.update()));
     group.bench_function("GPU-path parents only (gather + pack + prefix sum)", |b| {
         b.iter(|| update_parents(app.world_mut()))
+    });
+    group.bench_function("gather parents only (ECS queries + sort)", |b| {
+        b.iter(|| gather_parents(app.world_mut()))
     });
     group.bench_function("CPU instances only (old path)", |b| b.iter(|| update_instances(app.world_mut())));
     // The old frame: the tick without the view system, then the CPU build of every instance.

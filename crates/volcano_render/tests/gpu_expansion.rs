@@ -51,7 +51,10 @@ fn render_device() -> (RenderDevice, RenderQueue) {
 }
 
 fn shader_source() -> String {
-    let wgsl = include_str!("../src/plume/ash.wgsl");
+    // Read at run time (the source tree is there when tests run), so an edit of the shader is
+    // tested without a rebuild.
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/src/plume/ash.wgsl");
+    let wgsl = std::fs::read_to_string(path).expect("ash.wgsl readable");
     let begin = wgsl.find("// BEGIN expansion").expect("BEGIN marker in ash.wgsl");
     let end = wgsl.find("// END expansion").expect("END marker in ash.wgsl");
     format!("{}\n{COMPUTE}", wgsl[begin..end].replace("@group(3)", "@group(0)"))
