@@ -344,17 +344,17 @@ fn fill_parent<'a>(
     let Some(e) = eruptions.get(p.eruption) else { return };
     let (angle, variant) = billboard_look(p, viewpoint);
     let (shade, coverage) = (plan.shade, plan.coverage);
-    if plan.billboard {
-        if let Some(slot) = slots.next() {
-            *slot = AshInstance {
-                center: p.center.to_array(),
-                radius: p.radius * settings.billboard_scale,
-                angle,
-                shade,
-                coverage,
-                kind: 1.0 + variant,
-            };
-        }
+    if plan.billboard
+        && let Some(slot) = slots.next()
+    {
+        *slot = AshInstance {
+            center: p.center.to_array(),
+            radius: p.radius * settings.billboard_scale,
+            angle,
+            shade,
+            coverage,
+            kind: 1.0 + variant,
+        };
     }
     if plan.detail == 0 {
         return;

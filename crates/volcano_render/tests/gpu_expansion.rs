@@ -165,7 +165,10 @@ fn vertex_expansion_matches_the_cpu_enumeration() {
         .filter(|(_, g, c)| g != c)
         .take(5)
         .collect();
-    assert!(wrong_hashes.is_empty(), "WGSL hash32 differs from the Rust one (x, gpu, cpu): {wrong_hashes:x?}");
+    assert!(
+        wrong_hashes.is_empty(),
+        "WGSL hash32 differs from the Rust one (x, gpu, cpu): {wrong_hashes:x?}"
+    );
 
     let mut worst = 0.0f32;
     let mut bad = Vec::new();
@@ -185,6 +188,15 @@ fn vertex_expansion_matches_the_cpu_enumeration() {
             ));
         }
     }
-    eprintln!("{} instances ({detail} detail spheres), worst centre error {worst:.2e} parent radii", cpu.len());
-    assert!(bad.is_empty(), "{} of {} instances differ, first: {:#?}", bad.len(), cpu.len(), &bad[..bad.len().min(4)]);
+    eprintln!(
+        "{} instances ({detail} detail spheres), worst centre error {worst:.2e} parent radii",
+        cpu.len()
+    );
+    assert!(
+        bad.is_empty(),
+        "{} of {} instances differ, first: {:#?}",
+        bad.len(),
+        cpu.len(),
+        &bad[..bad.len().min(4)]
+    );
 }

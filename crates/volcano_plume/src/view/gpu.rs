@@ -98,7 +98,8 @@ pub fn build_parents(
         let n3 = e.spheres.s3_per_s2.min(255);
         // The shader's rotation formula wants a unit quaternion.
         let q = p.rotation;
-        let rotation = if q.is_finite() && q.length_squared() > 1e-12 { q.normalize() } else { Quat::IDENTITY };
+        let rotation =
+            if q.is_finite() && q.length_squared() > 1e-12 { q.normalize() } else { Quat::IDENTITY };
         out.parents.push(AshParent {
             center: p.center.to_array(),
             radius: p.radius,
@@ -163,7 +164,8 @@ pub fn expand_instance(list: &AshParents, index: u32) -> Option<super::AshInstan
     let rot = Quat::from_array(a.rotation).as_dquat();
     let radius = a.radius as f64;
     let key2 = s2_key(a.key, k);
-    let mut center = Vec3::from_array(a.center).as_dvec3() + rot * (lattice_direction(direction_index(key2)) * radius);
+    let mut center =
+        Vec3::from_array(a.center).as_dvec3() + rot * (lattice_direction(direction_index(key2)) * radius);
     let mut r = radius * SphereParams::CHILD_RATIO;
     if j > 0 {
         center += rot * (lattice_direction(direction_index(s3_key(key2, j - 1))) * r);

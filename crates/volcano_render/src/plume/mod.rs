@@ -65,10 +65,7 @@ impl Plugin for PlumeRenderPlugin {
             .register_type::<PlumeRenderMode>()
             .register_type::<AshCloud>()
             .add_systems(Startup, spawn_ash_cloud)
-            .add_systems(
-                PostUpdate,
-                (follow_camera, apply_mode).before(volcano_plume::view::update_parents),
-            );
+            .add_systems(PostUpdate, (follow_camera, apply_mode).before(volcano_plume::view::update_parents));
         debug::build(app);
         pipeline::build(app);
     }
