@@ -1,6 +1,11 @@
 //! The issue's target, measured through the ECS: one 1/50 s base tick (10 plume substeps) with
-//! ≈1,000 live slices and ≈6,000 s1 spheres, plus producing the detail-sphere instances one
-//! rendered frame needs, exactly as the renderer does it ([`PlumeViewPlugin`]'s system).
+//! ≈1,000 live slices and ≈6,000 s1 spheres, plus the CPU work one rendered frame needs for its
+//! ≥500,000 detail-sphere instances, two ways in the same run:
+//!
+//! - GPU expansion (what the renderer does, [`PlumeViewPlugin`]'s system): gather the parents,
+//!   pack them with the prefix sum of their instance counts ([`update_parents`]); the vertex
+//!   shader computes the children;
+//! - the old CPU build of every instance ([`update_instances`], kept as the reference).
 //!
 //! The column is grown by the simulation itself (Plinian preset with a 40 m vent; umbrella
 //! spheres removed as they form, so the counts are the target's), so slices are spread over
@@ -12,9 +17,9 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_core::prelude::*;
-use volcano_plume::view::update_instances;
+use volcano_plume::view::{gather_parents, update_instances, update_parents};
 use volcano_plume::{
-    Eruption, PlumeInstances, PlumePlugin, PlumeSlice, PlumeViewPlugin, PlumeViewSettings, S1,
+    Eruption, PlumeInstances, PlumeParents, PlumePlugin, PlumeSlice, PlumeViewPlugin, PlumeViewSettings, S1,
 };
 
 fn column_app() -> App {
@@ -46,13 +51,37 @@ fn bench(c: &mut Criterion) {
     let slices = count::<PlumeSlice>(&mut app);
     let s1 = count::<S1>(&mut app);
     app.update();
+    update_instances(app.world_mut());
     let instances = app.world().resource::<PlumeInstances>().0.len();
-    eprintln!("state: {slices} slices, {s1} s1 spheres, {instances} instances per frame");
+    let parents = app.world().resource::<PlumeParents>().0.clone();
+    eprintln!(
+        "state: {slices} slices, {s1} s1 spheres, {instances} instances per frame (CPU build), \
+         {} parents packed expanding to {} instances (GPU path)",
+        parents.parents.len(),
+        parents.total()
+    );
+    assert_eq!(parents.total() as usize, instances, "both paths draw the same instances");
     let mut group = c.benchmark_group("plume ecs");
     group.sample_size(20);
-    group.bench_function("one tick (10 substeps) + instances", |b| b.iter(|| app.update()));
-    group.bench_function("instances only", |b| b.iter(|| update_instances(app.world_mut())));
-    app.world_mut().resource_mut::<PlumeViewSettings>().enabled = false;
+    group.bench_function("one tick (10 substeps) + GPU-path parents", |b| b.iter(|| app.update()));
+    group.bench_function("GPU-path parents only (gather + pack + prefix sum)", |b| {
+        b.iter(|| update_parents(app.world_mut()))
+    });
+    group.bench_function("gather parents only (ECS queries + sort)", |b| {
+        b.iter(|| gather_parents(app.world_mut()))
+    });
+    group.bench_function("CPU instances only (old path)", |b| b.iter(|| update_instances(app.world_mut())));
+    // The old frame: the tick without the view system, then the CPU build of every instance.
+    let set_view = |app: &mut App, on: bool| app.world_mut().resource_mut::<PlumeViewSettings>().enabled = on;
+    group.bench_function("one tick (10 substeps) + CPU instances (old path)", |b| {
+        b.iter(|| {
+            set_view(&mut app, false);
+            app.update();
+            set_view(&mut app, true);
+            update_instances(app.world_mut());
+        })
+    });
+    set_view(&mut app, false);
     group.bench_function("one tick (10 substeps), no instances", |b| b.iter(|| app.update()));
     group.finish();
 }

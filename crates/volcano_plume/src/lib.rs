@@ -26,4 +26,7 @@ pub use pyroclastic::{
     DepositMap, PyroParticle, PyroclasticBudget, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery,
     PyroclasticStep, SecondaryColumnFormed,
 };
-pub use view::{AshInstance, PlumeInstances, PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};
+pub use view::{
+    AshInstance, AshParent, AshParents, PlumeInstances, PlumeParents, PlumeViewPlugin, PlumeViewSettings,
+    PlumeViewpoint,
+};

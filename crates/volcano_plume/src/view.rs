@@ -7,6 +7,14 @@
 //! turns them into [`AshInstance`]s: camera-facing smoke billboards for the s1/umbrella
 //! spheres (their texture turned by the spin projected on the screen, §3.7.1) and sphere
 //! impostors for the detail spheres, shaded by density (lighter and thinner aloft).
+//!
+//! The renderer does not upload that list: [`PlumeViewPlugin`] packs only the parents
+//! ([`build_parents`], module `gpu`) and the vertex shader expands the children with the same
+//! 32-bit enumeration. [`build_instances`] stays as the CPU reference (tests, benchmark).
+
+mod gpu;
+
+pub use gpu::{AshParent, AshParents, PlumeParents, build_parents, expand_instance, update_parents};
 
 use std::sync::Arc;
 
@@ -219,7 +227,7 @@ impl Default for PlumeViewSettings {
 #[reflect(Resource)]
 pub struct PlumeViewpoint(pub Option<Vec3>);
 
-/// The instances of the current frame, shared with the render world without a copy.
+/// A frame's instances built on the CPU by [`update_instances`] (the reference path).
 #[derive(Resource, Debug, Clone, Default)]
 pub struct PlumeInstances(pub Arc<Vec<AshInstance>>);
 
@@ -334,26 +342,19 @@ fn fill_parent<'a>(
     slots: &mut impl Iterator<Item = &'a mut AshInstance>,
 ) {
     let Some(e) = eruptions.get(p.eruption) else { return };
-    let variant = (mix32(p.id) & 0xffff) as f32 / 65_536.0;
+    let (angle, variant) = billboard_look(p, viewpoint);
     let (shade, coverage) = (plan.shade, plan.coverage);
-    if plan.billboard {
-        let (axis, theta) = p.rotation.to_axis_angle();
-        let toward = match viewpoint {
-            Some(v) => (v - p.center).normalize_or(Vec3::Z),
-            None => Vec3::Z,
+    if plan.billboard
+        && let Some(slot) = slots.next()
+    {
+        *slot = AshInstance {
+            center: p.center.to_array(),
+            radius: p.radius * settings.billboard_scale,
+            angle,
+            shade,
+            coverage,
+            kind: 1.0 + variant,
         };
-        let angle =
-            if p.umbrella || p.flow { variant * std::f32::consts::TAU } else { theta * axis.dot(toward) };
-        if let Some(slot) = slots.next() {
-            *slot = AshInstance {
-                center: p.center.to_array(),
-                radius: p.radius * settings.billboard_scale,
-                angle,
-                shade,
-                coverage,
-                kind: 1.0 + variant,
-            };
-        }
     }
     if plan.detail == 0 {
         return;
@@ -373,6 +374,22 @@ fn fill_parent<'a>(
     }
 }
 
+/// A parent's billboard rotation (rad) and texture variant in [0, 1): s1 spheres turn their
+/// texture by the spin projected on the viewing direction, umbrella and pyroclastic puffs by a
+/// fixed angle from the variant.
+fn billboard_look(p: &ParentSphere, viewpoint: Option<Vec3>) -> (f32, f32) {
+    let variant = (mix32(p.id) & 0xffff) as f32 / 65_536.0;
+    if p.umbrella || p.flow {
+        return (variant * std::f32::consts::TAU, variant);
+    }
+    let (axis, theta) = p.rotation.to_axis_angle();
+    let toward = match viewpoint {
+        Some(v) => (v - p.center).normalize_or(Vec3::Z),
+        None => Vec3::Z,
+    };
+    (theta * axis.dot(toward), variant)
+}
+
 /// A cheap 32-bit hash of a 64-bit key (Murmur3 finaliser on the folded key); written by hand
 /// because it is a two-line mixing step, not worth a dependency.
 fn mix32(key: u64) -> u32 {
@@ -384,8 +401,8 @@ fn mix32(key: u64) -> u32 {
     h ^ (h >> 16)
 }
 
-/// Produces [`PlumeInstances`] every frame (after transforms are final). Added by the renderer;
-/// a headless game does not need it.
+/// Produces [`PlumeParents`] every frame (after transforms are final), the parents the
+/// renderer expands on the GPU. Added by the renderer; a headless game does not need it.
 #[derive(Debug, Default, Clone)]
 pub struct PlumeViewPlugin;
 
@@ -393,20 +410,21 @@ impl Plugin for PlumeViewPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<PlumeViewSettings>()
             .init_resource::<PlumeViewpoint>()
-            .init_resource::<PlumeInstances>()
+            .init_resource::<PlumeParents>()
             .register_type::<PlumeViewSettings>()
             .register_type::<PlumeViewpoint>()
-            .add_systems(PostUpdate, update_instances);
+            .add_systems(PostUpdate, update_parents);
     }
 }
 
-/// Gathers the spheres and rebuilds the instance list (reusing the previous allocation when
-/// the render world has let go of it).
+/// Gathers the spheres and rebuilds [`PlumeInstances`] on the CPU (reusing the previous
+/// allocation when nothing else holds it): the reference path, not scheduled by the plugin
+/// (the renderer expands [`PlumeParents`] on the GPU); the benchmark compares the two.
 pub fn update_instances(world: &mut World) {
     let (eruptions, parents) = gather_parents(world);
-    let settings = world.resource::<PlumeViewSettings>().clone();
-    let viewpoint = world.resource::<PlumeViewpoint>().0;
-    let mut shared = std::mem::take(&mut world.resource_mut::<PlumeInstances>().0);
+    let settings = world.get_resource_or_init::<PlumeViewSettings>().clone();
+    let viewpoint = world.get_resource_or_init::<PlumeViewpoint>().0;
+    let mut shared = std::mem::take(&mut world.get_resource_or_init::<PlumeInstances>().0);
     let mut list = match Arc::get_mut(&mut shared) {
         Some(v) => std::mem::take(v),
         None => Vec::new(),

@@ -1,13 +1,15 @@
-//! The instanced ash renderer draws: a wall of dark detail-sphere impostors (left half) and
-//! smoke billboards (right half) placed across the top of the view hides the blue sky there.
-//! If the pipeline, the instance buffer or the shader were broken, the sky would show.
+//! The instanced ash renderer draws: a wall of parents placed across the top of the view
+//! hides the blue sky there, on the left as the GPU-expanded detail-sphere impostors of
+//! parents without billboards, on the right as smoke billboards. If the pipeline, the parent
+//! buffers, the shader's expansion or its fragment stage were broken, the sky would show.
 
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use bevy::prelude::*;
 use volcano_core::VolcanoCorePlugin;
-use volcano_plume::{AshInstance, PlumeInstances};
+use volcano_plume::model::spheres::parent_key;
+use volcano_plume::{AshParent, AshParents, PlumeParents};
 use volcano_render::{
     HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
     headless_default_plugins, read_png_rgb, rgb_region_mean,
@@ -16,33 +18,43 @@ use volcano_render::{
 const W: u32 = 320;
 const H: u32 = 240;
 
+/// s2 children of each parent on the left (no s3).
+const CHILDREN: u32 = 200;
+
 fn scene(mut commands: Commands) {
     let orbit =
         OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
     commands.spawn(camera_bundle(orbit));
 }
 
-/// Replaces the frame's instances (after the plume view built its empty list).
-fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut instances: ResMut<PlumeInstances>) {
+/// Replaces the frame's parents (after the plume view packed its empty list).
+fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut list: ResMut<PlumeParents>) {
     let Some(cam) = camera.iter().next() else { return };
     let (fwd, right, up) = (cam.forward().as_vec3(), cam.right().as_vec3(), cam.up().as_vec3());
-    let mut list = Vec::new();
+    let mut out = AshParents { parents: Vec::new(), starts: vec![0] };
     for iy in 0..14 {
         for ix in -34..34 {
             let (x, y) = (ix as f32 * 40.0, 480.0 + iy as f32 * 40.0);
             let center = cam.translation() + fwd * 2_000.0 + right * x + up * y;
-            let kind = if ix < 0 { 0.4 } else { 1.3 };
-            list.push(AshInstance {
+            // Left: 200 impostors of radius 12 on a 60 m sphere; right: one billboard.
+            let (flags, count) = if ix < 0 { (0, CHILDREN) } else { (AshParent::BILLBOARD, 1) };
+            out.parents.push(AshParent {
                 center: center.to_array(),
                 radius: 60.0,
+                rotation: Quat::IDENTITY.to_array(),
                 angle: 0.3,
                 shade: 0.0,
                 coverage: 1.0,
-                kind,
+                variant: 0.4,
+                key: parent_key(7, (iy * 100 + ix + 50) as u64),
+                flags,
+                billboard_radius: 60.0,
+                pad: 0,
             });
+            out.starts.push(out.starts.last().copied().unwrap_or(0) + count);
         }
     }
-    instances.0 = Arc::new(list);
+    list.0 = Arc::new(out);
 }
 
 #[test]
@@ -59,11 +71,11 @@ fn instanced_ash_covers_the_sky() {
             capture_after_updates: 8,
         })
         .add_systems(Startup, scene)
-        .add_systems(PostUpdate, wall.after(volcano_plume::view::update_instances))
+        .add_systems(PostUpdate, wall.after(volcano_plume::view::update_parents))
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
-    // Top eighth: covered by ash (left: spheres, right: billboards); dark grey, not sky blue.
+    // Top eighth: covered by ash (left: expanded spheres, right: billboards); dark grey, not sky blue.
     for (name, xs) in [("detail spheres", (8, W / 2 - 8)), ("billboards", (W / 2 + 8, W - 8))] {
         let m = rgb_region_mean(&rgb, W, xs, (2, H / 8));
         eprintln!("{name}: mean {m:?} ({})", out.display());

@@ -106,45 +106,83 @@ pub struct DetailSphere {
     pub level: u8,
 }
 
-/// SplitMix64 finaliser: a stateless, counter-based hash. Written by hand because the detail
-/// spheres need random access by index (child k of parent p, every frame, ~10⁶ per frame);
-/// the `rand` generators are sequential streams, and seeking a ChaCha stream per child costs
-/// far more than this.
-fn mix(mut z: u64) -> u64 {
-    z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+/// The 32-bit hash both enumerations use (this CPU reference and the renderer's WGSL, which
+/// has no portable 64-bit integer): the PCG-RXS-M-XS permutation as a stateless hash
+/// ("pcg_hash", Jarzynski & Olano 2020, *Hash Functions for GPU Rendering*, JCGT 9(3)).
+/// Written by hand: it is four integer operations, and the shader must repeat it bit for bit.
+/// Counter-based, so child `k` of a parent is reached directly (the `rand` generators are
+/// sequential streams).
+#[inline]
+pub fn hash32(x: u32) -> u32 {
+    let state = x.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    let word = ((state >> ((state >> 28) + 4)) ^ state).wrapping_mul(277_803_737);
+    (word >> 22) ^ word
 }
 
-/// Directions on the unit sphere, quasi-uniform (Fibonacci lattice), indexed by hash: a table
-/// lookup instead of trigonometry per child keeps enumeration cheap (≈10⁶ children per frame).
-const DIRECTIONS: usize = 1 << 14;
+/// The 32-bit key of one parent sphere: the volcano's seed and the parent's id, both 64-bit,
+/// folded word by word through [`hash32`]. Computed on the CPU once per parent and frame (the
+/// renderer uploads it); the children derive from it with 32-bit arithmetic only.
+pub fn parent_key(seed: u64, parent_id: u64) -> u32 {
+    [(seed >> 32) as u32, parent_id as u32, (parent_id >> 32) as u32]
+        .into_iter()
+        .fold(hash32(seed as u32), |h, w| hash32(h ^ w))
+}
+
+/// Multiplier between consecutive children's keys (2³²/φ, odd), so children `k` and `k + 1`
+/// hash unrelated words.
+pub const CHILD_STRIDE: u32 = 0x9e37_79b9;
+
+/// Key of the s2 child `k` of a parent with key `parent`.
+#[inline]
+pub fn s2_key(parent: u32, k: u32) -> u32 {
+    hash32(parent ^ k.wrapping_mul(CHILD_STRIDE))
+}
+
+/// Key of the s3 child `j` of an s2 sphere with key `s2`.
+#[inline]
+pub fn s3_key(s2: u32, j: u32) -> u32 {
+    hash32(s2 ^ j.wrapping_add(1))
+}
+
+/// Directions on the unit sphere, quasi-uniform (Fibonacci lattice of 2¹⁴ points), indexed by
+/// the top bits of a key: a table lookup instead of trigonometry per child keeps the CPU
+/// enumeration cheap (≈10⁶ children per frame); the shader evaluates [`lattice_direction`].
+pub const DIRECTION_BITS: u32 = 14;
+
+/// The golden-angle turn as a 32-bit fraction of a full turn: (3 − √5)/2 · 2³² (= 2³² − 2³²/φ).
+/// Multiplying it by the point index with wrapping gives the azimuth modulo one turn exactly,
+/// so f32 (shader) and f64 (here) agree to rounding instead of losing precision at i ≈ 16,000.
+pub const GOLDEN_TURN: u32 = 0x61c8_8647;
+
+/// Point `i` (`< 2^DIRECTION_BITS`) of the Fibonacci lattice: `z = 1 − (2i + 1)/N`, azimuth
+/// `i` golden-angle turns (its top 24 bits, exact in f32).
+pub fn lattice_direction(i: u32) -> DVec3 {
+    let n = (1u32 << DIRECTION_BITS) as f64;
+    let z = 1.0 - (2 * i + 1) as f64 / n;
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    let turn = (i.wrapping_mul(GOLDEN_TURN) >> 8) as f64 / (1u32 << 24) as f64;
+    let phi = std::f64::consts::TAU * turn;
+    DVec3::new(s * phi.cos(), s * phi.sin(), z)
+}
+
+/// Lattice index chosen by a key (its top [`DIRECTION_BITS`] bits).
+#[inline]
+pub fn direction_index(key: u32) -> u32 {
+    key >> (32 - DIRECTION_BITS)
+}
 
 fn directions() -> &'static [DVec3] {
     static TABLE: std::sync::OnceLock<Vec<DVec3>> = std::sync::OnceLock::new();
-    TABLE.get_or_init(|| {
-        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-        (0..DIRECTIONS)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f64 + 0.5) / DIRECTIONS as f64;
-                let s = (1.0 - z * z).max(0.0).sqrt();
-                let phi = golden * i as f64;
-                DVec3::new(s * phi.cos(), s * phi.sin(), z)
-            })
-            .collect()
-    })
-}
-
-/// A unit vector chosen by a 64-bit key.
-#[inline]
-fn unit_from_key(table: &[DVec3], key: u64) -> DVec3 {
-    table[(mix(key) >> 50) as usize & (DIRECTIONS - 1)]
+    TABLE.get_or_init(|| (0..1u32 << DIRECTION_BITS).map(lattice_direction).collect())
 }
 
 /// Enumerates the s2 (and s3) children of one s1 sphere: centre `center`, radius `radius`,
 /// current orientation `rotation` (children turn rigidly with it), identified by
-/// `(seed, parent_id)`. Deterministic: the same inputs give the same spheres in the same order.
+/// `(seed, parent_id)`. Deterministic: the same inputs give the same spheres in the same order:
+/// s2 child `k` (centre on the parent's surface at the lattice direction of
+/// [`s2_key`]`(key, k)`, turned by the parent), then its s3 children `j` (on the s2 surface,
+/// direction of [`s3_key`]). The renderer's vertex shader (`volcano_render`, `ash.wgsl`)
+/// repeats this for instance `k·(1 + n₃) + j` and is tested against it.
 pub fn detail_spheres(
     p: &SphereParams,
     seed: u64,
@@ -153,19 +191,19 @@ pub fn detail_spheres(
     radius: f64,
     rotation: DQuat,
 ) -> impl Iterator<Item = DetailSphere> {
-    let base = mix(seed ^ mix(parent_id));
-    let (n2, n3) = (p.s2_per_s1 as u64, p.s3_per_s2 as u64);
+    let base = parent_key(seed, parent_id);
+    let (n2, n3) = (p.s2_per_s1, p.s3_per_s2);
     let r2 = radius * SphereParams::CHILD_RATIO;
     let r3 = r2 * SphereParams::CHILD_RATIO;
     let table = directions();
     // Children turn rigidly with the parent: one rotation matrix per parent.
     let m = DMat3::from_quat(rotation);
     (0..n2).flat_map(move |k| {
-        let key2 = base ^ k.wrapping_mul(0x9e37_79b9_7f4a_7c15);
-        let c2 = center + m * (unit_from_key(table, key2) * radius);
+        let key2 = s2_key(base, k);
+        let c2 = center + m * (table[direction_index(key2) as usize] * radius);
         let s2 = DetailSphere { center: c2, radius: r2, level: 2 };
         std::iter::once(s2).chain((0..n3).map(move |j| {
-            let c3 = c2 + m * (unit_from_key(table, mix(key2) ^ (j + 1)) * r2);
+            let c3 = c2 + m * (table[direction_index(s3_key(key2, j)) as usize] * r2);
             DetailSphere { center: c3, radius: r3, level: 3 }
         }))
     })
@@ -195,6 +233,35 @@ mod tests {
         let again = s1_ring(&p, &mut derive_stream(7, 1));
         assert_eq!(ring, again);
         assert_ne!(ring, s1_ring(&p, &mut derive_stream(7, 2)));
+    }
+
+    #[test]
+    fn hash32_is_the_published_pcg_hash() {
+        // Reference values from an independent implementation of Jarzynski & Olano's pcg_hash
+        // (Python, 32-bit masks); the WGSL copy is held to the same values through the
+        // renderer's readback test.
+        assert_eq!(hash32(0), 0x07bb_2fe2);
+        assert_eq!(hash32(1), 0xa8be_ea3c);
+        assert_eq!(hash32(0xdead_beef), 0x6729_9972);
+    }
+
+    #[test]
+    fn lattice_directions_are_unit_and_spread() {
+        let n = 1u32 << DIRECTION_BITS;
+        let mut mean = DVec3::ZERO;
+        for i in 0..n {
+            let d = lattice_direction(i);
+            assert!((d.length() - 1.0).abs() < 1e-12, "{i}: {d}");
+            mean += d;
+        }
+        assert!((mean / n as f64).length() < 1e-3, "mean {mean}");
+        // Neighbours in index are a golden-angle turn apart in azimuth (≈137.5°).
+        let (a, b) = (lattice_direction(4000), lattice_direction(4001));
+        let turn = (b.y.atan2(b.x) - a.y.atan2(a.x)).rem_euclid(std::f64::consts::TAU);
+        assert!((turn.to_degrees() - 137.507_764).abs() < 1e-3, "{}", turn.to_degrees());
+        // Keys pick directions by their top bits, so all of the lattice is reachable.
+        assert_eq!(direction_index(u32::MAX), n - 1);
+        assert_eq!(direction_index(0), 0);
     }
 
     #[test]

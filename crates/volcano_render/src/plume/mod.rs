@@ -4,7 +4,8 @@
 //!   every scale. s1 and umbrella spheres are camera-facing smoke billboards whose texture
 //!   turns with the spin projected on the screen (thesis §3.7.1); s2/s3 detail spheres are
 //!   lit sphere impostors; all shaded by density, darker and denser near the vent, lighter and
-//!   thinner aloft. The instance list is built by [`volcano_plume::PlumeViewPlugin`].
+//!   thinner aloft. [`volcano_plume::PlumeViewPlugin`] packs the parents and their instance
+//!   counts; the vertex shader expands the detail spheres (see `pipeline`).
 //! - **Debug views**: s1/umbrella spheres as mesh spheres and slices as gizmo circles.
 
 mod debug;
@@ -64,10 +65,7 @@ impl Plugin for PlumeRenderPlugin {
             .register_type::<PlumeRenderMode>()
             .register_type::<AshCloud>()
             .add_systems(Startup, spawn_ash_cloud)
-            .add_systems(
-                PostUpdate,
-                (follow_camera, apply_mode).before(volcano_plume::view::update_instances),
-            );
+            .add_systems(PostUpdate, (follow_camera, apply_mode).before(volcano_plume::view::update_parents));
         debug::build(app);
         pipeline::build(app);
     }

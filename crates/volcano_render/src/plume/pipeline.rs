@@ -1,17 +1,21 @@
-//! Render-world side of the ash renderer: one instanced draw of a unit quad per frame, with
-//! the [`AshInstance`] list (extracted as an `Arc`, no copy) as a per-instance vertex buffer.
-//! The shader (`ash.wgsl`) turns each quad toward the camera and draws a smoke puff (s1 and
-//! umbrella spheres) or a lit sphere impostor (s2/s3 detail spheres). Fragments write depth and
-//! cut out (no blending), so half a million unsorted instances draw correctly in any order.
+//! Render-world side of the ash renderer: one instanced draw of a unit quad per frame. Only the
+//! parents are uploaded: the [`AshParents`] list (extracted as an `Arc`, no copy) becomes two
+//! storage buffers (the [`AshParent`] records and the prefix sum of their instance counts,
+//! bind group 3), and the draw asks for `total` instances; the vertex shader (`ash.wgsl`)
+//! finds instance `i`'s parent by binary search, computes the billboard or the s2/s3 child with
+//! the CPU enumeration's 32-bit hash, and turns the quad toward the camera. The fragment stage
+//! draws a smoke puff (s1 and umbrella spheres) or a lit sphere impostor (detail spheres).
+//! Fragments write depth and cut out (no blending), so half a million unsorted instances draw
+//! correctly in any order.
 //!
-//! The structure (specialised mesh pipeline, extra instance vertex buffer, custom draw
-//! command) follows Bevy 0.19's "custom shader instancing" technique.
+//! The structure (specialised mesh pipeline, custom draw command) follows Bevy 0.19's "custom
+//! shader instancing" technique, with storage buffers in place of the instance vertex buffer.
 
 use std::sync::Arc;
 
 use bevy::core_pipeline::core_3d::{Transparent3d, TransparentSortingInfo3d};
 use bevy::ecs::system::{SystemParamItem, lifetimeless::*};
-use bevy::mesh::{MeshVertexBufferLayoutRef, VertexBufferLayout};
+use bevy::mesh::MeshVertexBufferLayoutRef;
 use bevy::pbr::{
     MeshPipeline, MeshPipelineKey, MeshPipelineSystems, RenderMeshInstances, SetMeshBindGroup,
     SetMeshViewBindGroup, SetMeshViewBindingArrayBindGroup, ViewKeyCache,
@@ -32,7 +36,7 @@ use bevy::render::{
     sync_world::MainEntity,
     view::ExtractedView,
 };
-use volcano_plume::{AshInstance, PlumeInstances};
+use volcano_plume::{AshParent, AshParents, PlumeParents};
 
 /// Asset path of the embedded shader.
 const SHADER: &str = "embedded://volcano_render/plume/ash.wgsl";
@@ -56,15 +60,16 @@ impl ExtractComponent for AshCloud {
     }
 }
 
-/// The frame's instances in the render world.
+/// The frame's parents in the render world.
 #[derive(Resource, Default)]
-struct RenderAshInstances(Arc<Vec<AshInstance>>);
+struct RenderAshParents(Arc<AshParents>);
 
-/// GPU copy of the instances, on the [`AshCloud`] render entity.
+/// GPU copy of the parents (bind group 3) and the number of instances they expand to, on the
+/// [`AshCloud`] render entity.
 #[derive(Component)]
-struct AshInstanceBuffer {
-    buffer: Buffer,
-    length: u32,
+struct AshParentBuffers {
+    bind_group: BindGroup,
+    total: u32,
 }
 
 /// Adds the pipeline, extraction and draw command.
@@ -72,7 +77,7 @@ pub(super) fn build(app: &mut App) {
     app.add_plugins(ExtractComponentPlugin::<AshCloud>::default());
     let Some(render_app) = app.get_sub_app_mut(RenderApp) else { return };
     render_app
-        .init_resource::<RenderAshInstances>()
+        .init_resource::<RenderAshParents>()
         .add_render_command::<Transparent3d, DrawAsh>()
         .init_resource::<SpecializedMeshPipelines<AshPipeline>>()
         .add_systems(RenderStartup, init_pipeline.after(MeshPipelineSystems))
@@ -86,27 +91,40 @@ pub(super) fn build(app: &mut App) {
         );
 }
 
-fn extract_instances(mut target: ResMut<RenderAshInstances>, source: Extract<Option<Res<PlumeInstances>>>) {
+fn extract_instances(mut target: ResMut<RenderAshParents>, source: Extract<Option<Res<PlumeParents>>>) {
     target.0 = source.as_ref().map(|s| s.0.clone()).unwrap_or_default();
 }
 
 fn prepare_buffer(
     mut commands: Commands,
     clouds: Query<Entity, With<AshCloud>>,
-    instances: Res<RenderAshInstances>,
+    list: Res<RenderAshParents>,
     device: Res<RenderDevice>,
+    pipeline: Res<AshPipeline>,
+    cache: Res<PipelineCache>,
 ) {
     for entity in &clouds {
-        if instances.0.is_empty() {
-            commands.entity(entity).remove::<AshInstanceBuffer>();
+        let total = list.0.total();
+        if total == 0 || list.0.parents.is_empty() {
+            commands.entity(entity).remove::<AshParentBuffers>();
             continue;
         }
-        let buffer = device.create_buffer_with_data(&BufferInitDescriptor {
-            label: Some("volcano ash instances"),
-            contents: bytemuck::cast_slice(instances.0.as_slice()),
-            usage: BufferUsages::VERTEX | BufferUsages::COPY_DST,
+        let parents = device.create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("volcano ash parents"),
+            contents: bytemuck::cast_slice(list.0.parents.as_slice()),
+            usage: BufferUsages::STORAGE,
         });
-        commands.entity(entity).insert(AshInstanceBuffer { buffer, length: instances.0.len() as u32 });
+        let starts = device.create_buffer_with_data(&BufferInitDescriptor {
+            label: Some("volcano ash instance starts"),
+            contents: bytemuck::cast_slice(list.0.starts.as_slice()),
+            usage: BufferUsages::STORAGE,
+        });
+        let bind_group = device.create_bind_group(
+            "volcano ash parents",
+            &cache.get_bind_group_layout(&pipeline.parents_layout),
+            &BindGroupEntries::sequential((parents.as_entire_binding(), starts.as_entire_binding())),
+        );
+        commands.entity(entity).insert(AshParentBuffers { bind_group, total });
     }
 }
 
@@ -114,11 +132,27 @@ fn prepare_buffer(
 struct AshPipeline {
     shader: Handle<Shader>,
     mesh_pipeline: MeshPipeline,
+    /// Bind group 3: the parents and the prefix sum of their instance counts.
+    parents_layout: BindGroupLayoutDescriptor,
 }
 
 fn init_pipeline(mut commands: Commands, assets: Res<AssetServer>, mesh_pipeline: Res<MeshPipeline>) {
-    commands
-        .insert_resource(AshPipeline { shader: assets.load(SHADER), mesh_pipeline: mesh_pipeline.clone() });
+    use bevy::render::render_resource::binding_types::storage_buffer_read_only_sized;
+    let parents_layout = BindGroupLayoutDescriptor::new(
+        "volcano ash parents",
+        &BindGroupLayoutEntries::sequential(
+            ShaderStages::VERTEX,
+            (
+                storage_buffer_read_only_sized(false, BufferSize::new(size_of::<AshParent>() as u64)),
+                storage_buffer_read_only_sized(false, BufferSize::new(size_of::<u32>() as u64)),
+            ),
+        ),
+    );
+    commands.insert_resource(AshPipeline {
+        shader: assets.load(SHADER),
+        mesh_pipeline: mesh_pipeline.clone(),
+        parents_layout,
+    });
 }
 
 impl SpecializedMeshPipeline for AshPipeline {
@@ -131,19 +165,9 @@ impl SpecializedMeshPipeline for AshPipeline {
     ) -> Result<RenderPipelineDescriptor, SpecializedMeshPipelineError> {
         let mut descriptor = self.mesh_pipeline.specialize(key, layout)?;
         descriptor.vertex.shader = self.shader.clone();
-        // Locations 0–2 are the quad's position, normal and uv.
-        descriptor.vertex.buffers.push(VertexBufferLayout {
-            array_stride: size_of::<AshInstance>() as u64,
-            step_mode: VertexStepMode::Instance,
-            attributes: vec![
-                VertexAttribute { format: VertexFormat::Float32x4, offset: 0, shader_location: 3 },
-                VertexAttribute {
-                    format: VertexFormat::Float32x4,
-                    offset: VertexFormat::Float32x4.size(),
-                    shader_location: 4,
-                },
-            ],
-        });
+        // Vertex buffer 0 is the quad (locations 0–2: position, normal, uv); the instances
+        // come from the parents in bind group 3, after the view (0, 1) and mesh (2) groups.
+        descriptor.set_layout(3, self.parents_layout.clone());
         if let Some(fragment) = descriptor.fragment.as_mut() {
             fragment.shader = self.shader.clone();
         }
@@ -210,12 +234,12 @@ struct DrawAshInstanced;
 impl<P: PhaseItem> RenderCommand<P> for DrawAshInstanced {
     type Param = (SRes<RenderAssets<RenderMesh>>, SRes<RenderMeshInstances>, SRes<MeshAllocator>);
     type ViewQuery = ();
-    type ItemQuery = Read<AshInstanceBuffer>;
+    type ItemQuery = Read<AshParentBuffers>;
 
     fn render<'w>(
         item: &P,
         _view: (),
-        instances: Option<&'w AshInstanceBuffer>,
+        instances: Option<&'w AshParentBuffers>,
         (meshes, mesh_instances, allocator): SystemParamItem<'w, '_, Self::Param>,
         pass: &mut TrackedRenderPass<'w>,
     ) -> RenderCommandResult {
@@ -231,7 +255,7 @@ impl<P: PhaseItem> RenderCommand<P> for DrawAshInstanced {
             return RenderCommandResult::Skip;
         };
         pass.set_vertex_buffer(0, vertices.buffer.slice(..));
-        pass.set_vertex_buffer(1, instances.buffer.slice(..));
+        pass.set_bind_group(3, &instances.bind_group, &[]);
         match &gpu_mesh.buffer_info {
             RenderMeshBufferInfo::Indexed { index_format, count } => {
                 let Some(indices) = allocator.mesh_index_slice(&mesh_instance.mesh_asset_id()) else {
@@ -241,10 +265,10 @@ impl<P: PhaseItem> RenderCommand<P> for DrawAshInstanced {
                 pass.draw_indexed(
                     indices.range.start..(indices.range.start + count),
                     vertices.range.start as i32,
-                    0..instances.length,
+                    0..instances.total,
                 );
             }
-            RenderMeshBufferInfo::NonIndexed => pass.draw(vertices.range, 0..instances.length),
+            RenderMeshBufferInfo::NonIndexed => pass.draw(vertices.range, 0..instances.total),
         }
         RenderCommandResult::Success
     }
