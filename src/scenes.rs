@@ -227,6 +227,7 @@ impl SceneSpec {
 pub struct VolcanoScenePlugin {
     spec: SceneSpec,
     terrain: Terrain,
+    headless: bool,
 }
 
 impl VolcanoScenePlugin {
@@ -234,7 +235,13 @@ impl VolcanoScenePlugin {
     pub fn new(spec: SceneSpec) -> Result<Self, ConfigError> {
         spec.validate()?;
         let terrain = spec.terrain.build()?;
-        Ok(Self { spec, terrain })
+        Ok(Self { spec, terrain, headless: false })
+    }
+
+    /// The simulation only: no sky, camera or sun, for apps without the render stack
+    /// (`MinimalPlugins` + `VolcanoSimPlugins`; `volcano bench`).
+    pub fn headless(self) -> Self {
+        Self { headless: true, ..self }
     }
     /// A built-in scene by name.
     pub fn builtin(name: &str) -> Result<Self, ConfigError> {
@@ -257,7 +264,10 @@ impl Plugin for VolcanoScenePlugin {
         app.insert_resource(ActiveScene(spec.clone()));
         // Harmless if the game adds it too, before or after.
         #[cfg(feature = "render")]
-        app.add_plugins(volcano_render::VolcanoSkyPlugin);
+        if !self.headless {
+            app.add_plugins(volcano_render::VolcanoSkyPlugin);
+        }
+        let headless = self.headless;
         if let Some(a) = &spec.atmosphere {
             atmosphere::build(app, a, &terrain);
         }
@@ -274,7 +284,10 @@ impl Plugin for VolcanoScenePlugin {
                 lava.spawn(&mut commands);
             }
             #[cfg(feature = "render")]
-            spawn_view(&mut commands, &spec);
+            if !headless {
+                spawn_view(&mut commands, &spec);
+            }
+            let _ = headless;
         });
     }
 }

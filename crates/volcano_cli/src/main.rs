@@ -2,6 +2,7 @@
 //! llvmpipe through Vulkan), lists the scene registry, and runs the plume's single-slice
 //! validation experiment.
 
+mod bench;
 mod domains;
 mod eruption;
 mod export;
@@ -64,6 +65,23 @@ enum Command {
         /// cheaper; the column's apex moves by metres (docs/ARCHITECTURE.md §3.4).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
         plume_substeps: Option<u32>,
+    },
+    /// Run a scene's whole simulation headless (no rendering), one base tick per update, and
+    /// write DIR/bench.json: main-thread ms per base tick (p50, p99, max), weather ticks beside
+    /// the others, and each domain's mean ms per tick.
+    Bench {
+        /// Scene name from the registry.
+        #[arg(long, default_value = "eruption")]
+        scene: String,
+        /// Base ticks timed.
+        #[arg(long, default_value_t = 3000)]
+        ticks: u64,
+        /// Base ticks run first and not timed (e.g. until the umbrella has formed).
+        #[arg(long, default_value_t = 0)]
+        warmup_ticks: u64,
+        /// Output directory.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// List the scenes of the registry.
     Scenes,
@@ -179,6 +197,7 @@ fn main() -> ExitCode {
         Command::Pyroclastic { params, seconds, out } => {
             with_params(&params, |p| pyroclastic::run(p, seconds, &out))
         }
+        Command::Bench { scene, ticks, warmup_ticks, out } => bench::run(&scene, ticks, warmup_ticks, &out),
         Command::Eruption { scenario, seconds, grid, preset, out } => {
             eruption::run(scenario, seconds, grid, preset.preset(), &out)
         }

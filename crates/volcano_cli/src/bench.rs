@@ -1,0 +1,200 @@
+//! `volcano bench`: a scene's whole simulation headless, one base tick per app update, timed
+//! on the main thread (the frame-budget issue's whole-scene numbers). Writes `DIR/bench.json`:
+//! the main thread's time per base tick (p50, p99, max), the mean on ticks where a weather step
+//! started or was written back beside the mean on the others, and each domain's mean per tick.
+//!
+//! The domains are timed by stamps between the chained `SimSystems` sets (a system ordered
+//! after one set and before the next), so a domain's time is everything its set ran on the
+//! main thread, including the parallel loops it waited for. What the renderer does each frame
+//! (instances, meshes, cloud volumes) is not in these numbers.
+
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use serde::Serialize;
+use volcano::prelude::*;
+use volcano_atmosphere::WeatherPipelineStatus;
+
+/// The chained sets in order; a stamp sits between each pair.
+const SETS: [SimSystems; 8] = [
+    SimSystems::Begin,
+    SimSystems::Plume,
+    SimSystems::Pyroclastic,
+    SimSystems::BeforeWeather,
+    SimSystems::Weather,
+    SimSystems::AfterWeather,
+    SimSystems::Lava,
+    SimSystems::End,
+];
+
+/// Instants taken between consecutive sets during the current base tick.
+#[derive(Resource, Default)]
+struct Stamps {
+    at: [Option<Instant>; SETS.len() - 1],
+    /// Summed time of each set between the first and last stamp (index = set index).
+    total: [Duration; SETS.len()],
+}
+
+fn stamp<const I: usize>(mut s: ResMut<Stamps>) {
+    let now = Instant::now();
+    if I > 0
+        && let Some(prev) = s.at[I - 1]
+    {
+        s.total[I] += now - prev;
+    }
+    s.at[I] = Some(now);
+}
+
+/// Quantiles and means of the run, in milliseconds.
+#[derive(Debug, Serialize)]
+pub struct TickStats {
+    /// Median main-thread time per base tick.
+    pub p50: f64,
+    /// 99th percentile.
+    pub p99: f64,
+    /// Largest.
+    pub max: f64,
+}
+
+/// What `bench.json` holds.
+#[derive(Debug, Serialize)]
+pub struct BenchReport {
+    /// Scene name.
+    pub scene: String,
+    /// Base ticks timed (after the warm-up).
+    pub ticks: u64,
+    /// Base ticks run before timing (not in the statistics).
+    pub warmup_ticks: u64,
+    /// `dev` or `release` (debug assertions on or off).
+    pub profile: &'static str,
+    /// Main-thread time per base tick.
+    pub tick_ms: TickStats,
+    /// Mean over ticks on which a weather step was started or written back.
+    pub weather_tick_ms_mean: f64,
+    /// Mean over the other ticks.
+    pub other_tick_ms_mean: f64,
+    /// Mean ms per base tick of each domain's set (`coupling` = the sets just before and after
+    /// the weather).
+    pub domains: std::collections::BTreeMap<&'static str, f64>,
+    /// Wall time of the whole run (s).
+    pub wall_s: f64,
+}
+
+fn quantile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    sorted[((sorted.len() - 1) as f64 * q).round() as usize]
+}
+
+/// Runs `scene` for `warmup + ticks` base ticks and writes `dir/bench.json`.
+pub fn run(scene: &str, ticks: u64, warmup: u64, dir: &Path) -> ExitCode {
+    if ticks == 0 || ticks > 1_000_000 || warmup > 1_000_000 {
+        eprintln!("error: --ticks must be in 1..=1000000 and --warmup-ticks at most 1000000");
+        return ExitCode::from(2);
+    }
+    let plugin = match VolcanoScenePlugin::builtin(scene) {
+        Ok(p) => p.headless(),
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    if let Err(e) = std::fs::create_dir_all(dir) {
+        eprintln!("error: cannot create {}: {e}", dir.display());
+        return ExitCode::FAILURE;
+    }
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoSimPlugins, plugin))
+        .insert_resource(Time::<Fixed>::from_hz(crate::TICK_HZ))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / crate::TICK_HZ)))
+        .init_resource::<Stamps>()
+        .add_systems(
+            FixedUpdate,
+            (
+                stamp::<0>.after(SETS[0]).before(SETS[1]),
+                stamp::<1>.after(SETS[1]).before(SETS[2]),
+                stamp::<2>.after(SETS[2]).before(SETS[3]),
+                stamp::<3>.after(SETS[3]).before(SETS[4]),
+                stamp::<4>.after(SETS[4]).before(SETS[5]),
+                stamp::<5>.after(SETS[5]).before(SETS[6]),
+                stamp::<6>.after(SETS[6]).before(SETS[7]),
+            ),
+        );
+    let started = Instant::now();
+    let tick = |app: &App| app.world().resource::<SimTick>().0;
+    // Weather steps started and written back, over every atmosphere.
+    let weather = |app: &mut App| {
+        let world = app.world_mut();
+        let mut q = world.query::<&WeatherPipelineStatus>();
+        q.iter(world).fold((0, 0), |(a, b), s| (a + s.started, b + s.applied))
+    };
+    // Startup (terrain, pre-spin) and the zero-delta first update are not timed.
+    app.update();
+    while tick(&app) < warmup {
+        app.update();
+    }
+    app.world_mut().resource_mut::<Stamps>().total = Default::default();
+    let (mut all, mut weather_ms, mut other_ms) = (Vec::new(), Vec::new(), Vec::new());
+    let first = tick(&app);
+    let mut next_report = first + 3_000;
+    while tick(&app) < first + ticks {
+        let before = (tick(&app), weather(&mut app));
+        let t0 = Instant::now();
+        app.update();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let after = (tick(&app), weather(&mut app));
+        if after.0 == before.0 {
+            continue;
+        }
+        all.push(ms);
+        if after.1 != before.1 {
+            weather_ms.push(ms)
+        } else {
+            other_ms.push(ms)
+        }
+        if after.0 >= next_report {
+            eprintln!("  {} / {ticks} ticks", after.0 - first);
+            next_report += 3_000;
+        }
+    }
+    let timed = (tick(&app) - first).max(1) as f64;
+    let total = app.world().resource::<Stamps>().total;
+    let ms = |i: usize| total[i].as_secs_f64() * 1e3 / timed;
+    let mut sorted = all.clone();
+    sorted.sort_by(f64::total_cmp);
+    let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
+    let report = BenchReport {
+        scene: scene.to_string(),
+        ticks: tick(&app) - first,
+        warmup_ticks: first,
+        profile: if cfg!(debug_assertions) { "dev" } else { "release" },
+        tick_ms: TickStats {
+            p50: quantile(&sorted, 0.5),
+            p99: quantile(&sorted, 0.99),
+            max: sorted.last().copied().unwrap_or(0.0),
+        },
+        weather_tick_ms_mean: mean(&weather_ms),
+        other_tick_ms_mean: mean(&other_ms),
+        domains: [
+            ("plume", ms(1)),
+            ("pyroclastic", ms(2)),
+            ("coupling", ms(3) + ms(5)),
+            ("weather", ms(4)),
+            ("lava", ms(6)),
+        ]
+        .into_iter()
+        .collect(),
+        wall_s: started.elapsed().as_secs_f64(),
+    };
+    let json = serde_json::to_string_pretty(&report).unwrap_or_default();
+    if let Err(e) = std::fs::write(dir.join("bench.json"), &json) {
+        eprintln!("error: cannot write bench.json: {e}");
+        return ExitCode::FAILURE;
+    }
+    println!("{json}");
+    ExitCode::SUCCESS
+}
