@@ -112,3 +112,35 @@ fn plume_export_writes_valid_ply_frames() {
     }
     let _ = std::fs::remove_dir_all(dir);
 }
+
+#[test]
+fn bench_times_every_domain_of_the_eruption_scene() {
+    let dir = std::env::temp_dir().join(format!("volcano-cli-bench-{}", std::process::id()));
+    let o = volcano()
+        .args(["bench", "--scene", "eruption", "--ticks", "60", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "bench failed: {}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(dir.join("bench.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(v["ticks"], 60);
+    let (p50, p99, max) =
+        (v["tick_ms"]["p50"].as_f64(), v["tick_ms"]["p99"].as_f64(), v["tick_ms"]["max"].as_f64());
+    let (p50, p99, max) = (p50.unwrap(), p99.unwrap(), max.unwrap());
+    assert!(0.0 < p50 && p50 <= p99 && p99 <= max, "{text}");
+    // 60 ticks at 50 Hz cross at least one weather step (1 s period) and plenty of others.
+    assert!(v["weather_tick_ms_mean"].as_f64().unwrap() > 0.0, "{text}");
+    assert!(v["other_tick_ms_mean"].as_f64().unwrap() > 0.0, "{text}");
+    // The scene runs a column, an atmosphere with coupling and a lava patch: each set did work.
+    for d in ["plume", "weather", "lava", "coupling", "pyroclastic"] {
+        let ms = v["domains"][d].as_f64().unwrap_or(-1.0);
+        assert!(ms >= 0.0, "{d}: {text}");
+    }
+    for d in ["plume", "lava", "weather"] {
+        assert!(v["domains"][d].as_f64().unwrap() > 0.0, "{d} took no time: {text}");
+    }
+    let bad = volcano().args(["bench", "--scene", "atlantis", "--out"]).arg(&dir).output().unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    let _ = std::fs::remove_dir_all(&dir);
+}
