@@ -264,19 +264,10 @@ fn cycle(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64],
 trait Stencil: Copy + Sync {
     /// `h² ∇·(a∇φ)` at cell `k` (its west/east/south/north neighbours given).
     fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64;
-    /// The Gauss–Seidel update of cell `k` from its neighbours' values (west, east, north,
-    /// south) and `h² rhs`; `None` for a cell with every face closed (left alone).
-    fn relax(
-        self,
-        k: usize,
-        right: usize,
-        up: usize,
-        pl: f64,
-        pr: f64,
-        pu: f64,
-        pd: f64,
-        h2r: f64,
-    ) -> Option<f64>;
+    /// The Gauss–Seidel update of cell `k` (east and north neighbours `right`, `up`) from its
+    /// neighbours' values `[west, east, north, south]` and `h² rhs`; `None` for a cell with
+    /// every face closed (left alone).
+    fn relax(self, k: usize, right: usize, up: usize, nb: [f64; 4], h2r: f64) -> Option<f64>;
 }
 
 /// All faces open: the plain 5-point Laplacian.
@@ -289,17 +280,7 @@ impl Stencil for Plain {
         phi[left] + phi[right] + phi[up] + phi[down] - 4.0 * phi[k]
     }
     #[inline(always)]
-    fn relax(
-        self,
-        _: usize,
-        _: usize,
-        _: usize,
-        pl: f64,
-        pr: f64,
-        pu: f64,
-        pd: f64,
-        h2r: f64,
-    ) -> Option<f64> {
+    fn relax(self, _: usize, _: usize, _: usize, [pl, pr, pu, pd]: [f64; 4], h2r: f64) -> Option<f64> {
         Some(0.25 * (pl + pr + pu + pd - h2r))
     }
 }
@@ -312,17 +293,7 @@ impl Stencil for &Faces {
         aw * (phi[left] - c) + ae * (phi[right] - c) + as_ * (phi[down] - c) + an * (phi[up] - c)
     }
     #[inline(always)]
-    fn relax(
-        self,
-        k: usize,
-        right: usize,
-        up: usize,
-        pl: f64,
-        pr: f64,
-        pu: f64,
-        pd: f64,
-        h2r: f64,
-    ) -> Option<f64> {
+    fn relax(self, k: usize, right: usize, up: usize, [pl, pr, pu, pd]: [f64; 4], h2r: f64) -> Option<f64> {
         let (aw, ae, as_, an) = self.around(k, right, up);
         let diag = aw + ae + as_ + an;
         (diag > 0.0).then(|| (aw * pl + ae * pr + as_ * pd + an * pu - h2r) / diag)
@@ -388,7 +359,7 @@ fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rh
                     let (pl, pr) = (*p.0.add(row + left), *p.0.add(row + right));
                     let (pu, pd) = (*p.0.add(up + i), *p.0.add(down + i));
                     let h2r = h2 * *rhs.get_unchecked(row + i);
-                    if let Some(x) = s.relax(row + i, row + right, up + i, pl, pr, pu, pd, h2r) {
+                    if let Some(x) = s.relax(row + i, row + right, up + i, [pl, pr, pu, pd], h2r) {
                         *p.0.add(row + i) = x;
                     }
                 }
