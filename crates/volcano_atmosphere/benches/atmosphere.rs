@@ -1,12 +1,69 @@
-//! One weather step of 512² × 3 layers (issue target ≤ 25 ms on 2 cores; thesis 2.73 s) and
-//! 512² × 7 layers (≤ 60 ms; thesis 6.75 s), Δt = 30 s.
+//! One weather step of 512² × 3 layers (issue target ≤ 25 ms on 2 cores and ≤ 4× a memory
+//! sweep over the state; thesis 2.73 s) and 512² × 7 layers (≤ 60 ms; thesis 6.75 s),
+//! Δt = 30 s, each beside a same-run memory sweep: one read-modify-write pass over every
+//! byte of the layers' fields (the bandwidth floor of anything that touches the whole state).
+//! Before the timings, the mean wall time of the step's phases over 10 steps is printed
+//! (`StepReport::phase_ms`) with the V-cycles and flux substeps, as the profile.
 
 use std::hint::black_box;
 use std::time::Duration;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use volcano_atmosphere::Scenario;
+use volcano_atmosphere::model::fields::AtmosphereState;
 use volcano_atmosphere::model::step::{Workspace, step};
+use volcano_atmosphere::{AtmosphereParams, Scenario};
+
+/// One read-modify-write pass over every field of every layer (f32 and f64 grids alike).
+fn sweep(state: &mut AtmosphereState) {
+    for l in state.layers.iter_mut() {
+        for g in [&mut l.t, &mut l.u, &mut l.v, &mut l.c, &mut l.up, &mut l.d, &mut l.sigma] {
+            g.data_mut().iter_mut().for_each(|x| *x = *x * 0.999_999 + 1e-9);
+        }
+        for g in [&mut l.h, &mut l.w, &mut l.ash, &mut l.p] {
+            g.data_mut().iter_mut().for_each(|x| *x = *x * 0.999_999 + 1e-12);
+        }
+    }
+    black_box(&state.layers);
+}
+
+/// CPU time (ms) this process has used so far, all threads (Linux `/proc/self/stat`, 100
+/// ticks per second; 0 elsewhere): on a loaded machine it measures the work, not the waiting.
+fn cpu_ms() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = stat.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = after.split_whitespace().collect();
+    // Fields 14 and 15 of the file (utime, stime) are the 12th and 13th after the name.
+    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok());
+    tick(11).zip(tick(12)).map(|(u, s)| (u + s) * 10.0).unwrap_or(0.0)
+}
+
+/// Mean phase times over 10 steps, printed as the profile of the step.
+fn profile(state: &mut AtmosphereState, params: &AtmosphereParams, work: &mut Workspace, label: &str) {
+    let (mut phases, mut cycles, mut substeps, mut total) = ([0.0; 4], 0, 0, 0.0);
+    let steps = 10;
+    let cpu0 = cpu_ms();
+    for _ in 0..steps {
+        let t0 = std::time::Instant::now();
+        let r = step(state, params, work, 30.0).unwrap();
+        total += t0.elapsed().as_secs_f64() * 1e3;
+        phases.iter_mut().zip(r.phase_ms).for_each(|(a, b)| *a += b);
+        cycles += r.v_cycles;
+        substeps = substeps.max(r.flux_substeps);
+    }
+    let cpu = cpu_ms() - cpu0;
+    let f = |x: f64| x / steps as f64;
+    eprintln!(
+        "{label}: step {:.1} ms (CPU {:.0} ms, all threads) = ground {:.1} + phase change {:.1} + vertical {:.1} + dynamics {:.1} + rest; \
+         {:.1} V-cycles/step (all layers), flux substeps ≤ {substeps}",
+        f(total),
+        f(cpu),
+        f(phases[0]),
+        f(phases[1]),
+        f(phases[2]),
+        f(phases[3]),
+        cycles as f64 / steps as f64,
+    );
+}
 
 fn bench_step(c: &mut Criterion, scenario: &str, label: &str) {
     let sc = Scenario::builtin(scenario).unwrap();
@@ -16,9 +73,12 @@ fn bench_step(c: &mut Criterion, scenario: &str, label: &str) {
     for _ in 0..3 {
         step(&mut state, &sc.params, &mut work, 30.0).unwrap();
     }
+    profile(&mut state, &sc.params, &mut work, label);
+    let mut copy = state.clone();
     c.bench_function(label, |b| {
         b.iter(|| black_box(step(&mut state, &sc.params, &mut work, 30.0).unwrap()));
     });
+    c.bench_function(&format!("{label}: memory sweep"), |b| b.iter(|| sweep(&mut copy)));
 }
 
 fn benches(c: &mut Criterion) {

@@ -259,27 +259,61 @@ fn cycle(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64],
     }
 }
 
-/// `h² ∇·(a∇φ)` at cell `k` (its west/east/south/north neighbours given), the plain
-/// 5-point Laplacian without weights.
-#[inline]
-#[allow(clippy::too_many_arguments)]
-fn operator(
-    faces: Option<&Faces>,
-    phi: &[f64],
-    k: usize,
-    left: usize,
-    right: usize,
-    down: usize,
-    up: usize,
-) -> f64 {
-    let c = phi[k];
-    match faces {
-        None => phi[left] + phi[right] + phi[up] + phi[down] - 4.0 * c,
-        Some(f) => {
-            let (aw, ae, as_, an) = f.around(k, right, up);
-            aw * (phi[left] - c) + ae * (phi[right] - c) + as_ * (phi[down] - c) + an * (phi[up] - c)
-        }
+/// The 5-point operator of one level: the plain Laplacian or the face-weighted one. Each
+/// sweep is monomorphised for both, so the inner loops carry no per-cell branch on the kind.
+trait Stencil: Copy + Sync {
+    /// `h² ∇·(a∇φ)` at cell `k` (its west/east/south/north neighbours given).
+    fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64;
+    /// The Gauss–Seidel update of cell `k` (east and north neighbours `right`, `up`) from its
+    /// neighbours' values `[west, east, north, south]` and `h² rhs`; `None` for a cell with
+    /// every face closed (left alone).
+    fn relax(self, k: usize, right: usize, up: usize, nb: [f64; 4], h2r: f64) -> Option<f64>;
+}
+
+/// All faces open: the plain 5-point Laplacian.
+#[derive(Clone, Copy)]
+struct Plain;
+
+impl Stencil for Plain {
+    #[inline(always)]
+    fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64 {
+        phi[left] + phi[right] + phi[up] + phi[down] - 4.0 * phi[k]
     }
+    #[inline(always)]
+    fn relax(self, _: usize, _: usize, _: usize, [pl, pr, pu, pd]: [f64; 4], h2r: f64) -> Option<f64> {
+        Some(0.25 * (pl + pr + pu + pd - h2r))
+    }
+}
+
+impl Stencil for &Faces {
+    #[inline(always)]
+    fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64 {
+        let c = phi[k];
+        let (aw, ae, as_, an) = self.around(k, right, up);
+        aw * (phi[left] - c) + ae * (phi[right] - c) + as_ * (phi[down] - c) + an * (phi[up] - c)
+    }
+    #[inline(always)]
+    fn relax(self, k: usize, right: usize, up: usize, [pl, pr, pu, pd]: [f64; 4], h2r: f64) -> Option<f64> {
+        let (aw, ae, as_, an) = self.around(k, right, up);
+        let diag = aw + ae + as_ + an;
+        (diag > 0.0).then(|| (aw * pl + ae * pr + as_ * pd + an * pu - h2r) / diag)
+    }
+}
+
+/// Runs `body` with the level's stencil as a concrete type.
+macro_rules! with_stencil {
+    ($faces:expr, |$s:ident| $body:expr) => {
+        match $faces {
+            None => {
+                let $s = Plain;
+                $body
+            }
+            Some(f) => {
+                let $s = f;
+                $body
+            }
+        }
+    };
 }
 
 /// Grids at least this wide run their sweeps with rows in parallel.
@@ -298,7 +332,12 @@ unsafe impl Sync for SharedRows {}
 /// independent, so large grids update them in parallel; the result does not depend on the
 /// thread count.
 fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64]) {
+    with_stencil!(faces, |s| rb_gauss_seidel_with(n, h2, s, phi, rhs))
+}
+
+fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rhs: &[f64]) {
     assert_eq!(phi.len(), n * n);
+    assert_eq!(rhs.len(), n * n);
     let mask = n - 1;
     let base = SharedRows(phi.as_mut_ptr());
     for colour in 0..2 {
@@ -311,24 +350,17 @@ fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rh
             while i < n {
                 let left = (i + n - 1) & mask;
                 let right = (i + 1) & mask;
-                // SAFETY: all indices are < n² (masked), so inside `phi`. In this colour pass
-                // a cell (i, j) with (i + j) % 2 == colour is written only by the task of row
-                // j, and the four neighbours read have the other parity (the ±1 changes it
-                // also across the torus seam because n is even), so no cell is read and
-                // written concurrently.
+                // SAFETY: all indices are < n² (masked; `rhs` has n² values, asserted), so
+                // inside `phi` and `rhs`. In this colour pass a cell (i, j) with
+                // (i + j) % 2 == colour is written only by the task of row j, and the four
+                // neighbours read have the other parity (the ±1 changes it also across the
+                // torus seam because n is even), so no cell is read and written concurrently.
                 unsafe {
                     let (pl, pr) = (*p.0.add(row + left), *p.0.add(row + right));
                     let (pu, pd) = (*p.0.add(up + i), *p.0.add(down + i));
-                    match faces {
-                        None => *p.0.add(row + i) = 0.25 * (pl + pr + pu + pd - h2 * rhs[row + i]),
-                        Some(f) => {
-                            let (aw, ae, as_, an) = f.around(row + i, row + right, up + i);
-                            let diag = aw + ae + as_ + an;
-                            if diag > 0.0 {
-                                *p.0.add(row + i) =
-                                    (aw * pl + ae * pr + as_ * pd + an * pu - h2 * rhs[row + i]) / diag;
-                            }
-                        }
+                    let h2r = h2 * *rhs.get_unchecked(row + i);
+                    if let Some(x) = s.relax(row + i, row + right, up + i, [pl, pr, pu, pd], h2r) {
+                        *p.0.add(row + i) = x;
                     }
                 }
                 i += 2;
@@ -344,6 +376,10 @@ fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rh
 
 /// `res = rhs − ∇·(a∇φ)` (rows in parallel on large grids).
 fn residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
+    with_stencil!(faces, |s| residual_with(n, h2, s, phi, rhs, res))
+}
+
+fn residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
     let mask = n - 1;
     let inv = 1.0 / h2;
     let row_pass = |(j, out): (usize, &mut [f64])| {
@@ -353,7 +389,7 @@ fn residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], 
         for (i, r) in out.iter_mut().enumerate() {
             let left = (i + n - 1) & mask;
             let right = (i + 1) & mask;
-            let lap = operator(faces, phi, row + i, row + left, row + right, down + i, up + i) * inv;
+            let lap = s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv;
             *r = rhs[row + i] - lap;
         }
     };
@@ -367,6 +403,10 @@ fn residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], 
 /// Residual `rhs − ∇·(a∇φ)` of the fine (n × n) grid restricted to the coarse one (mean of
 /// the four children), computed on the fly (coarse rows in parallel on large grids).
 fn restrict_residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
+    with_stencil!(faces, |s| restrict_residual_with(n, h2, s, phi, rhs, coarse))
+}
+
+fn restrict_residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
     let m = n / 2;
     let mask = n - 1;
     let inv = 1.0 / h2;
@@ -376,7 +416,7 @@ fn restrict_residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs:
         let down = ((j + n - 1) & mask) * n;
         let left = (i + n - 1) & mask;
         let right = (i + 1) & mask;
-        rhs[row + i] - operator(faces, phi, row + i, row + left, row + right, down + i, up + i) * inv
+        rhs[row + i] - s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv
     };
     let row_pass = |(jc, out): (usize, &mut [f64])| {
         for (ic, c) in out.iter_mut().enumerate() {
