@@ -16,6 +16,6 @@ pub use model::scenario::Scenario;
 pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherPipelineSettings,
-    WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, flush_weather, join_weather,
-    spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+    WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at, flush_weather,
+    join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

@@ -14,6 +14,7 @@ use volcano_core::prelude::*;
 
 pub use components::{
     AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped, WeatherSystems,
+    air_ash_at,
 };
 pub use pipeline::{
     AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,

@@ -75,6 +75,16 @@ pub struct AirLayer {
     pub fields: LayerFields,
 }
 
+/// Ash concentration (g/m³) in the air of `atmosphere` at world position `p` (gameplay: "is
+/// ash falling on the player?"), from its `layers` (any order; other atmospheres' layers are
+/// skipped): [`crate::model::ash::ash_at`]. 0 outside the layer stack or without layers.
+pub fn air_ash_at<'a>(layers: impl IntoIterator<Item = &'a AirLayer>, atmosphere: Entity, p: Vec3) -> f64 {
+    let mut mine: Vec<&AirLayer> = layers.into_iter().filter(|l| l.atmosphere == atmosphere).collect();
+    mine.sort_by_key(|l| l.index);
+    let fields: Vec<&LayerFields> = mine.iter().map(|l| &l.fields).collect();
+    crate::model::ash::ash_at(&fields, p.x, p.y as f64, p.z)
+}
+
 /// The ground under an atmosphere (terrain heights, cover, temperature, water).
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(opaque)]

@@ -12,6 +12,7 @@
 
 use bevy::math::Vec2;
 use noise::{NoiseFn, Perlin};
+use volcano_atmosphere::model::ash::{ash_blended, layer_blend};
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
 use volcano_core::error::in_range;
 use volcano_core::grid::Boundary;
@@ -70,26 +71,6 @@ impl AshVolumeSpec {
     }
 }
 
-/// Which layers' fields make the ash at altitude `z`: `(lower, upper, weight of upper)`,
-/// linear in altitude between the centres (`altitude`) of adjacent layers, the nearest layer's
-/// own value between its centre and its slab's outer boundary, `None` outside the stack.
-/// The layers are a stack of slabs, lowest first.
-pub fn layer_blend(layers: &[&LayerFields], z: f64) -> Option<(usize, usize, f64)> {
-    let (first, last) = (layers.first()?, layers.last()?);
-    if !(z >= first.bottom && z < last.bottom + last.thickness) {
-        return None;
-    }
-    let above = layers.iter().position(|l| l.altitude > z);
-    Some(match above {
-        None => (layers.len() - 1, layers.len() - 1, 0.0),
-        Some(0) => (0, 0, 0.0),
-        Some(u) => {
-            let (a, b) = (layers[u - 1].altitude, layers[u].altitude);
-            (u - 1, u, ((z - a) / (b - a)).clamp(0.0, 1.0))
-        }
-    })
-}
-
 /// Ash concentration (g/m³) of the voxels of `spec` over an atmosphere of grid `grid` (x
 /// fastest, then grid y, then altitude — the layout of `clouds::density_texels`): each voxel
 /// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
@@ -115,7 +96,6 @@ pub fn ash_density_volume(
             (z, layer_blend(layers, z))
         })
         .collect();
-    let finite = |c: f64| if c.is_finite() && c > 0.0 { c } else { 0.0 };
     let mut out = vec![0.0f32; nxy * nxy * nz];
     for jy in 0..nxy {
         for ix in 0..nxy {
@@ -123,14 +103,11 @@ pub fn ash_density_volume(
             let floor = ground.map_or(f64::NEG_INFINITY, |g| g.sample(p, Boundary::Clamp) as f64);
             let s = streak[jy * nxy + ix];
             for (iz, &(z, blend)) in levels.iter().enumerate() {
-                let Some((lo, hi, w)) = blend else { continue };
+                let Some(blend) = blend else { continue };
                 if z < floor {
                     continue;
                 }
-                let c = finite(layers[lo].ash.sample(p, Boundary::Clamp));
-                let c =
-                    if w > 0.0 { c + w * (finite(layers[hi].ash.sample(p, Boundary::Clamp)) - c) } else { c };
-                out[(iz * nxy + jy) * nxy + ix] = (c * s) as f32;
+                out[(iz * nxy + jy) * nxy + ix] = (ash_blended(layers, blend, p) * s) as f32;
             }
         }
     }

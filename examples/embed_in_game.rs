@@ -1,0 +1,136 @@
+//! A volcano in someone else's game: `cargo run --example embed_in_game`.
+//!
+//! Written from `App::new()` up the way a game would: the game's own fixed rate (64 Hz, Bevy's
+//! default, stated), camera, sun, ambient light, terrain and egui; `VolcanoPlugins` adds the
+//! simulation and its visuals and changes none of those. The game spawns a `Volcano` with an
+//! `Eruption`, an atmosphere over it (so the column couples, heats and moistens the air and its
+//! ash is carried and settled), a lava patch on the flank with a `LavaZone` around the
+//! player's house, and reads gameplay messages (column collapsed, umbrella spreading, lava
+//! reached the house) plus the ash in the air at the player, in a system ordered after the
+//! volcano's base tick (`SimSystems::End`). The HUD is the game's own egui window.
+//!
+//! Not yet as the embeddable issue asks: the terrain is procedural rather than a heightmap
+//! asset (heightmaps are read from paths, not through the asset server, so far).
+
+use bevy::prelude::*;
+use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
+use volcano::atmosphere::{AirLayer, Atmosphere, Scenario, air_ash_at, spawn_scenario_with};
+use volcano::lava::{LavaReached, LavaZone};
+use volcano::plume::{PlumeCollapsed, UmbrellaSpreading};
+use volcano::prelude::*;
+use volcano::render::VolcanoViewer;
+
+/// The player stands here (world metres): 6 km east of the vent, downwind of the low layers.
+const PLAYER: Vec3 = Vec3::new(6_000.0, 900.0, 0.0);
+
+/// What the game shows in its HUD.
+#[derive(Resource, Default)]
+struct GameLog {
+    lines: Vec<String>,
+    ash_at_player: f64,
+    umbrella_seen: bool,
+}
+
+fn main() -> AppExit {
+    App::new()
+        .add_plugins(DefaultPlugins)
+        // The game's own egui, added before the volcano (after works as well).
+        .add_plugins(EguiPlugin::default())
+        // The game's fixed rate; the volcano follows it and never changes it.
+        .insert_resource(Time::<Fixed>::from_hz(64.0))
+        .add_plugins(VolcanoPlugins)
+        .init_resource::<GameLog>()
+        .add_systems(Startup, setup)
+        // Gameplay reads the volcano after its base tick, in the same fixed step.
+        .add_systems(FixedUpdate, watch_the_volcano.after(SimSystems::End))
+        .add_systems(EguiPrimaryContextPass, hud)
+        .run()
+}
+
+fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
+    // The game's world: its terrain, sun, ambient light and camera.
+    let terrain = match StratovolcanoParams::default().generate() {
+        Ok(t) => t,
+        Err(e) => {
+            log.lines.push(format!("no terrain: {e}"));
+            return;
+        }
+    };
+    commands.spawn((
+        DirectionalLight { illuminance: 100_000.0, shadows_enabled: true, ..default() },
+        Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(-0.6, -0.5, 0.4), Vec3::Y),
+    ));
+    commands.insert_resource(GlobalAmbientLight { brightness: 800.0, ..default() });
+    commands.spawn((
+        Camera3d::default(),
+        // The marker tells the volcano which camera its ash billboards face.
+        VolcanoViewer,
+        Transform::from_xyz(16_000.0, 4_000.0, 22_000.0).looking_at(Vec3::new(0.0, 5_000.0, 0.0), Vec3::Y),
+    ));
+    // The volcano: its vent snaps to the terrain under the entity's x/z.
+    match Volcano::new(100.0, 42) {
+        Ok(v) => {
+            commands.spawn((Name::new("Volcano"), v, Eruption::plinian(), Transform::default()));
+        }
+        Err(e) => log.lines.push(format!("no volcano: {e}")),
+    }
+    // Air over it: the built-in five-layer scenario of the `eruption` scene, over this terrain.
+    match Scenario::builtin("eruption") {
+        Ok(scenario) => {
+            if let Err(e) = spawn_scenario_with(&mut commands, &scenario, None, Some(&terrain), 0) {
+                log.lines.push(format!("no atmosphere: {e}"));
+            }
+        }
+        Err(e) => log.lines.push(format!("no atmosphere: {e}")),
+    }
+    // A lava patch on the flank (the `eruption` scene's), and the player's house below it.
+    match volcano::scenes::by_name("eruption").map(|s| s.lava) {
+        Ok(Some(lava)) => {
+            lava.spawn(&mut commands);
+            if let Ok(zone) = LavaZone::new(Vec2::new(1_721.0, 2_520.0), 15.0) {
+                commands.spawn((Name::new("Player's house"), zone));
+            }
+        }
+        Ok(None) => {}
+        Err(e) => log.lines.push(format!("no lava: {e}")),
+    }
+    commands.spawn(terrain);
+}
+
+/// Gameplay: messages from the volcano and the ash in the air at the player.
+fn watch_the_volcano(
+    mut log: ResMut<GameLog>,
+    mut collapsed: MessageReader<PlumeCollapsed>,
+    mut umbrella: MessageReader<UmbrellaSpreading>,
+    mut lava: MessageReader<LavaReached>,
+    atmospheres: Query<Entity, With<Atmosphere>>,
+    layers: Query<&AirLayer>,
+    tick: Res<SimTick>,
+    fixed: Res<Time<Fixed>>,
+) {
+    let t = tick.0 as f64 * fixed.timestep().as_secs_f64();
+    for m in collapsed.read() {
+        log.lines.push(format!("{t:.0} s: the column collapsed at {:.0} m", m.position.y));
+    }
+    for m in umbrella.read() {
+        if !log.umbrella_seen {
+            log.umbrella_seen = true;
+            log.lines.push(format!("{t:.0} s: the umbrella spreads from {:.0} m", m.apex));
+        }
+    }
+    for _ in lava.read() {
+        log.lines.push(format!("{t:.0} s: lava reached the house!"));
+    }
+    log.ash_at_player = atmospheres.iter().map(|a| air_ash_at(&layers, a, PLAYER)).sum();
+}
+
+/// The game's own HUD.
+fn hud(mut contexts: EguiContexts, log: Res<GameLog>) -> Result {
+    egui::Window::new("Game").show(contexts.ctx_mut()?, |ui| {
+        ui.label(format!("ash in the air at the player: {:.3} g/m³", log.ash_at_player));
+        for line in log.lines.iter().rev().take(8) {
+            ui.label(line);
+        }
+    });
+    Ok(())
+}
