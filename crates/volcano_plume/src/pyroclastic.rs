@@ -307,7 +307,9 @@ pub fn par_map_ordered<T: Send, R: Send + 'static>(
 /// from the vent) ↔ world (x, z = −y, y up).
 fn ground_below(surface: Option<&Grid2<f32>>, vent: Vec3, x: f64, y: f64) -> f64 {
     match surface {
-        Some(s) => (s.sample(Vec2::new(vent.x + x as f32, vent.z - y as f32), Boundary::Clamp) - vent.y) as f64,
+        Some(s) => {
+            (s.sample(Vec2::new(vent.x + x as f32, vent.z - y as f32), Boundary::Clamp) - vent.y) as f64
+        }
         None => f64::NEG_INFINITY,
     }
 }
@@ -360,10 +362,10 @@ fn relax_deposit(
     }
 }
 
-/// Buoyant particles, per volcano, gather into clusters that become rising slices. A buoyant
-/// particle no cluster took that has risen more than r_pyr above the ground has left its flow
-/// (no cluster can gather round it any more): it lifts off alone, a one-sphere secondary
-/// column, instead of hanging in the air for ever.
+/// Buoyant particles, per volcano, gather into clusters that become rising slices. Buoyant
+/// particles no cluster took that have risen more than r_pyr above the ground have left their
+/// flow: they lift off with the others like them within r_pyr (the same seed rule, any
+/// number), or alone, instead of hanging in the air for ever.
 fn lift_secondary_columns(
     mut commands: Commands,
     mut eruptions: Query<(Entity, &Eruption, &mut EmissionState, &VolcanoRng)>,
@@ -393,11 +395,16 @@ fn lift_secondary_columns(
             taken[i] = true;
         }
         let surface = deposit.surface.as_ref();
-        for (i, (_, pp)) in mine.iter().enumerate() {
-            let q = pp.particle.position;
-            if !taken[i] && q.z - ground_below(surface, pp.vent, q.x, q.y) > py.cluster_radius {
-                groups.push(vec![i]);
-            }
+        let aloft: Vec<bool> = mine
+            .iter()
+            .zip(&taken)
+            .map(|((_, pp), &t)| {
+                let q = pp.particle.position;
+                !t && q.z - ground_below(surface, pp.vent, q.x, q.y) > py.cluster_radius
+            })
+            .collect();
+        if aloft.contains(&true) {
+            groups.extend(find_clusters(&list, &aloft, py.cluster_radius, 1).members);
         }
         for members in &groups {
             let Some(state) = secondary_column(&list, members) else { continue };

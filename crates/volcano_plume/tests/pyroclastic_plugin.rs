@@ -93,6 +93,7 @@ fn flows_lift_off_as_secondary_columns() {
     run(&mut app, 50 * 110);
     let seen = app.world().resource::<Seen>();
     let b = *app.world().resource::<PyroclasticBudget>();
+    eprintln!("{seen:?} {b:?}");
     assert!(seen.secondary > 0 && b.secondary_columns > 0, "{seen:?} {b:?}");
     assert!(b.lifted > 0.0);
 }
@@ -146,7 +147,10 @@ fn an_isolated_buoyant_particle_lifts_off_alone() {
         grounded: false,
     };
     let m0 = particle.mass;
-    world.spawn((Transform::default(), PyroParticle { volcano, particle, vent: Vec3::ZERO, id: 0, buoyant: false }));
+    world.spawn((
+        Transform::default(),
+        PyroParticle { volcano, particle, vent: Vec3::ZERO, id: 0, buoyant: false },
+    ));
     run(&mut app, 50 * 60);
     let world = app.world_mut();
     let left = world.query::<&PyroParticle>().iter(world).count();

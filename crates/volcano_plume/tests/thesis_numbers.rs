@@ -101,8 +101,9 @@ fn mass_is_the_vent_mass_plus_the_integrated_entrainment() {
             worst = worst.max((integrated - mass(&w[1])).abs() / mass(&w[1]));
         }
         let grown = mass(traj.last().unwrap()) / mass(&traj[0]);
-        assert!(grown > 10.0, "entrainment must dominate the mass: ×{grown}");
-        assert!(worst < 5e-3, "contraction {c}: mass off the integrated law by {worst:e} (×{grown})");
+        eprintln!("contraction {c}: mass ×{grown} in 90 s, largest departure from the integral {worst:e}");
+        assert!(grown > 2.0, "entrainment must dominate the mass: ×{grown}");
+        assert!(worst < 1e-4, "contraction {c}: mass off the integrated law by {worst:e} (×{grown})");
     }
 }
 

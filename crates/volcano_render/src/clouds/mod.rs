@@ -167,7 +167,8 @@ pub fn build_cloud_image(
 ) -> Result<(Image, Transform, f32), ConfigError> {
     settings.validate()?;
     let spec = volume_spec(state, settings);
-    let forms = coherent_forms_with(state, cloud_threshold, settings.clusters, settings.fragmentation, 0, memory);
+    let forms =
+        coherent_forms_with(state, cloud_threshold, settings.clusters, settings.fragmentation, 0, memory);
     let density = density_volume(state, &forms, &spec);
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image
