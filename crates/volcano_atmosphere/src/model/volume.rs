@@ -422,7 +422,7 @@ mod tests {
         let block: Vec<usize> = (2..10).flat_map(|j| (2..10).map(move |i| j * n + i)).collect();
         for &k in &block {
             st.layers[1].w.data_mut()[k] = 1.0;
-            st.layers[1].c.data_mut()[k] = if (k % n + k / n) % 2 == 0 { 0.2 } else { 0.7 };
+            st.layers[1].c.data_mut()[k] = if (k % n + k / n).is_multiple_of(2) { 0.2 } else { 0.7 };
         }
         let first: Vec<_> =
             block.iter().map(|&k| classify(1500.0, 800.0, st.layers[1].c.data()[k] as f64)).collect();
@@ -452,10 +452,10 @@ mod tests {
         let state_at = |step: usize| {
             let mut st = base.clone();
             st.time_s = 3_600.0 + 60.0 * step as f64;
-            let mean = if step % 2 == 0 { 0.53 } else { 0.47 };
+            let mean = if step.is_multiple_of(2) { 0.53 } else { 0.47 };
             for &k in &block {
                 st.layers[1].w.data_mut()[k] = 1.0;
-                st.layers[1].c.data_mut()[k] = mean + if (k % n + k / n) % 2 == 0 { 0.3 } else { -0.3 };
+                st.layers[1].c.data_mut()[k] = mean + if (k % n + k / n).is_multiple_of(2) { 0.3 } else { -0.3 };
             }
             st
         };
