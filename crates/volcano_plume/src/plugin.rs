@@ -3,7 +3,7 @@
 
 use bevy::ecs::entity::EntityHashSet;
 use bevy::ecs::schedule::ScheduleLabel;
-use bevy::math::{DQuat, DVec2, DVec3};
+use bevy::math::{DQuat, DVec3};
 use bevy::prelude::*;
 use volcano_core::prelude::*;
 
@@ -162,7 +162,7 @@ fn step_slices(
             });
         }
         transform.translation = slice.vent + plume_to_world(slice.state.position);
-        transform.rotation = orientation(slice.state.velocity);
+        transform.rotation = orientation(&slice.state);
         if !slice.state.is_finite() {
             warn!("plume slice {} became non-finite and was removed", slice.index);
             if let Ok((.., mut ash)) = eruptions.get_mut(slice.volcano) {
@@ -206,25 +206,10 @@ fn step_slices(
         let spread = umbrella_spread(&slice, eruptions.get(slice.volcano).ok().map(|(_, e, a, _)| (e, a)));
         for (k, &(sphere_entity, s1)) in ring.iter().enumerate() {
             if phase == Phase::Umbrella {
-                // Spread radially around the column axis in the direction of the sphere's place
-                // on the vortex ring, starting from the ring radius r/2 where it sat (the
-                // umbrella law's clamp d ≥ r then moves it at v until d = r).
-                let ring = s1.sphere.local_offset(s.r);
-                let axis = s.position.truncate();
-                let dir = DVec2::new(ring.x, ring.y).try_normalize().unwrap_or(DVec2::X);
-                // A gravity current is fed on the axis: its spheres start there and move at
-                // the front speed of wherever they are.
-                let d = if matches!(spread, Spread::Thesis) { 0.5 * s.r } else { 0.0 };
-                let kin = UmbrellaSphere {
-                    axis,
-                    direction: dir,
-                    d,
-                    r: s.r,
-                    v_neutral: s.neutral_speed.unwrap_or(0.0),
-                    z_apex: s.apex,
-                    z_neutral: s.neutral_altitude.unwrap_or(s.apex),
-                    spread,
-                };
+                // Spread radially around the column axis from where the sphere sits on the
+                // (possibly tilted) vortex ring (the umbrella law's clamp d ≥ r moves it at v
+                // until d = r); a gravity current's spheres start on the axis.
+                let kin = UmbrellaSphere::detach(s, s1.sphere.local_offset(s.r), spread);
                 commands.entity(sphere_entity).remove::<S1>().insert(Umbrella {
                     volcano: slice.volcano,
                     sphere: kin,
@@ -335,8 +320,9 @@ fn sync_sphere_transforms(
 
 /// Rotation taking the plume axis (world +y) to the direction of motion: slices stay
 /// orthogonal to their trajectory (§3.4.3).
-fn orientation(velocity: DVec3) -> Quat {
-    let dir = plume_to_world(velocity).normalize_or(Vec3::Y);
-    let q = DQuat::from_rotation_arc(DVec3::Y, dir.as_dvec3());
-    q.as_quat()
+/// The model's [`Slice::rotation`] taken to world axes (plume frame → world is a quarter turn
+/// about x), so the ring drawn and the umbrella it detaches into agree.
+fn orientation(state: &Slice) -> Quat {
+    let to_world = DQuat::from_rotation_x(-std::f64::consts::FRAC_PI_2);
+    (to_world * state.rotation() * to_world.inverse()).as_quat()
 }

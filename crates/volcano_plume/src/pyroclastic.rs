@@ -247,14 +247,7 @@ fn step_particles(
             let wind = |z: f64| p.wind.at(z);
             let vent = pp.vent;
             let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent.y as f64, wind: &wind };
-            // Plume frame (x, y horizontal, z up from the vent) ↔ world (x, z = −y, y up).
-            let ground = |x: f64, y: f64| match surface {
-                Some(s) => {
-                    (s.sample(Vec2::new(vent.x + x as f32, vent.z - y as f32), Boundary::Clamp) - vent.y)
-                        as f64
-                }
-                None => f64::NEG_INFINITY,
-            };
+            let ground = |x: f64, y: f64| ground_below(surface, vent, x, y);
             let report = step_particle(&mut pp.particle, &eruption.pyroclastic, &env, &ground, dt);
             pp.buoyant = report.buoyant;
             let world = vent + plume_to_world(pp.particle.position);
@@ -309,6 +302,18 @@ pub fn par_map_ordered<T: Send, R: Send + 'static>(
     chunks.into_iter().flatten().collect()
 }
 
+/// Height (plume frame, m above the vent at world `vent`) of the collision surface, terrain +
+/// deposit, under plume-frame `(x, y)`; −∞ without a map. Plume frame (x, y horizontal, z up
+/// from the vent) ↔ world (x, z = −y, y up).
+fn ground_below(surface: Option<&Grid2<f32>>, vent: Vec3, x: f64, y: f64) -> f64 {
+    match surface {
+        Some(s) => {
+            (s.sample(Vec2::new(vent.x + x as f32, vent.z - y as f32), Boundary::Clamp) - vent.y) as f64
+        }
+        None => f64::NEG_INFINITY,
+    }
+}
+
 fn finite(p: &Particle) -> bool {
     p.position.is_finite() && p.velocity.is_finite() && p.mass.is_finite()
 }
@@ -357,11 +362,15 @@ fn relax_deposit(
     }
 }
 
-/// Buoyant particles, per volcano, gather into clusters that become rising slices.
+/// Buoyant particles, per volcano, gather into clusters that become rising slices. Buoyant
+/// particles no cluster took that have risen more than r_pyr above the ground have left their
+/// flow: they lift off with the others like them within r_pyr (the same seed rule, any
+/// number), or alone, instead of hanging in the air for ever.
 fn lift_secondary_columns(
     mut commands: Commands,
     mut eruptions: Query<(Entity, &Eruption, &mut EmissionState, &VolcanoRng)>,
     particles: Query<(Entity, &PyroParticle)>,
+    deposit: Res<DepositMap>,
     mut budget: ResMut<PyroclasticBudget>,
     mut formed: MessageWriter<SecondaryColumnFormed>,
 ) {
@@ -370,14 +379,34 @@ fn lift_secondary_columns(
         let mut mine: Vec<(Entity, &PyroParticle)> =
             particles.iter().filter(|(_, p)| p.buoyant && p.volcano == volcano).collect();
         let py = &eruption.pyroclastic;
-        if mine.len() < py.min_cluster.max(1) as usize {
+        if mine.is_empty() {
             continue;
         }
         mine.sort_by_key(|(_, p)| p.id);
         let list: Vec<Particle> = mine.iter().map(|(_, p)| p.particle).collect();
-        let all = vec![true; list.len()];
-        let clusters = find_clusters(&list, &all, py.cluster_radius, py.min_cluster as usize);
-        for members in &clusters.members {
+        let mut groups = if mine.len() >= py.min_cluster.max(1) as usize {
+            let all = vec![true; list.len()];
+            find_clusters(&list, &all, py.cluster_radius, py.min_cluster as usize).members
+        } else {
+            Vec::new()
+        };
+        let mut taken = vec![false; list.len()];
+        for &i in groups.iter().flatten() {
+            taken[i] = true;
+        }
+        let surface = deposit.surface.as_ref();
+        let aloft: Vec<bool> = mine
+            .iter()
+            .zip(&taken)
+            .map(|((_, pp), &t)| {
+                let q = pp.particle.position;
+                !t && q.z - ground_below(surface, pp.vent, q.x, q.y) > py.cluster_radius
+            })
+            .collect();
+        if aloft.contains(&true) {
+            groups.extend(find_clusters(&list, &aloft, py.cluster_radius, 1).members);
+        }
+        for members in &groups {
             let Some(state) = secondary_column(&list, members) else { continue };
             for &i in members {
                 commands.entity(mine[i].0).despawn();

@@ -93,6 +93,7 @@ fn flows_lift_off_as_secondary_columns() {
     run(&mut app, 50 * 110);
     let seen = app.world().resource::<Seen>();
     let b = *app.world().resource::<PyroclasticBudget>();
+    eprintln!("{seen:?} {b:?}");
     assert!(seen.secondary > 0 && b.secondary_columns > 0, "{seen:?} {b:?}");
     assert!(b.lifted > 0.0);
 }
@@ -120,4 +121,41 @@ fn pyroclastic_flow_is_frame_rate_independent() {
     let (fa, fb) = (fingerprint(&mut a), fingerprint(&mut b));
     assert!(!fa.is_empty());
     assert_eq!(fa, fb);
+}
+
+/// One buoyant particle with no others near it cannot make a cluster of 19; once it has risen
+/// clear of the flows (more than r_pyr above the ground) it lifts off alone as a secondary
+/// column, so no particle hangs in the air for ever. (It used to stay a particle, rising
+/// until the simulation ended.)
+#[test]
+fn an_isolated_buoyant_particle_lifts_off_alone() {
+    let mut app = app(5);
+    let world = app.world_mut();
+    for mut e in world.query::<&mut Eruption>().iter_mut(world) {
+        e.active = false;
+    }
+    let volcano = world.query_filtered::<Entity, With<Eruption>>().single(world).unwrap();
+    let ground = world.query::<&Terrain>().single(world).unwrap().height_at(1_500.0, 0.0) as f64;
+    let radius = 8.0;
+    let particle = volcano_plume::model::pyroclastic::Particle {
+        position: bevy::math::DVec3::new(1_500.0, 0.0, ground + 20.0),
+        velocity: bevy::math::DVec3::ZERO,
+        radius,
+        // 0.6 kg/m³, lighter than the air on the flank.
+        mass: 0.6 * 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3),
+        temperature: 700.0,
+        grounded: false,
+    };
+    let m0 = particle.mass;
+    world.spawn((
+        Transform::default(),
+        PyroParticle { volcano, particle, vent: Vec3::ZERO, id: 0, buoyant: false },
+    ));
+    run(&mut app, 50 * 60);
+    let world = app.world_mut();
+    let left = world.query::<&PyroParticle>().iter(world).count();
+    let b = *world.resource::<PyroclasticBudget>();
+    assert_eq!(left, 0, "the particle is still there after 60 s: {b:?}");
+    assert_eq!(b.secondary_columns, 1, "{b:?}");
+    assert!(b.lifted > 0.0 && (b.lifted + b.deposited + b.lost - m0).abs() < 1e-9 * m0, "{b:?}");
 }

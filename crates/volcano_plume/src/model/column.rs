@@ -68,6 +68,7 @@ pub(crate) fn step(s: &mut Slice, p: &PlumeParams, env: &SliceEnv, dt: f64) -> S
     let (rho_a, t_a) = (air.density, air.temperature);
     let wind = (env.wind)(s.position.z);
     let speed = s.velocity.length();
+    let rising = s.velocity.z >= 0.0;
 
     // Entrainment velocity, eq 3.7.
     let vw = wind.length();
@@ -137,6 +138,6 @@ pub(crate) fn step(s: &mut Slice, p: &PlumeParams, env: &SliceEnv, dt: f64) -> S
     s.position += v * dt;
     s.age += dt;
     s.apex = s.apex.max(s.position.z);
-    s.update_phase(env, &mut report);
+    s.update_phase(env, &mut report, rising);
     report
 }

@@ -340,9 +340,9 @@ pub fn find_clusters(particles: &[Particle], buoyant: &[bool], radius: f64, min_
 /// A secondary column (§3.6): a new rising slice at the cluster's centroid with the cluster's
 /// averaged density ρ̄ = Σm / ΣV, mass-weighted velocity and temperature, and the size that
 /// holds the cluster's mass at that density, `r = ∛(Σm / (ρ̄ π))` (slice volume π r³). Mass
-/// and horizontal momentum are conserved; a downward mean vertical velocity (a flow running
-/// down a slope) starts at 0 instead, because the slice model reads a falling buoyant slice as
-/// having reached its apex (§3.6) and the column must rise from the ground.
+/// and momentum are conserved, the vertical part too: a flow running down a slope hands its
+/// downward velocity to the column, which sinks until its buoyancy turns it round (the slice
+/// model only calls a slice's top an apex once it has been rising).
 pub fn secondary_column(particles: &[Particle], members: &[usize]) -> Option<Slice> {
     let (mut m, mut vol, mut mv, mut mt, mut c) = (0.0, 0.0, DVec3::ZERO, 0.0, DVec3::ZERO);
     for &i in members {
@@ -362,10 +362,7 @@ pub fn secondary_column(particles: &[Particle], members: &[usize]) -> Option<Sli
         r,
         length: r,
         position: c / m,
-        velocity: {
-            let v = mv / m;
-            DVec3::new(v.x, v.y, v.z.max(0.0))
-        },
+        velocity: mv / m,
         density: rho,
         temperature: mt / m,
         mass: m,

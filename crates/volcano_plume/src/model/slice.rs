@@ -10,7 +10,7 @@
 //!   while entrained (still) air is added;
 //! - contraction on mixing (`V' = V T^{i+1}/T^i`) is a switch.
 
-use bevy::math::{DVec2, DVec3};
+use bevy::math::{DQuat, DVec2, DVec3};
 use bevy::reflect::Reflect;
 use volcano_core::atmosphere::AtmosphereProfile;
 use volcano_core::units::G0;
@@ -166,6 +166,7 @@ impl Slice {
         let (rho_a, t_a) = (air.density, air.temperature);
         let wind = (env.wind)(self.position.z);
         let speed = self.velocity.length();
+        let rising = self.velocity.z >= 0.0;
 
         // Entrainment velocity, eq 3.7: U_e = k_s |v − v_w cos θ| + k_w |v_w sin θ|.
         let vw = wind.length();
@@ -230,14 +231,17 @@ impl Slice {
         self.position += v * dt;
         self.age += dt;
         self.apex = self.apex.max(self.position.z);
-        self.update_phase(env, &mut report);
+        self.update_phase(env, &mut report, rising);
         report
     }
 
     /// Phases, evaluated after the velocity update (§3.6): buoyant once lighter than the air,
-    /// neutral when it becomes as dense again, apex (umbrella) or collapse when the vertical
-    /// velocity turns negative.
-    pub(crate) fn update_phase(&mut self, env: &SliceEnv, report: &mut StepReport) {
+    /// neutral when it becomes as dense again, apex (umbrella) when the vertical velocity of a
+    /// buoyant slice turns from up (`rising`, before this step) to down, collapse when it
+    /// turns negative before the slice was ever buoyant. A buoyant slice that starts out
+    /// sinking (a secondary column carrying a flow's downward momentum) is not at an apex: it
+    /// sinks until its buoyancy turns it round.
+    pub(crate) fn update_phase(&mut self, env: &SliceEnv, report: &mut StepReport, rising: bool) {
         let air_here = env.air.density(env.vent_altitude + self.position.z);
         let lighter = self.density < air_here;
         if self.buoyant_from.is_none() && lighter {
@@ -254,7 +258,7 @@ impl Slice {
             if self.buoyant_from.is_none() {
                 self.phase = Phase::Collapsed;
                 report.collapsed = true;
-            } else {
+            } else if rising {
                 self.phase = Phase::Umbrella;
                 report.reached_apex = true;
                 if self.neutral_altitude.is_none() {
@@ -265,6 +269,13 @@ impl Slice {
                 }
             }
         }
+    }
+
+    /// Orientation of the slice (§3.4.3: slices stay orthogonal to their trajectory): the
+    /// rotation taking the slice frame's axis (+z) to the direction of motion, the shortest
+    /// arc. Its local x/y span the slice's plane, where the s1 vortex ring lies.
+    pub fn rotation(&self) -> DQuat {
+        DQuat::from_rotation_arc(DVec3::Z, self.velocity.normalize_or(DVec3::Z))
     }
 
     /// Whether every field is finite (debug checks and fuzzing).

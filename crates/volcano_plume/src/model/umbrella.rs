@@ -10,10 +10,12 @@
 //! Koyaguchi 2009). A sphere at distance d moves at the speed of a front there,
 //! `dd/dt = (2/3) c^{3/2} d^{−1/2}`.
 
-use bevy::math::DVec2;
+use bevy::math::{DVec2, DVec3};
 use bevy::reflect::Reflect;
 use volcano_core::atmosphere::AtmosphereProfile;
 use volcano_core::units::G0;
+
+use super::slice::Slice;
 
 /// How the umbrella spreads.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect)]
@@ -64,7 +66,8 @@ pub struct UmbrellaSphere {
     pub r: f64,
     /// Slice speed when it crossed `z_neutral` (m/s).
     pub v_neutral: f64,
-    /// Altitude of the apex (m).
+    /// Altitude the relaxation starts from (m): the sphere's own altitude when it left its
+    /// slice at the apex (the apex itself for a sphere on an untilted ring).
     pub z_apex: f64,
     /// Neutral-buoyancy altitude (m).
     pub z_neutral: f64,
@@ -83,6 +86,27 @@ pub fn altitude(z_neutral: f64, z_apex: f64, r: f64, d: f64) -> f64 {
 }
 
 impl UmbrellaSphere {
+    /// The umbrella sphere of an s1 sphere leaving `slice` at its apex, `local` its offset on
+    /// the vortex ring in the slice frame: it starts where it is, the slice centre plus
+    /// `slice.rotation() * local` (a slice bent by the wind has a tilted ring), spreads from the
+    /// column axis (the vertical through the slice centre) along the horizontal direction of
+    /// that offset, and relaxes from its own altitude toward `z_neutral`. A gravity current is
+    /// fed on the axis: its spheres start at `d = 0`.
+    pub fn detach(slice: &Slice, local: DVec3, spread: Spread) -> Self {
+        let offset = slice.rotation() * local;
+        let h = offset.truncate();
+        Self {
+            axis: slice.position.truncate(),
+            direction: h.try_normalize().unwrap_or(DVec2::X),
+            d: if matches!(spread, Spread::Thesis) { h.length() } else { 0.0 },
+            r: slice.r,
+            v_neutral: slice.neutral_speed.unwrap_or(0.0),
+            z_apex: slice.position.z + offset.z,
+            z_neutral: slice.neutral_altitude.unwrap_or(slice.apex),
+            spread,
+        }
+    }
+
     /// Current altitude (m).
     pub fn altitude(&self) -> f64 {
         altitude(self.z_neutral, self.z_apex, self.r, self.d)

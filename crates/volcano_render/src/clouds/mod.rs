@@ -18,7 +18,7 @@ pub use image::{bounding_radius, density_factor, density_image, density_texels, 
 use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
 use bevy::prelude::*;
 use volcano_atmosphere::model::fields::AtmosphereState;
-use volcano_atmosphere::model::volume::{VolumeSpec, coherent_forms, density_volume};
+use volcano_atmosphere::model::volume::{ClusterMemory, VolumeSpec, coherent_forms_with, density_volume};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
@@ -48,9 +48,9 @@ pub struct CloudRenderSettings {
     pub scattering_asymmetry: f32,
     /// Ray-march steps per pixel.
     pub step_count: u32,
-    /// k-means++ clusters for the coherence pass.
+    /// k-means clusters for the coherence pass (over the cloudy cells of all layers).
     pub clusters: usize,
-    /// Fraction of a layer's cloudy cells bordering another form that triggers k-means.
+    /// Fraction of the cloudy cells bordering another form in their layer that triggers k-means.
     pub fragmentation: f64,
 }
 
@@ -99,6 +99,9 @@ pub struct CloudVolume {
     pub built_at_s: f64,
     /// Fraction of non-empty texels in the last build (diagnostics, tests).
     pub filled_fraction: f32,
+    /// The last k-means clustering of the cloud forms, which the next rebuild starts from
+    /// (thesis §4.2.6, temporal coherence).
+    pub memory: ClusterMemory,
 }
 
 /// Marks the fog volume entity of an atmosphere's clouds.
@@ -144,15 +147,18 @@ pub fn volume_spec(state: &AtmosphereState, settings: &CloudRenderSettings) -> V
     }
 }
 
-/// Density image, fog transform and filled fraction of an atmosphere's clouds.
+/// Density image, fog transform and filled fraction of an atmosphere's clouds; `memory` is the
+/// previous rebuild's clustering and becomes this one's.
 pub fn build_cloud_image(
     state: &AtmosphereState,
     settings: &CloudRenderSettings,
     cloud_threshold: f64,
+    memory: &mut ClusterMemory,
 ) -> Result<(Image, Transform, f32), ConfigError> {
     settings.validate()?;
     let spec = volume_spec(state, settings);
-    let forms = coherent_forms(state, cloud_threshold, settings.clusters, settings.fragmentation, 0);
+    let forms =
+        coherent_forms_with(state, cloud_threshold, settings.clusters, settings.fragmentation, 0, memory);
     let density = density_volume(state, &forms, &spec);
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image
@@ -197,7 +203,7 @@ fn update_cloud_volumes(
             }
         }
     }
-    for (entity, atmo, volume) in &mut atmospheres {
+    for (entity, atmo, mut volume) in &mut atmospheres {
         let mine: Vec<Ref<AirLayer>> = layers.iter().filter(|l| l.atmosphere == entity).collect();
         // `is_added` counts as changed: skip the layers' first frame when the volume was built
         // for the same weather time.
@@ -218,8 +224,9 @@ fn update_cloud_volumes(
             continue;
         }
         let refs: Vec<&AirLayer> = mine.iter().map(|l| &**l).collect();
+        let mut memory = volume.as_mut().map(|v| std::mem::take(&mut v.memory)).unwrap_or_default();
         let built = cloud_state(atmo, &refs)
-            .and_then(|state| build_cloud_image(&state, &settings, atmo.params.cloud_threshold));
+            .and_then(|state| build_cloud_image(&state, &settings, atmo.params.cloud_threshold, &mut memory));
         let (image, transform, filled) = match built {
             Ok(b) => {
                 debug!("clouds of {entity} rebuilt: {:.1} % of voxels filled", 100.0 * b.2);
@@ -241,6 +248,7 @@ fn update_cloud_volumes(
                 }
                 v.built_at_s = atmo.time_s;
                 v.filled_fraction = filled;
+                v.memory = memory;
             }
             None => {
                 let handle = images.add(image);
@@ -257,6 +265,7 @@ fn update_cloud_volumes(
                     image: handle,
                     built_at_s: atmo.time_s,
                     filled_fraction: filled,
+                    memory,
                 });
             }
         }
