@@ -455,7 +455,8 @@ mod tests {
             let mean = if step.is_multiple_of(2) { 0.53 } else { 0.47 };
             for &k in &block {
                 st.layers[1].w.data_mut()[k] = 1.0;
-                st.layers[1].c.data_mut()[k] = mean + if (k % n + k / n).is_multiple_of(2) { 0.3 } else { -0.3 };
+                st.layers[1].c.data_mut()[k] =
+                    mean + if (k % n + k / n).is_multiple_of(2) { 0.3 } else { -0.3 };
             }
             st
         };
