@@ -57,7 +57,7 @@ fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
         }
     };
     commands.spawn((
-        DirectionalLight { illuminance: 100_000.0, shadows_enabled: true, ..default() },
+        DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: true, ..default() },
         Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(-0.6, -0.5, 0.4), Vec3::Y),
     ));
     commands.insert_resource(GlobalAmbientLight { brightness: 800.0, ..default() });

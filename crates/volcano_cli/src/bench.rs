@@ -40,9 +40,7 @@ struct Stamps {
 
 fn stamp<const I: usize>(mut s: ResMut<Stamps>) {
     let now = Instant::now();
-    if I > 0
-        && let Some(prev) = s.at[I - 1]
-    {
+    if let Some(prev) = I.checked_sub(1).and_then(|p| s.at[p]) {
         s.total[I] += now - prev;
     }
     s.at[I] = Some(now);
