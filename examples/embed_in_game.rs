@@ -32,8 +32,8 @@ struct GameLog {
 }
 
 fn main() -> AppExit {
-    App::new()
-        .add_plugins(DefaultPlugins)
+    let mut app = App::new();
+    app.add_plugins(DefaultPlugins)
         // The game's own egui, added before the volcano (after works as well).
         .add_plugins(EguiPlugin::default())
         // The game's fixed rate; the volcano follows it and never changes it.
@@ -43,8 +43,13 @@ fn main() -> AppExit {
         .add_systems(Startup, setup)
         // Gameplay reads the volcano after its base tick, in the same fixed step.
         .add_systems(FixedUpdate, watch_the_volcano.after(SimSystems::End))
-        .add_systems(EguiPrimaryContextPass, hud)
-        .run()
+        .add_systems(EguiPrimaryContextPass, hud);
+    // `VOLCANO_SCREENSHOT=out.png` (e.g. under xvfb-run) saves a frame and exits: how this
+    // example is checked without a display. A game leaves it out.
+    if let Some(capture) = volcano::render::WindowScreenshotPlugin::from_env() {
+        app.add_plugins(capture);
+    }
+    app.run()
 }
 
 fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
@@ -61,8 +66,11 @@ fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
         Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(-0.6, -0.5, 0.4), Vec3::Y),
     ));
     commands.insert_resource(GlobalAmbientLight { brightness: 800.0, ..default() });
+    commands.insert_resource(ClearColor(Color::srgb(0.55, 0.7, 0.9)));
     commands.spawn((
         Camera3d::default(),
+        // Full sunlight needs a daylight exposure (Bevy's default suits indoor light).
+        bevy::camera::Exposure::SUNLIGHT,
         // The marker tells the volcano which camera its ash billboards face.
         VolcanoViewer,
         Transform::from_xyz(16_000.0, 4_000.0, 22_000.0).looking_at(Vec3::new(0.0, 5_000.0, 0.0), Vec3::Y),
