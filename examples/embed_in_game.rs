@@ -113,10 +113,10 @@ fn watch_the_volcano(
     mut lava: MessageReader<LavaReached>,
     atmospheres: Query<Entity, With<Atmosphere>>,
     layers: Query<&AirLayer>,
-    tick: Res<SimTick>,
     fixed: Res<Time<Fixed>>,
 ) {
-    let t = tick.0 as f64 * fixed.timestep().as_secs_f64();
+    // The game's fixed clock (the volcano's own clocks can be paused or sped up apart).
+    let t = fixed.elapsed_secs_f64();
     for m in collapsed.read() {
         log.lines.push(format!("{t:.0} s: the column collapsed at {:.0} m", m.position.y));
     }
@@ -129,7 +129,7 @@ fn watch_the_volcano(
     for _ in lava.read() {
         log.lines.push(format!("{t:.0} s: lava reached the house!"));
     }
-    log.ash_at_player = atmospheres.iter().map(|a| air_ash_at(&layers, a, PLAYER)).sum();
+    log.ash_at_player = atmospheres.iter().map(|a| air_ash_at(layers.iter(), a, PLAYER)).sum();
 }
 
 /// The game's own HUD.
