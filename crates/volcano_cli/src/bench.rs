@@ -19,16 +19,7 @@ use volcano::prelude::*;
 use volcano_atmosphere::WeatherPipelineStatus;
 
 /// The chained sets in order; a stamp sits between each pair.
-const SETS: [SimSystems; 8] = [
-    SimSystems::Begin,
-    SimSystems::Plume,
-    SimSystems::Pyroclastic,
-    SimSystems::BeforeWeather,
-    SimSystems::Weather,
-    SimSystems::AfterWeather,
-    SimSystems::Lava,
-    SimSystems::End,
-];
+const SETS: [SimSystems; 8] = SimSystems::ORDER;
 
 /// Instants taken between consecutive sets during the current base tick.
 #[derive(Resource, Default)]

@@ -17,6 +17,7 @@ pub struct VolcanoCorePlugin;
 
 impl Plugin for VolcanoCorePlugin {
     fn build(&self, app: &mut App) {
+        let [begin, plume, pyro, before, weather, after, lava, end] = SimSystems::ORDER;
         app.init_resource::<SimControl>()
             .init_resource::<SimTick>()
             .register_type::<SimControl>()
@@ -26,20 +27,7 @@ impl Plugin for VolcanoCorePlugin {
             .register_type::<crate::VolcanoSpec>()
             .register_type::<crate::Cadence>()
             .register_type::<crate::LandCover>()
-            .configure_sets(
-                FixedUpdate,
-                (
-                    SimSystems::Begin,
-                    SimSystems::Plume,
-                    SimSystems::Pyroclastic,
-                    SimSystems::BeforeWeather,
-                    SimSystems::Weather,
-                    SimSystems::AfterWeather,
-                    SimSystems::Lava,
-                    SimSystems::End,
-                )
-                    .chain(),
-            )
+            .configure_sets(FixedUpdate, (begin, plume, pyro, before, weather, after, lava, end).chain())
             .configure_sets(
                 FixedUpdate,
                 (

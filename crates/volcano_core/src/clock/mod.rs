@@ -223,6 +223,21 @@ pub enum SimSystems {
     End,
 }
 
+impl SimSystems {
+    /// Every set, in the order a base tick runs them: `VolcanoCorePlugin` chains exactly this
+    /// list, and tools that time or hook between the sets read it from here.
+    pub const ORDER: [SimSystems; 8] = [
+        SimSystems::Begin,
+        SimSystems::Plume,
+        SimSystems::Pyroclastic,
+        SimSystems::BeforeWeather,
+        SimSystems::Weather,
+        SimSystems::AfterWeather,
+        SimSystems::Lava,
+        SimSystems::End,
+    ];
+}
+
 /// Global simulation control: pause all domains, single-step base ticks, simulation speed.
 /// Acts on the volcano's clocks only, never on the game's `Time<Virtual>` or `Time<Fixed>`.
 #[derive(Resource, Debug, Clone, Reflect)]
