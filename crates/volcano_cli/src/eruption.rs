@@ -11,8 +11,9 @@ use bevy::prelude::*;
 use serde::Serialize;
 use volcano::coupling::plugin::ash_ledger;
 use volcano::coupling::{CouplingBudget, CouplingSettings};
-use volcano::plume::{DepositMap, Eruption, PlumeSlice, Preset, Umbrella, UmbrellaSpreading};
+use volcano::plume::{DepositMap, Eruption, PlumeAmbient, PlumeSlice, Preset, Umbrella, UmbrellaSpreading};
 use volcano::prelude::*;
+use volcano_atmosphere::model::fields::LayerFields;
 use volcano_atmosphere::model::maps::png_bytes;
 use volcano_atmosphere::{AirLayer, Atmosphere, Scenario, spawn_scenario_with};
 
@@ -117,6 +118,12 @@ pub struct LayerSummary {
     pub slice_temperature_k: Option<f64>,
     /// Its water mass fraction (kg/kg of the whole slice, ash included).
     pub slice_water_fraction: Option<f64>,
+    /// Temperature the column reads as its surroundings at this layer's altitude (K): the
+    /// annulus mean of the air → plume transfer, if the column is coupled.
+    pub ambient_k: Option<f64>,
+    /// Mean temperature of the layer's free cells beyond 10 r₀ of the vent (K): the air the
+    /// column has not touched, to compare `ambient_k` with.
+    pub far_k: f64,
 }
 
 #[derive(Resource, Default)]
@@ -201,6 +208,20 @@ pub fn run(which: EruptionScenario, seconds: f64, grid: usize, preset: Preset, d
     ExitCode::SUCCESS
 }
 
+/// Mean temperature (K) of the layer's free cells farther than `beyond` (m) from `c`.
+fn far_mean(f: &LayerFields, dx: f64, c: DVec2, beyond: f64) -> f64 {
+    let Ok(g) = volcano_atmosphere::GridSpec::new(f.t.nx(), dx) else { return f64::NAN };
+    let (mut sum, mut count) = (0.0, 0.0);
+    for (k, &t) in f.t.data().iter().enumerate() {
+        let (x, z) = g.centre(k);
+        if f.sigma.data()[k] > 0.0 && DVec2::new(x, z).distance(c) > beyond {
+            sum += t as f64;
+            count += 1.0;
+        }
+    }
+    if count > 0.0 { sum / count } else { f64::NAN }
+}
+
 fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir: &Path) -> Summary {
     let world = app.world_mut();
     let apex = world.resource::<Apex>().0;
@@ -249,6 +270,12 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
     let (dx, threshold) = atmo
         .and_then(|a| world.get::<Atmosphere>(a))
         .map_or((1.0, 0.05), |a| (a.dx, a.params.cloud_threshold));
+    let ambient: Vec<(f64, f64)> = world
+        .query::<&PlumeAmbient>()
+        .iter(world)
+        .next()
+        .map(|a| a.0.levels().iter().map(|l| (l.altitude, l.temperature)).collect())
+        .unwrap_or_default();
     let mut layers: Vec<&AirLayer> = world.query::<&AirLayer>().iter(world).collect();
     layers.sort_by_key(|l| l.index);
     let layer_of = |z: f64| {
@@ -343,6 +370,8 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
                 max_ash_g_m3: f.ash.data().iter().copied().fold(0.0, f64::max),
                 slice_temperature_k: inside.map(|(_, w)| w.0),
                 slice_water_fraction: inside.map(|(_, w)| w.1),
+                ambient_k: ambient.iter().find(|a| a.0 == f.altitude).map(|a| a.1),
+                far_k: far_mean(f, dx, DVec2::new(vent.x as f64, vent.z as f64), 10.0 * r0.max(dx)),
             }
         })
         .collect();

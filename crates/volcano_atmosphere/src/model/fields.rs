@@ -137,6 +137,12 @@ pub struct LayerFields {
     pub wind: Vec2,
     /// Relaxation time (s) toward the prevailing wind (synoptic forcing); `None` = free.
     pub wind_relaxation_s: Option<f64>,
+    /// Cells inside an entraining column, set by the plume → air coupling before a step:
+    /// `(cell, temperature seen from outside)`. The horizontal advection of T reads the given
+    /// temperature there instead of the cell's and leaves the cell's own T as it was: the
+    /// column draws the air around it in and carries its heat up, so its air does not leave
+    /// sideways (docs/ARCHITECTURE.md §1.4). Empty for a free atmosphere.
+    pub entraining: Vec<(u32, f32)>,
 }
 
 impl LayerFields {
@@ -161,6 +167,7 @@ impl LayerFields {
             sigma: grid.grid(1.0),
             wind: Vec2::ZERO,
             wind_relaxation_s: None,
+            entraining: Vec::new(),
         }
     }
 
@@ -214,6 +221,7 @@ impl Default for LayerFields {
             sigma: g(1.0),
             wind: Vec2::ZERO,
             wind_relaxation_s: None,
+            entraining: Vec::new(),
         }
     }
 }
@@ -368,6 +376,18 @@ impl AtmosphereState {
             ];
             if let Some(&s) = sizes.iter().find(|&&s| s != n * n) {
                 return Err(bad("layer field size", s));
+            }
+            if let Some(&(k, t)) =
+                l.entraining.iter().find(|&&(k, t)| k as usize >= n * n || !(t > 0.0 && t.is_finite()))
+            {
+                return Err(ConfigError::InvalidParameter {
+                    name: "entraining cell",
+                    value: if k as usize >= n * n { k as f64 } else { t as f64 },
+                    reason: format!(
+                        "cells must be < {} and their outside temperature finite and > 0 K",
+                        n * n
+                    ),
+                });
             }
             if l.t.nx() != n {
                 return Err(bad("layer grid width", l.t.nx()));

@@ -265,6 +265,12 @@ fn layer_dynamics(
     w.a.copy_from_slice(layer.u.data());
     w.b.copy_from_slice(layer.v.data());
     w.t_old.copy_from_slice(layer.t.data());
+    // An entraining column's cells show the air around it to the advection and keep their own
+    // temperature (LayerFields::entraining).
+    let held: Vec<f32> = layer.entraining.iter().map(|&(k, _)| layer.t.data()[k as usize]).collect();
+    for &(k, t_outside) in &layer.entraining {
+        w.t_old[k as usize] = t_outside;
+    }
     {
         let (u_old, v_old, t_old, scratch) = (&w.a, &w.b, &w.t_old, &mut w.scratch);
         advect_field(
@@ -290,6 +296,9 @@ fn layer_dynamics(
             params.wind_advection,
         );
         advect_field(t_old, layer.t.data_mut(), scratch, u_old, v_old, n, c, Staggering::Centre, scheme);
+    }
+    for (&(k, _), &t) in layer.entraining.iter().zip(&held) {
+        layer.t.data_mut()[k as usize] = t;
     }
     if let Some(tau) = layer.wind_relaxation_s {
         relax_wind(layer.u.data_mut(), layer.v.data_mut(), layer.wind.x, layer.wind.y, dt, tau);

@@ -208,6 +208,11 @@ pub fn transfer(layers: &mut [LayerFields], dt: f64) {
         let (ex_a, ex_b) = (exner(a.pi), exner(b.pi));
         let (ha, hb) = (a.thickness, b.thickness);
         let (d, sa, sb) = (a.d.data(), a.sigma.data(), b.sigma.data());
+        // Air sinking out of an entraining column's cell carries the air around the column
+        // (LayerFields::entraining): the column's own air only rises.
+        let mut held = b.entraining.clone();
+        held.sort_unstable_by_key(|c| c.0);
+        let outside = |k: usize| held.binary_search_by_key(&(k as u32), |c| c.0).ok().map(|i| held[i].1);
         (
             a.t.data_mut().par_chunks_mut(n),
             a.h.data_mut().par_chunks_mut(n),
@@ -242,7 +247,11 @@ pub fn transfer(layers: &mut [LayerFields], dt: f64) {
                     carry(&mut ah[x], &mut bh[x]);
                     carry(&mut aw[x], &mut bw[x]);
                     carry(&mut aa[x], &mut ba[x]);
-                    let (ts, td) = if up { (at[x], &mut bt[x]) } else { (bt[x], &mut at[x]) };
+                    let (ts, td) = if up {
+                        (at[x], &mut bt[x])
+                    } else {
+                        (if held.is_empty() { bt[x] } else { outside(k).unwrap_or(bt[x]) }, &mut at[x])
+                    };
                     let th_s = ts as f64 / exs;
                     let th_d = *td as f64 / exd;
                     let th = th_d + (th_s - th_d) * (moved / vd).min(1.0);

@@ -41,6 +41,7 @@ pub(crate) fn copy_layer(dst: &mut LayerFields, src: &LayerFields) {
         sigma,
         wind,
         wind_relaxation_s,
+        entraining,
     } = src;
     dst.altitude = *altitude;
     dst.bottom = *bottom;
@@ -60,6 +61,7 @@ pub(crate) fn copy_layer(dst: &mut LayerFields, src: &LayerFields) {
     copy_grid(&mut dst.sigma, sigma);
     dst.wind = *wind;
     dst.wind_relaxation_s = *wind_relaxation_s;
+    dst.entraining.clone_from(entraining);
 }
 
 /// `dst ← src` for the ground, except the fallen ash, which starts at zero in the copy: the

@@ -164,12 +164,23 @@ pub fn humidity_of(q: f64, pi: f64, t: f64) -> f64 {
 }
 
 /// Plume → air (§4.3.3): in each layer with a slice in range, the cells within the imposition
-/// radius `R` of the slice take `q_k = q_a + (q_s − q_a) w_k / w̄` for temperature and
+/// radius `R` of the slice take `q_k = q_a + φ (q_s − q_a) w_k / w̄` for temperature and
 /// humidity, with `w_k = 1 − d_k / R` (a cone peaking at the column's centre), `w̄` its mean over
-/// those cells and `q_a` the annulus mean around them: the imposed values' mean is exactly the
-/// slice's. The slice's humidity is its water fraction in air of the layer's pressure and the
-/// slice's temperature ([`humidity_of`]). Only free cells (σ > 0) are written; humidity never
-/// goes below 0. Returns what was done, with the net water written (g) for the water budget.
+/// those cells and `q_a` the annulus mean around them. `φ = min(1, π r² w̄ / (dx² Σ σ_k w_k))`
+/// is the share of the cells' free area the column fills: where the column covers its cells
+/// (`r ≳ dx`) φ = 1 and the imposed values' mean is the slice's, as the thesis prints; a column
+/// narrower than a cell gives it the heat and water of its own cross-section, not of the whole
+/// cell (departure: the printed rule makes what a narrow column puts into the air grow as
+/// `dx²`, 4× more at 400 m cells than at 200 m, docs/ARCHITECTURE.md §1.4).
+///
+/// The imposed cells are listed in [`LayerFields::entraining`] with the annulus temperature, so
+/// the weather step does not carry the column's heat out sideways or down (an entraining
+/// column draws the air around it in and its air only rises); a layer with no slice in range
+/// gets an empty list.
+///
+/// The slice's humidity is its water fraction in air of the layer's pressure and the slice's
+/// temperature ([`humidity_of`]). Only free cells (σ > 0) are written; humidity never goes below
+/// 0. Returns what was done, with the net water written (g) for the water budget.
 pub fn impose(
     layers: &mut [LayerFields],
     grid: GridSpec,
@@ -179,6 +190,7 @@ pub fn impose(
     let mut report = TransferReport::default();
     let cell_area = grid.dx * grid.dx;
     for (layer, near) in layers.iter_mut().zip(nearest) {
+        layer.entraining.clear();
         let Some(s) = near.map(|i| slices[i]) else { continue };
         let (r, r_out) = annulus_bounds(s.radius, grid.dx);
         let Some((t_a, h_a, _)) = annulus_mean(layer, grid, s.centre, r, r_out) else {
@@ -190,19 +202,23 @@ pub fn impose(
                 cells.push((k, 1.0 - d / r));
             }
         });
-        let mean_w = cells.iter().map(|c| c.1).sum::<f64>() / cells.len().max(1) as f64;
-        if cells.is_empty() || mean_w <= 0.0 {
+        let sum_w = cells.iter().map(|c| c.1).sum::<f64>();
+        let sum_sigma_w = cells.iter().map(|&(k, w)| layer.sigma.data()[k] as f64 * w).sum::<f64>();
+        if cells.is_empty() || sum_w <= 0.0 {
             continue;
         }
+        let mean_w = sum_w / cells.len() as f64;
+        let phi = (std::f64::consts::PI * s.radius * s.radius * mean_w / (cell_area * sum_sigma_w)).min(1.0);
         let volume = layer.thickness * cell_area;
         let h_s = humidity_of(s.water_fraction, layer.pi, s.temperature);
         for &(k, w) in &cells {
-            let f = w / mean_w;
+            let f = phi * w / mean_w;
             let sigma = layer.sigma.data()[k] as f64;
             let h_new = (h_a + (h_s - h_a) * f).max(0.0);
             report.water_written_g += (h_new - layer.h.data()[k]) * sigma * volume;
             layer.h.data_mut()[k] = h_new;
             layer.t.data_mut()[k] = (t_a + (s.temperature - t_a) * f).max(1.0) as f32;
+            layer.entraining.push((k as u32, t_a as f32));
         }
         report.layers_imposed += 1;
         report.cells_imposed += cells.len() as u32;
@@ -244,13 +260,17 @@ mod tests {
     fn imposed_mean_is_the_slice_value_and_peaks_at_the_centre() {
         let (g, mut l) = layers(32, 100.0);
         l[1].h.data_mut().fill(4.0);
-        let s = [slice(1500.0, 350.0)];
+        // 40 cells of 100 m (4.0e5 m²) inside a 360 m column (4.07e5 m²): the column covers
+        // its cells, so the thesis' rule holds as printed.
+        let s = [slice(1500.0, 360.0)];
         let near = nearest_slice_per_layer(&l, &s);
         let before = l[1].water_grams(100.0);
         let r = impose(&mut l, g, &s, &near);
         assert_eq!(r.layers_imposed, 1);
         let mut cells = Vec::new();
-        for_cells_within(g, s[0].centre, 350.0, |k, d| cells.push((k, d)));
+        for_cells_within(g, s[0].centre, 360.0, |k, d| cells.push((k, d)));
+        assert_eq!(cells.len(), 40);
+        assert_eq!(l[1].entraining.len(), 40, "the imposed cells are held during the step");
         assert_eq!(cells.len() as u32, r.cells_imposed);
         let mean_t = cells.iter().map(|&(k, _)| l[1].t.data()[k] as f64).sum::<f64>() / cells.len() as f64;
         let mean_h = cells.iter().map(|&(k, _)| l[1].h.data()[k]).sum::<f64>() / cells.len() as f64;
