@@ -13,7 +13,7 @@ pub mod plugin;
 pub use model::budget::VolumeBudget;
 pub use model::field::{CellProbe, Edge, Edges, FlowField, Placement, Source};
 pub use model::params::{LavaParams, ViscosityModel};
-pub use model::{StepReport, step, step_under_crust};
+pub use model::{DomainReport, LayersMut, StepReport, step, step_layers, step_under_crust};
 pub mod scenario;
 
 pub use components::{

@@ -7,11 +7,12 @@ use volcano_core::prelude::*;
 use volcano_core::terrain::{NodeRegion, TerrainChanged};
 
 use crate::components::*;
-use crate::model::breakout::{BreakoutState, update_breakouts};
+use crate::model::breakout::BreakoutState;
 use crate::model::field::{FlowField, Placement, Source};
-use crate::model::folds::{FoldSystem, thicken_crust_under_folds, update_folds};
+use crate::model::folds::FoldSystem;
 use crate::model::imprint::TerrainImprint;
-use crate::model::surface::{SurfaceState, update_surface};
+use crate::model::surface::SurfaceState;
+use crate::model::{DomainReport, LayersMut, step_layers};
 
 /// Schedule of the lava domain.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
@@ -165,19 +166,21 @@ fn step_fields(
         }
         let srcs: Vec<Source> = feeds.iter().filter(|(f, _)| *f == entity).map(|(_, s)| s.clone()).collect();
         let state = &mut *state;
-        let report =
-            crate::model::step_under_crust(&mut state.flow, &field.params, &srcs, &state.surface.crust, dt);
-        update_surface(&mut state.surface, &state.flow, &field.params, dt);
-        for tear in update_breakouts(&mut state.breakouts, &mut state.flow, &mut state.surface, &field.params)
-        {
+        let layers = LayersMut {
+            flow: &mut state.flow,
+            surface: &mut state.surface,
+            folds: &mut state.folds,
+            breakouts: &mut state.breakouts,
+        };
+        let DomainReport { flow: report, breakouts: tears } =
+            step_layers(layers, &field.params, &field.folds, &srcs, dt);
+        for tear in tears {
             let ground = state.flow.ground().data()[tear.cell] + state.flow.thickness().data()[tear.cell];
             breakouts.write(LavaBreakout {
                 field: entity,
                 position: Vec3::new(tear.position.x, ground as f32, tear.position.y),
             });
         }
-        update_folds(&mut state.folds, &state.flow, &state.surface, &field.params, &field.folds, dt);
-        thicken_crust_under_folds(&state.folds, &state.flow, &mut state.surface, &field.params, &field.folds);
         state.last_substeps = report.substeps;
         state.mobility_capped = report.mobility_capped;
     }

@@ -1,5 +1,6 @@
-//! Plain-data model of the lava domain: no ECS types. One call to [`step`] advances a
-//! [`FlowField`] by one domain step (0.02 s by default).
+//! Plain-data model of the lava domain: no ECS types. One call to [`step_layers`] advances
+//! the whole domain (flow, crust, breakouts, folds) by one domain step (0.02 s by default);
+//! [`step`] and [`step_under_crust`] advance the flow layer alone.
 
 pub mod bands;
 pub mod breakout;
@@ -13,8 +14,54 @@ pub mod samples;
 pub mod surface;
 pub mod thermal;
 
+use breakout::{Breakout, BreakoutState, update_breakouts};
 use field::{FlowField, Source};
+use folds::{FoldParams, FoldSystem, thicken_crust_under_folds, update_folds};
 use params::LavaParams;
+use surface::{SurfaceState, update_surface};
+
+/// The three layers of one lava field (thesis §5.1), borrowed for one [`step_layers`].
+#[derive(Debug)]
+pub struct LayersMut<'a> {
+    /// Layer 1: the flow.
+    pub flow: &'a mut FlowField,
+    /// Layer 2: the surface and its crust.
+    pub surface: &'a mut SurfaceState,
+    /// Layer 3: the fold particles.
+    pub folds: &'a mut FoldSystem,
+    /// The crust's drag and tears.
+    pub breakouts: &'a mut BreakoutState,
+}
+
+/// What one [`step_layers`] did.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DomainReport {
+    /// The flow layer's step.
+    pub flow: StepReport,
+    /// Where the crust tore and lava broke out this step.
+    pub breakouts: Vec<Breakout>,
+}
+
+/// One domain step of a lava field, the one sequence the plugin, the scenario runner, the CLI
+/// and the benches call (docs/ARCHITECTURE.md §2.1): the flow advances and cools under the
+/// crust ([`step_under_crust`]), the crust grows ([`update_surface`]), a crust that drags too
+/// much tears ([`update_breakouts`]), the folds move ([`update_folds`]) and thicken the crust
+/// under them ([`thicken_crust_under_folds`]). Parameters must have passed their `validate`.
+pub fn step_layers(
+    layers: LayersMut<'_>,
+    params: &LavaParams,
+    fold_params: &FoldParams,
+    sources: &[Source],
+    dt: f64,
+) -> DomainReport {
+    let LayersMut { flow, surface, folds, breakouts } = layers;
+    let report = step_under_crust(flow, params, sources, &surface.crust, dt);
+    update_surface(surface, flow, params, dt);
+    let tears = update_breakouts(breakouts, flow, surface, params);
+    update_folds(folds, flow, surface, params, fold_params, dt);
+    thicken_crust_under_folds(folds, flow, surface, params, fold_params);
+    DomainReport { flow: report, breakouts: tears }
+}
 
 /// What one [`step`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -11,12 +11,12 @@ use serde::{Deserialize, Serialize};
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
 
-use crate::model::breakout::{Breakout, BreakoutState, update_breakouts};
+use crate::model::breakout::{Breakout, BreakoutState};
 use crate::model::field::{Edge, Edges, FlowField, Source};
-use crate::model::folds::{FoldParams, FoldSystem, thicken_crust_under_folds, update_folds};
+use crate::model::folds::{FoldParams, FoldSystem};
 use crate::model::params::{GRAVITY, LavaParams, ViscosityModel};
-use crate::model::step_under_crust;
-use crate::model::surface::{SurfaceState, update_surface};
+use crate::model::surface::SurfaceState;
+use crate::model::{DomainReport, LayersMut, step_layers};
 
 /// Which scenario to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -301,19 +301,15 @@ impl Scenario {
     /// Advances one domain step: flow and cooling under the crust, surface (crust), breakouts,
     /// folds, and the folds' thickening of the crust under them.
     pub fn step(&mut self) {
-        let dt = self.config.dt;
-        let r = step_under_crust(&mut self.field, &self.params, &self.sources, &self.surface.crust, dt);
-        update_surface(&mut self.surface, &self.field, &self.params, dt);
-        let tears = update_breakouts(&mut self.breakouts, &mut self.field, &mut self.surface, &self.params);
+        let layers = LayersMut {
+            flow: &mut self.field,
+            surface: &mut self.surface,
+            folds: &mut self.folds,
+            breakouts: &mut self.breakouts,
+        };
+        let DomainReport { flow: r, breakouts: tears } =
+            step_layers(layers, &self.params, &self.fold_params, &self.sources, self.config.dt);
         self.breakout_log.extend(tears);
-        update_folds(&mut self.folds, &self.field, &self.surface, &self.params, &self.fold_params, dt);
-        thicken_crust_under_folds(
-            &self.folds,
-            &self.field,
-            &mut self.surface,
-            &self.params,
-            &self.fold_params,
-        );
         self.steps += 1;
         self.substeps += r.substeps as u64;
         self.max_substeps = self.max_substeps.max(r.substeps);
