@@ -113,3 +113,40 @@ fn an_increment_to_the_pressure_only_changes_the_solvers_starting_guess() {
     assert!(speed > 1.0, "the scenario has wind: {speed}");
     assert!(worst < 1e-3 * speed, "the increment survived the projection: {worst} m/s");
 }
+
+/// Latent heat in a full step (§4.2.3, eqs 4.2–4.4): a calm, uniform layer made 20 %
+/// supersaturated condenses during one step, and the heat that warms it is the latent heat of
+/// what condensed, `ρ c_p ΔT = L ΔW`, while the layers around it, saturated or not, keep
+/// their water in the phase it was. Checked on the whole step (ground, vertical exchange,
+/// dynamics, relaxation all run), not on the phase-change function alone.
+#[test]
+fn a_supersaturated_layer_condenses_and_warms_by_the_latent_heat_in_a_full_step() {
+    use volcano_atmosphere::model::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
+    use volcano_atmosphere::{Workspace, step};
+    let s = Scenario::builtin("convection").unwrap();
+    let mut st = s.build(Some(16)).unwrap();
+    for l in st.layers.iter_mut() {
+        let t = l.t.data()[0];
+        l.t.data_mut().fill(t);
+        l.h.data_mut().fill(0.0);
+        l.w.data_mut().fill(0.0);
+        l.u.data_mut().fill(0.0);
+        l.v.data_mut().fill(0.0);
+        l.sigma.data_mut().fill(1.0);
+    }
+    let (pi, t0) = (st.layers[1].pi, st.layers[1].t.data()[0] as f64);
+    let h0 = 1.2 * saturation_humidity(t0, pi);
+    st.layers[1].h.data_mut().fill(h0);
+    let mut params = s.params.clone();
+    params.precipitation_threshold = 100.0; // keep what condenses in the layer
+    let mut work = Workspace::new(&st).unwrap();
+    step(&mut st, &params, &mut work, 10.0).unwrap();
+    let l = &st.layers[1];
+    let (dw, dt) = (l.w.data()[0], l.t.data()[0] as f64 - t0);
+    let latent = dw * L_V_PER_G / (air_density(pi, t0) * CP_AIR);
+    eprintln!("condensed {dw:.3} g/m³ of {h0:.2}; warmed {dt:.4} K, latent heat alone {latent:.4} K");
+    assert!(dw > 0.05 * h0 / 1.2, "little condensed: {dw} g/m³");
+    assert!((l.h.data()[0] + dw - h0).abs() < 1e-9 * h0, "water is kept");
+    assert!((dt - latent).abs() < 0.02 * latent, "warming {dt} K vs latent heat {latent} K");
+    assert!(st.layers[0].w.data().iter().all(|&w| w == 0.0), "dry layers stay dry");
+}
