@@ -4,7 +4,9 @@
 use bevy::math::DVec2;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields, layer_geometry};
-use volcano_coupling::model::column::{ColumnSlice, ambient_levels, impose, nearest_slice_per_layer};
+use volcano_coupling::model::column::{
+    ColumnSlice, ambient_levels, impose, nearest_slice_per_layer, release_columns,
+};
 use volcano_coupling::model::inject::inject_ash;
 
 fn setup() -> (GridSpec, Vec<LayerFields>, Vec<ColumnSlice>) {
@@ -35,6 +37,7 @@ fn bench(c: &mut Criterion) {
         let mut l = layers.clone();
         b.iter(|| {
             let near = nearest_slice_per_layer(&l, &slices);
+            release_columns(&mut l);
             let r = impose(&mut l, g, &slices, &near);
             let a = ambient_levels(&l, g, &slices, &near, DVec2::ZERO, 100.0);
             for s in &slices {

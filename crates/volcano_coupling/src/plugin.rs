@@ -16,7 +16,9 @@ use volcano_plume::{
     AshReleased, DepositMap, Eruption, LayeredAmbient, PlumeAmbient, PlumeAshBudget, PlumeSlice, Umbrella,
 };
 
-use crate::model::column::{ColumnSlice, TransferReport, ambient_levels, impose, nearest_slice_per_layer};
+use crate::model::column::{
+    ColumnSlice, TransferReport, ambient_levels, impose, nearest_slice_per_layer, release_columns,
+};
 use crate::model::inject::{Delivered, cell_at, inject_ash};
 
 /// Public sets of the coupling, so games can order their own systems against the transfers.
@@ -181,6 +183,7 @@ fn plume_to_air(
     for (atmo, grid) in grids.iter().copied() {
         let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
         let Some(mut g) = Gathered::new(atmo, &mut layer_query, grid.n) else { continue };
+        release_columns(&mut g.layers);
         // Heat and moisture, volcano by volcano (entity order).
         let mut coupled: Vec<(Entity, Vec3)> = volcanoes
             .iter()

@@ -139,9 +139,10 @@ pub struct LayerFields {
     pub wind_relaxation_s: Option<f64>,
     /// Cells inside an entraining column, set by the plume → air coupling before a step:
     /// `(cell, temperature seen from outside)`. The horizontal advection of T reads the given
-    /// temperature there instead of the cell's and leaves the cell's own T as it was: the
-    /// column draws the air around it in and carries its heat up, so its air does not leave
-    /// sideways (docs/ARCHITECTURE.md §1.4). Empty for a free atmosphere.
+    /// temperature there instead of the cell's and leaves the cell's own T as it was, and air
+    /// sinking from such a cell into the layer below carries the given temperature: the column
+    /// draws the air around it in and carries its heat up, so its air neither leaves sideways
+    /// nor sinks (docs/ARCHITECTURE.md §1.4). Empty for a free atmosphere.
     pub entraining: Vec<(u32, f32)>,
 }
 

@@ -163,6 +163,14 @@ pub fn humidity_of(q: f64, pi: f64, t: f64) -> f64 {
     1e3 * q.max(0.0) * pi / (volcano_core::units::R_AIR * t.max(1.0))
 }
 
+/// Frees the cells the previous plume → air transfer held ([`LayerFields::entraining`]):
+/// called once per transfer, before the columns over this atmosphere are imposed.
+pub fn release_columns(layers: &mut [LayerFields]) {
+    for layer in layers {
+        layer.entraining.clear();
+    }
+}
+
 /// Plume → air (§4.3.3): in each layer with a slice in range, the cells within the imposition
 /// radius `R` of the slice take `q_k = q_a + φ (q_s − q_a) w_k / w̄` for temperature and
 /// humidity, with `w_k = 1 − d_k / R` (a cone peaking at the column's centre), `w̄` its mean over
@@ -173,10 +181,11 @@ pub fn humidity_of(q: f64, pi: f64, t: f64) -> f64 {
 /// cell (departure: the printed rule makes what a narrow column puts into the air grow as
 /// `dx²`, 4× more at 400 m cells than at 200 m, docs/ARCHITECTURE.md §1.4).
 ///
-/// The imposed cells are listed in [`LayerFields::entraining`] with the annulus temperature, so
+/// The imposed cells are added to [`LayerFields::entraining`] with the annulus temperature, so
 /// the weather step does not carry the column's heat out sideways or down (an entraining
-/// column draws the air around it in and its air only rises); a layer with no slice in range
-/// gets an empty list.
+/// column draws the air around it in and its air only rises). Call [`release_columns`] once
+/// per transfer before the first column is imposed, so the cells of the previous transfer
+/// (or of a volcano that stopped) are not held any more.
 ///
 /// The slice's humidity is its water fraction in air of the layer's pressure and the slice's
 /// temperature ([`humidity_of`]). Only free cells (σ > 0) are written; humidity never goes below
@@ -190,7 +199,6 @@ pub fn impose(
     let mut report = TransferReport::default();
     let cell_area = grid.dx * grid.dx;
     for (layer, near) in layers.iter_mut().zip(nearest) {
-        layer.entraining.clear();
         let Some(s) = near.map(|i| slices[i]) else { continue };
         let (r, r_out) = annulus_bounds(s.radius, grid.dx);
         let Some((t_a, h_a, _)) = annulus_mean(layer, grid, s.centre, r, r_out) else {
@@ -285,6 +293,19 @@ mod tests {
         assert!((l[1].water_grams(100.0) - before - r.water_written_g).abs() < 1e-6 * before);
         // Other layers untouched.
         assert!(l[0].t.data().iter().all(|&t| t == 280.0));
+    }
+
+    #[test]
+    fn two_columns_are_both_held_until_the_next_transfer_releases_them() {
+        let (g, mut l) = layers(32, 100.0);
+        let a = [slice(1500.0, 150.0)];
+        let b = [ColumnSlice { centre: DVec2::new(-900.0, 700.0), ..slice(1500.0, 150.0) }];
+        release_columns(&mut l);
+        let ra = impose(&mut l, g, &a, &nearest_slice_per_layer(&l, &a));
+        let rb = impose(&mut l, g, &b, &nearest_slice_per_layer(&l, &b));
+        assert_eq!(l[1].entraining.len() as u32, ra.cells_imposed + rb.cells_imposed);
+        release_columns(&mut l);
+        assert!(l.iter().all(|x| x.entraining.is_empty()), "a volcano that stopped holds nothing");
     }
 
     #[test]

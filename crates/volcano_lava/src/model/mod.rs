@@ -42,8 +42,8 @@ pub struct DomainReport {
     pub breakouts: Vec<Breakout>,
 }
 
-/// One domain step of a lava field, the one sequence the plugin, the scenario runner, the CLI
-/// and the benches call (docs/ARCHITECTURE.md §2.1): the flow advances and cools under the
+/// One domain step of a lava field, the one sequence the plugin and the scenario runner (and
+/// so the CLI) call (docs/ARCHITECTURE.md §2.1): the flow advances and cools under the
 /// crust ([`step_under_crust`]), the crust grows ([`update_surface`]), a crust that drags too
 /// much tears ([`update_breakouts`]), the folds move ([`update_folds`]) and thicken the crust
 /// under them ([`thicken_crust_under_folds`]). Parameters must have passed their `validate`.
