@@ -301,8 +301,9 @@ mod tests {
         let a = [slice(1500.0, 150.0)];
         let b = [ColumnSlice { centre: DVec2::new(-900.0, 700.0), ..slice(1500.0, 150.0) }];
         release_columns(&mut l);
-        let ra = impose(&mut l, g, &a, &nearest_slice_per_layer(&l, &a));
-        let rb = impose(&mut l, g, &b, &nearest_slice_per_layer(&l, &b));
+        let (na, nb) = (nearest_slice_per_layer(&l, &a), nearest_slice_per_layer(&l, &b));
+        let ra = impose(&mut l, g, &a, &na);
+        let rb = impose(&mut l, g, &b, &nb);
         assert_eq!(l[1].entraining.len() as u32, ra.cells_imposed + rb.cells_imposed);
         release_columns(&mut l);
         assert!(l.iter().all(|x| x.entraining.is_empty()), "a volcano that stopped holds nothing");
