@@ -49,7 +49,7 @@ fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut list: ResMut<P
                 key: parent_key(7, (iy * 100 + ix + 50) as u64),
                 flags,
                 billboard_radius: 60.0,
-                pad: 0,
+                light: u32::MAX,
             });
             out.starts.push(out.starts.last().copied().unwrap_or(0) + count);
         }
