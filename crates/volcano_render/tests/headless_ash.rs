@@ -43,7 +43,8 @@ fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut list: ResMut<P
                 radius: 60.0,
                 rotation: Quat::IDENTITY.to_array(),
                 angle: 0.3,
-                shade: 0.0,
+                // Not 0: ash at vent density glows orange (the vent's incandescence).
+                shade: 0.3,
                 coverage: 1.0,
                 variant: 0.4,
                 key: parent_key(7, (iy * 100 + ix + 50) as u64),

@@ -90,7 +90,7 @@ fn puff(
 }
 
 /// Renders the puff; returns the mean RGB of its left (shadow) and right (sun) halves.
-fn render(occluded: bool) -> ([f32; 3], [f32; 3]) {
+fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
     let name = if occluded { "headless_ash_light_occluded.png" } else { "headless_ash_light.png" };
     let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_file(&out);
@@ -111,7 +111,7 @@ fn render(occluded: bool) -> ([f32; 3], [f32; 3]) {
     (left, right)
 }
 
-fn luminance(c: [f32; 3]) -> f32 {
+fn luminance(c: [f64; 3]) -> f64 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 

@@ -148,6 +148,8 @@ struct VertexOutput {
     // x: sun transmittance (grid × own parent's body), y: sky transmittance, z: glow,
     // w: 1 for a pyroclastic-current puff.
     @location(2) light: vec4<f32>,
+    // A detail sphere's centre relative to its parent's (parent radii); zero for puffs.
+    @location(3) place: vec3<f32>,
 };
 
 fn sun_direction() -> vec3<f32> {
@@ -164,16 +166,13 @@ fn vertex(v: Vertex) -> VertexOutput {
     var e = expand_in(p, v.instance);
     let flow = (a.flags & FLOW) != 0u;
     let packed = unpack4x8unorm(a.light);
-    let l = sun_direction();
     var shade = e.params.y;
     var radius = e.center_radius.w;
-    var self_shadow = 1.0;
+    // A detail sphere's place on its parent (parent radii), for its self-shadow in the
+    // fragment stage (the lights are not bound in the vertex stage).
+    var place = vec3<f32>(0.0);
     if (e.params.w < 1.0) {
-        // A detail sphere on the far side of its parent from the sun looks through the
-        // parent's body: Beer–Lambert over the chord, denser (shade 0) is darker.
-        let o = (e.center_radius.xyz - a.center_radius.xyz) / max(a.center_radius.w, 1e-3);
-        let chord = max(-dot(o, l), 0.0) * 2.0;
-        self_shadow = exp(-chord * mix(3.0, 0.8, shade));
+        place = (e.center_radius.xyz - a.center_radius.xyz) / max(a.center_radius.w, 1e-3);
     }
     if (flow) {
         // Pyroclastic currents: denser and darker than the column at the same density, puffs
@@ -181,8 +180,8 @@ fn vertex(v: Vertex) -> VertexOutput {
         shade = shade * 0.45;
         radius = radius * (0.8 + 0.8 * fract(a.look.w * 7.31));
     }
-    // Dense ash near the vent is incandescent (shade < 0.12: within a few hundred metres).
-    let glow = select(smoothstep(0.12, 0.0, shade), 0.0, flow);
+    // Dense ash near the vent is incandescent (shade < 0.1: within a few hundred metres).
+    let glow = select(smoothstep(0.1, 0.0, shade), 0.0, flow);
     let right = view.world_from_view[0].xyz;
     let up = view.world_from_view[1].xyz;
     let corner = v.position.xy * 2.0; // unit quad corners → [-1, 1]
@@ -194,7 +193,8 @@ fn vertex(v: Vertex) -> VertexOutput {
     out.clip_position = view.clip_from_world * vec4<f32>(e.center_radius.xyz + offset, 1.0);
     out.uv = corner;
     out.params = vec4<f32>(e.params.x, shade, e.params.z, e.params.w);
-    out.light = vec4<f32>(packed.x * self_shadow, packed.y, glow, select(0.0, 1.0, flow));
+    out.light = vec4<f32>(packed.x, packed.y, glow, select(0.0, 1.0, flow));
+    out.place = place;
     return out;
 }
 
@@ -275,7 +275,11 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         sun = lights.directional_lights[0].color.rgb * view.exposure;
     }
     let ndl = dot(n_world, l);
-    let t_sun = in.light.x;
+    // A detail sphere on the far side of its parent from the sun looks through the parent's
+    // body: Beer–Lambert over the chord (≈ 2 × depth behind the centre plane), darker for
+    // denser ash (shade 0).
+    let chord = max(-dot(in.place, l), 0.0) * 2.0;
+    let t_sun = in.light.x * exp(-chord * mix(3.0, 0.8, shade));
     let t_sky = in.light.y;
     // Sun side: Lambert; shadow side: a multiple-scattering floor (dense ash scatters less
     // light round to its back).
@@ -287,6 +291,6 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let albedo = mix(ASH_DENSE, ASH_DILUTE, shade);
     var colour = albedo * (direct + ambient);
     // Incandescent base: orange emission, stronger in the puff's core (seen at any exposure).
-    colour = colour + vec3<f32>(1.0, 0.33, 0.07) * (in.light.z * 2.5 * (0.3 + 0.7 * nz));
+    colour = colour + vec3<f32>(1.0, 0.33, 0.07) * (in.light.z * 1.2 * (0.2 + 0.8 * nz));
     return vec4<f32>(colour * alpha, alpha);
 }
