@@ -29,7 +29,7 @@ pub struct AshLightSettings {
 
 impl Default for AshLightSettings {
     fn default() -> Self {
-        Self { sun: Vec3::new(-0.58, 0.57, 0.58), extinction: 0.004, max_cells_per_axis: 64 }
+        Self { sun: Vec3::new(-0.58, 0.57, 0.58), extinction: 0.0015, max_cells_per_axis: 64 }
     }
 }
 
@@ -314,7 +314,7 @@ mod tests {
         let mut parents = vec![sphere(0, Vec3::new(0.0, 500.0, 0.0), 40.0, 5.0)];
         for i in 0..25u64 {
             let o = Vec3::new((i % 5) as f32 * 80.0 - 160.0, 1_500.0, (i / 5) as f32 * 80.0 - 160.0);
-            parents.push(sphere(1 + i, o, 60.0, 5.0));
+            parents.push(sphere(1 + i, o, 60.0, 15.0));
         }
         let sideways_sun = settings(Vec3::new(1.0, 0.05, 0.0));
         let l = light_parents(&parents, &sideways_sun);

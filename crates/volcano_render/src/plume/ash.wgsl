@@ -283,8 +283,10 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let t_sky = in.light.y;
     // Sun side: Lambert; shadow side: a multiple-scattering floor (dense ash scatters less
     // light round to its back).
-    let scatter = mix(0.05, 0.16, shade);
-    let direct = sun * t_sun * (max(ndl, 0.0) + scatter * (0.5 + 0.5 * ndl)) / PI;
+    // Light scattered round into the shade still mostly comes from the sun, but also reaches
+    // parents the grid puts in shadow (multiple scattering through the column).
+    let scatter = mix(0.08, 0.25, shade) * (0.35 + 0.65 * t_sun) * (0.5 + 0.5 * ndl);
+    let direct = sun * 0.75 * (t_sun * max(ndl, 0.0) + scatter) / PI;
     // Sky: ambient light, occluded by the ash above and by the puff's own density.
     let occlusion = t_sky * mix(0.45, 1.0, shade) * (0.6 + 0.4 * max(n_world.y, 0.0));
     let ambient = lights.ambient_color.rgb * view.exposure * occlusion;
