@@ -97,7 +97,12 @@ fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
     let exit = App::new()
         .add_plugins(headless_default_plugins())
         .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin { width: W, height: H, out: out.clone(), capture_after_updates: 8 })
+        .add_plugins(HeadlessCapturePlugin {
+            width: W,
+            height: H,
+            out: out.clone(),
+            capture_after_updates: 8,
+        })
         .insert_resource(Occluded(occluded))
         .add_systems(Startup, scene)
         .add_systems(PostUpdate, puff.after(volcano_plume::view::update_parents))

@@ -123,9 +123,7 @@ fn prepare_buffer(
     clouds: Query<Entity, With<AshCloud>>,
     views: Query<&ExtractedView>,
     list: Res<RenderAshParents>,
-    device: Res<RenderDevice>,
-    pipeline: Res<AshPipeline>,
-    cache: Res<PipelineCache>,
+    (device, pipeline, cache): (Res<RenderDevice>, Res<AshPipeline>, Res<PipelineCache>),
     mut sorted: Local<AshParents>,
 ) {
     // One order for every view: the first camera's (the scenes have one).
@@ -318,7 +316,10 @@ mod tests {
     #[test]
     fn parents_are_sorted_far_to_near_with_their_instances() {
         let parent = |z: f32| AshParent { center: [0.0, 0.0, z], ..Default::default() };
-        let list = AshParents { parents: vec![parent(10.0), parent(300.0), parent(-50.0)], starts: vec![0, 1, 21, 24] };
+        let list = AshParents {
+            parents: vec![parent(10.0), parent(300.0), parent(-50.0)],
+            starts: vec![0, 1, 21, 24],
+        };
         let mut out = AshParents::default();
         sort_far_to_near(&list, Vec3::ZERO, &mut out);
         let z: Vec<f32> = out.parents.iter().map(|p| p.center[2]).collect();
