@@ -29,7 +29,7 @@ pub struct AshLightSettings {
 
 impl Default for AshLightSettings {
     fn default() -> Self {
-        Self { sun: Vec3::new(-0.58, 0.57, 0.58), extinction: 0.0015, max_cells_per_axis: 64 }
+        Self { sun: Vec3::new(-0.58, 0.57, 0.58), extinction: 0.003, max_cells_per_axis: 64 }
     }
 }
 

@@ -227,9 +227,10 @@ fn fbm(p: vec2<f32>) -> f32 {
     return sum;
 }
 
-// sRGB (60, 52, 46) and (190, 186, 180) in linear: dense brown-grey ash, diluted light grey.
+// Linear albedo: sRGB (60, 52, 46), dense brown-grey ash, to 0.9 × sRGB (190, 186, 180),
+// diluted light grey (0.9: the sun-side highlights otherwise saturate under ACES).
 const ASH_DENSE: vec3<f32> = vec3<f32>(0.045, 0.034, 0.027);
-const ASH_DILUTE: vec3<f32> = vec3<f32>(0.515, 0.491, 0.456);
+const ASH_DILUTE: vec3<f32> = vec3<f32>(0.464, 0.442, 0.410);
 
 @fragment
 fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
@@ -286,7 +287,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     // Light scattered round into the shade still mostly comes from the sun, but also reaches
     // parents the grid puts in shadow (multiple scattering through the column).
     let scatter = mix(0.08, 0.25, shade) * (0.35 + 0.65 * t_sun) * (0.5 + 0.5 * ndl);
-    let direct = sun * 0.75 * (t_sun * max(ndl, 0.0) + scatter) / PI;
+    let direct = sun * 0.6 * (t_sun * max(ndl, 0.0) + scatter) / PI;
     // Sky: ambient light, occluded by the ash above and by the puff's own density.
     let occlusion = t_sky * mix(0.45, 1.0, shade) * (0.6 + 0.4 * max(n_world.y, 0.0));
     let ambient = lights.ambient_color.rgb * view.exposure * occlusion;
