@@ -76,11 +76,13 @@ fn instanced_ash_covers_the_sky() {
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
-    // Top eighth: covered by ash (left: expanded spheres, right: billboards); dark grey, not sky blue.
+    // Top eighth: covered by ash (left: expanded spheres, right: billboards); grey-brown, not
+    // sky blue (the sky there is ≈ (118, 150, 215): blue ≫ red). The ash is lit by the sun
+    // now, so it is not necessarily dark.
     for (name, xs) in [("detail spheres", (8, W / 2 - 8)), ("billboards", (W / 2 + 8, W - 8))] {
         let m = rgb_region_mean(&rgb, W, xs, (2, H / 8));
         eprintln!("{name}: mean {m:?} ({})", out.display());
-        assert!(m.iter().all(|&c| c < 120.0), "{name}: the sky shows through: {m:?}");
-        assert!((m[2] - m[0]).abs() < 25.0, "{name}: still bluish: {m:?}");
+        assert!(m[2] < 170.0, "{name}: the sky shows through: {m:?}");
+        assert!(m[2] - m[0] < 25.0, "{name}: still bluish: {m:?}");
     }
 }
