@@ -64,7 +64,7 @@ impl AshLightSettings {
 }
 
 /// Light reaching one parent, as transmittances in [0, 1].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
 pub struct ParentLight {
     /// Sunlight reaching the parent's sun-facing surface, `exp(−τ_sun)`.
     pub sun: f32,
