@@ -27,6 +27,6 @@ pub use pyroclastic::{
     PyroclasticStep, SecondaryColumnFormed,
 };
 pub use view::{
-    AshInstance, AshParent, AshParents, PlumeInstances, PlumeParents, PlumeViewPlugin, PlumeViewSettings,
-    PlumeViewpoint,
+    AshInstance, AshLightSettings, AshParent, AshParents, PlumeInstances, PlumeParents, PlumeViewPlugin,
+    PlumeViewSettings, PlumeViewpoint,
 };

@@ -13,6 +13,9 @@
 //! 32-bit enumeration. [`build_instances`] stays as the CPU reference (tests, benchmark).
 
 mod gpu;
+mod light;
+
+pub use light::{AshLightError, AshLightSettings, ParentLight, light_parents};
 
 pub use gpu::{AshParent, AshParents, PlumeParents, build_parents, expand_instance, update_parents};
 
@@ -411,6 +414,8 @@ impl Plugin for PlumeViewPlugin {
         app.init_resource::<PlumeViewSettings>()
             .init_resource::<PlumeViewpoint>()
             .init_resource::<PlumeParents>()
+            .init_resource::<AshLightSettings>()
+            .register_type::<AshLightSettings>()
             .register_type::<PlumeViewSettings>()
             .register_type::<PlumeViewpoint>()
             .add_systems(PostUpdate, update_parents);

@@ -154,7 +154,7 @@ fn vertex_expansion_matches_the_cpu_enumeration() {
     let mut cpu = Vec::new();
     build_instances(&settings, viewpoint, &eruptions, &parents, &mut cpu);
     let mut list = AshParents::default();
-    build_parents(&settings, viewpoint, &eruptions, &parents, &mut list);
+    build_parents(&settings, viewpoint, &eruptions, &parents, &[], &mut list);
     assert_eq!(list.total() as usize, cpu.len(), "the packed counts are the CPU plan's");
     let detail = cpu.iter().filter(|i| i.kind < 1.0).count();
     assert!(detail > 3_000, "a real sample of children: {detail}");

@@ -43,13 +43,14 @@ fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut list: ResMut<P
                 radius: 60.0,
                 rotation: Quat::IDENTITY.to_array(),
                 angle: 0.3,
-                shade: 0.0,
+                // Not 0: ash at vent density glows orange (the vent's incandescence).
+                shade: 0.3,
                 coverage: 1.0,
                 variant: 0.4,
                 key: parent_key(7, (iy * 100 + ix + 50) as u64),
                 flags,
                 billboard_radius: 60.0,
-                pad: 0,
+                light: u32::MAX,
             });
             out.starts.push(out.starts.last().copied().unwrap_or(0) + count);
         }
@@ -75,11 +76,13 @@ fn instanced_ash_covers_the_sky() {
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
-    // Top eighth: covered by ash (left: expanded spheres, right: billboards); dark grey, not sky blue.
+    // Top eighth: covered by ash (left: expanded spheres, right: billboards); grey-brown, not
+    // sky blue (the sky there is ≈ (118, 150, 215): blue ≫ red). The ash is lit by the sun
+    // now, so it is not necessarily dark.
     for (name, xs) in [("detail spheres", (8, W / 2 - 8)), ("billboards", (W / 2 + 8, W - 8))] {
         let m = rgb_region_mean(&rgb, W, xs, (2, H / 8));
         eprintln!("{name}: mean {m:?} ({})", out.display());
-        assert!(m.iter().all(|&c| c < 120.0), "{name}: the sky shows through: {m:?}");
-        assert!((m[2] - m[0]).abs() < 25.0, "{name}: still bluish: {m:?}");
+        assert!(m[2] < 170.0, "{name}: the sky shows through: {m:?}");
+        assert!(m[2] - m[0] < 25.0, "{name}: still bluish: {m:?}");
     }
 }

@@ -13,7 +13,10 @@ use std::sync::Arc;
 
 use bevy::prelude::*;
 
-use super::{EruptionView, ParentSphere, PlumeViewSettings, PlumeViewpoint, billboard_look, plan_instances};
+use super::{
+    AshLightSettings, EruptionView, ParentLight, ParentSphere, PlumeViewSettings, PlumeViewpoint,
+    billboard_look, light_parents, plan_instances,
+};
 use crate::model::spheres::parent_key;
 
 /// One parent as the renderer's vertex shader reads it (64 bytes, a `std430` storage-buffer
@@ -41,13 +44,16 @@ pub struct AshParent {
     pub flags: u32,
     /// Billboard radius (m): `radius × billboard_scale`.
     pub billboard_radius: f32,
-    /// Padding to 16-byte alignment.
-    pub pad: u32,
+    /// Light reaching the parent ([`ParentLight::pack`]: sun and sky transmittance, 8 bits
+    /// each); keeps the record 16-byte aligned.
+    pub light: u32,
 }
 
 impl AshParent {
     /// [`AshParent::flags`] bit: the parent's first instance is its billboard.
     pub const BILLBOARD: u32 = 1;
+    /// [`AshParent::flags`] bit: a pyroclastic-current particle (drawn dark and ground-hugging).
+    pub const FLOW: u32 = 2;
     /// [`AshParent::flags`] shift of the s3-per-s2 count (8 bits, at most 100 by validation).
     pub const S3_SHIFT: u32 = 8;
 }
@@ -76,12 +82,14 @@ pub struct PlumeParents(pub Arc<AshParents>);
 /// Packs the frame's parents for GPU expansion: the same plan (counts, thinning, shading) as
 /// [`build_instances`](super::build_instances), one [`AshParent`] per parent that draws
 /// anything, and the prefix sum of the counts. Parents without instances (nothing kept,
-/// invalid geometry, unknown eruption) are left out. `out` is reused.
+/// invalid geometry, unknown eruption) are left out. `light` is per parent (from
+/// [`light_parents`](super::light_parents)); missing entries are fully lit. `out` is reused.
 pub fn build_parents(
     settings: &PlumeViewSettings,
     viewpoint: Option<Vec3>,
     eruptions: &[EruptionView],
     parents: &[ParentSphere],
+    light: &[ParentLight],
     out: &mut AshParents,
 ) {
     out.parents.clear();
@@ -91,7 +99,7 @@ pub fn build_parents(
         return;
     }
     let plan = plan_instances(settings, eruptions, parents);
-    for (p, plan) in parents.iter().zip(&plan) {
+    for (i, (p, plan)) in parents.iter().zip(&plan).enumerate() {
         let count = plan.count();
         let Some(e) = eruptions.get(p.eruption).filter(|_| count > 0) else { continue };
         let (angle, variant) = billboard_look(p, viewpoint);
@@ -109,9 +117,11 @@ pub fn build_parents(
             coverage: plan.coverage,
             variant,
             key: parent_key(e.seed, p.id),
-            flags: (plan.billboard as u32 * AshParent::BILLBOARD) | (n3 << AshParent::S3_SHIFT),
+            flags: (plan.billboard as u32 * AshParent::BILLBOARD)
+                | (p.flow as u32 * AshParent::FLOW)
+                | (n3 << AshParent::S3_SHIFT),
             billboard_radius: p.radius * settings.billboard_scale,
-            pad: 0,
+            light: light.get(i).copied().unwrap_or(ParentLight::CLEAR).pack(),
         });
         // The plan never passes `max_instances` (a u32), so the running sum fits.
         out.starts.push((plan.offset + count) as u32);
@@ -124,12 +134,20 @@ pub fn update_parents(world: &mut World) {
     let (eruptions, parents) = super::gather_parents(world);
     let settings = world.resource::<PlumeViewSettings>().clone();
     let viewpoint = world.resource::<PlumeViewpoint>().0;
+    let light_settings = world.get_resource_or_init::<AshLightSettings>().clone();
+    let light = match light_settings.validate() {
+        Ok(()) => light_parents(&parents, &light_settings),
+        Err(e) => {
+            warn_once!("volcano: ash lighting off: {e}");
+            Vec::new()
+        }
+    };
     let mut shared = std::mem::take(&mut world.resource_mut::<PlumeParents>().0);
     let mut list = match Arc::get_mut(&mut shared) {
         Some(v) => std::mem::take(v),
         None => AshParents::default(),
     };
-    build_parents(&settings, viewpoint, &eruptions, &parents, &mut list);
+    build_parents(&settings, viewpoint, &eruptions, &parents, &light, &mut list);
     world.resource_mut::<PlumeParents>().0 = Arc::new(list);
 }
 
@@ -226,7 +244,7 @@ mod tests {
             let mut cpu = Vec::new();
             build_instances(&settings, viewpoint, &e, &parents, &mut cpu);
             let mut gpu = AshParents::default();
-            build_parents(&settings, viewpoint, &e, &parents, &mut gpu);
+            build_parents(&settings, viewpoint, &e, &parents, &[], &mut gpu);
             // Same thinning: the same number of instances, parent by parent.
             assert_eq!(gpu.total() as usize, cpu.len(), "s2 {s2}, s3 {s3}, max {max}");
             assert!(gpu.starts.windows(2).all(|w| w[0] < w[1]), "every packed parent draws");
@@ -242,7 +260,7 @@ mod tests {
     fn disabled_view_packs_nothing() {
         let settings = PlumeViewSettings { enabled: false, ..Default::default() };
         let mut gpu = AshParents::default();
-        build_parents(&settings, None, &view(10, 0), &parents(), &mut gpu);
+        build_parents(&settings, None, &view(10, 0), &parents(), &[], &mut gpu);
         assert_eq!((gpu.parents.len(), gpu.starts.as_slice(), gpu.total()), (0, &[0][..], 0));
     }
 

@@ -1,8 +1,17 @@
-// Ash renderer (volcano_render::plume): camera-facing quads, one per instance.
-// kind in [0,1): detail sphere (s2/s3) drawn as a lit sphere impostor.
-// kind in [1,2): s1/umbrella smoke puff: a procedural smoke texture (value-noise fBm), turned
-//                by the spin projected on the screen (thesis §3.7.1), lit as a soft sphere.
+// Ash renderer (volcano_render::plume): camera-facing quads, one per instance, blended
+// back to front (premultiplied alpha; the parents are sorted far to near on the CPU, and an
+// instanced draw blends its instances in order).
+// kind in [0,1): detail sphere (s2/s3) drawn as a soft lit sphere impostor.
+// kind in [1,2): s1/umbrella/pyroclastic puff: a procedural smoke texture (value-noise fBm),
+//                turned by the spin projected on the screen (thesis §3.7.1), lit as a soft sphere.
 // Shade 0 = dense dark ash at the vent, 1 = diluted light ash aloft; coverage thins the puff.
+//
+// Lighting (docs/ARCHITECTURE.md, "How ash is lit"): each parent carries the sun and sky
+// transmittance through the other parents (volcano_plume::view::light_parents, Beer–Lambert
+// on a coarse grid); a detail sphere is also shadowed by its own parent's body (the chord
+// toward the sun); each fragment has a sphere normal bent by the smoke texture, so every puff
+// has a sun side and a shadow side. The shadow side keeps a multiple-scattering floor and the
+// sky's ambient (occluded by the ash above); dense ash near the vent glows.
 //
 // Only the parents are uploaded (volcano_plume::view::AshParent, with the prefix sum of their
 // instance counts); the vertex shader expands instance i into the parent's billboard or one of
@@ -22,7 +31,7 @@ struct AshParent {
     key: u32,             // parent_key(seed, parent id)
     flags: u32,           // bit 0: billboard first; bits 8-15: s3 per s2
     billboard_radius: f32,
-    pad: u32,
+    light: u32,           // unpack4x8unorm: x sun transmittance, y sky transmittance
 };
 
 @group(3) @binding(0) var<storage, read> parents: array<AshParent>;
@@ -69,7 +78,11 @@ struct Expanded {
 };
 
 fn expand(index: u32) -> Expanded {
-    // Last parent whose start is <= index: starts[lo] <= index < starts[hi].
+    return expand_in(find_parent(index), index);
+}
+
+// Last parent whose start is <= index: starts[lo] <= index < starts[hi].
+fn find_parent(index: u32) -> u32 {
     var lo = 0u;
     var hi = arrayLength(&parents);
     loop {
@@ -83,8 +96,13 @@ fn expand(index: u32) -> Expanded {
             hi = mid;
         }
     }
-    let a = parents[lo];
-    let local = index - starts[lo];
+    return lo;
+}
+
+// Instance `index` of parent `p`.
+fn expand_in(p: u32, index: u32) -> Expanded {
+    let a = parents[p];
+    let local = index - starts[p];
     let billboard = (a.flags & 1u) != 0u;
     var out: Expanded;
     if (billboard && local == 0u) {
@@ -115,6 +133,9 @@ fn expand(index: u32) -> Expanded {
 
 // END expansion
 
+const FLOW: u32 = 2u; // AshParent::FLOW
+const PI: f32 = 3.141592653589793;
+
 struct Vertex {
     @builtin(instance_index) instance: u32,
     @location(0) position: vec3<f32>,
@@ -124,19 +145,56 @@ struct VertexOutput {
     @builtin(position) clip_position: vec4<f32>,
     @location(0) uv: vec2<f32>,
     @location(1) params: vec4<f32>,
+    // x: sun transmittance (grid × own parent's body), y: sky transmittance, z: glow,
+    // w: 1 for a pyroclastic-current puff.
+    @location(2) light: vec4<f32>,
+    // A detail sphere's centre relative to its parent's (parent radii); zero for puffs.
+    @location(3) place: vec3<f32>,
 };
+
+fn sun_direction() -> vec3<f32> {
+    if (lights.n_directional_lights > 0u) {
+        return normalize(lights.directional_lights[0].direction_to_light);
+    }
+    return normalize(vec3<f32>(0.3, 1.0, 0.2));
+}
 
 @vertex
 fn vertex(v: Vertex) -> VertexOutput {
-    let e = expand(v.instance);
+    let p = find_parent(v.instance);
+    let a = parents[p];
+    var e = expand_in(p, v.instance);
+    let flow = (a.flags & FLOW) != 0u;
+    let packed = unpack4x8unorm(a.light);
+    var shade = e.params.y;
+    var radius = e.center_radius.w;
+    // A detail sphere's place on its parent (parent radii), for its self-shadow in the
+    // fragment stage (the lights are not bound in the vertex stage).
+    var place = vec3<f32>(0.0);
+    if (e.params.w < 1.0) {
+        place = (e.center_radius.xyz - a.center_radius.xyz) / max(a.center_radius.w, 1e-3);
+    }
+    if (flow) {
+        // Pyroclastic currents: denser and darker than the column at the same density, puffs
+        // of varied size (turbulence), flattened onto the ground.
+        shade = shade * 0.45;
+        radius = radius * (0.8 + 0.8 * fract(a.look.w * 7.31));
+    }
+    // Dense ash near the vent is incandescent (shade < 0.1: within a few hundred metres).
+    let glow = select(smoothstep(0.1, 0.0, shade), 0.0, flow);
     let right = view.world_from_view[0].xyz;
     let up = view.world_from_view[1].xyz;
     let corner = v.position.xy * 2.0; // unit quad corners → [-1, 1]
-    let world = e.center_radius.xyz + (right * corner.x + up * corner.y) * e.center_radius.w;
+    var offset = (right * corner.x + up * corner.y) * radius;
+    if (flow) {
+        offset = vec3<f32>(offset.x * 1.35, offset.y * 0.55, offset.z * 1.35);
+    }
     var out: VertexOutput;
-    out.clip_position = view.clip_from_world * vec4<f32>(world, 1.0);
+    out.clip_position = view.clip_from_world * vec4<f32>(e.center_radius.xyz + offset, 1.0);
     out.uv = corner;
-    out.params = e.params;
+    out.params = vec4<f32>(e.params.x, shade, e.params.z, e.params.w);
+    out.light = vec4<f32>(packed.x, packed.y, glow, select(0.0, 1.0, flow));
+    out.place = place;
     return out;
 }
 
@@ -169,12 +227,10 @@ fn fbm(p: vec2<f32>) -> f32 {
     return sum;
 }
 
-fn sun_direction() -> vec3<f32> {
-    if (lights.n_directional_lights > 0u) {
-        return normalize(lights.directional_lights[0].direction_to_light);
-    }
-    return normalize(vec3<f32>(0.3, 1.0, 0.2));
-}
+// Linear albedo: sRGB (60, 52, 46), dense brown-grey ash, to 0.9 × sRGB (190, 186, 180),
+// diluted light grey (0.9: the sun-side highlights otherwise saturate under ACES).
+const ASH_DENSE: vec3<f32> = vec3<f32>(0.045, 0.034, 0.027);
+const ASH_DILUTE: vec3<f32> = vec3<f32>(0.464, 0.442, 0.410);
 
 @fragment
 fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
@@ -188,6 +244,8 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let kind = in.params.w;
     var uv = in.uv;
     var bump = 0.0;
+    // Soft edge: opacity from the radial profile (and the smoke texture for puffs).
+    var alpha = smoothstep(0.0, 0.5, 1.0 - r2);
     if (kind >= 1.0) {
         // Smoke texture in the puff's own frame, turned by the projected spin.
         let c = cos(angle);
@@ -196,25 +254,46 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         let variant = fract(kind) * 37.0;
         let n = fbm(p * 2.2 + vec2<f32>(variant, 2.0 * variant));
         let body = (1.0 - r2) + (n - 0.5) * 1.1;
-        if (body < 0.55 - 0.45 * coverage) {
-            discard;
-        }
+        let edge = 0.55 - 0.45 * coverage;
+        alpha = smoothstep(edge - 0.1, edge + 0.35, body);
         bump = n - 0.5;
+    }
+    // Dense ash is opaque, diluted ash lets the background through.
+    alpha = alpha * mix(1.0, 0.6, shade * shade);
+    if (alpha < 0.004) {
+        discard;
     }
     // Sphere-impostor normal in view space, bent by the smoke texture.
     let nz = sqrt(max(1.0 - r2, 0.0));
-    let n_view = normalize(vec3<f32>(uv.x + bump * 0.6, uv.y + bump * 0.6, nz + 0.15));
+    let n_view = normalize(vec3<f32>(uv.x + bump * 0.8, uv.y + bump * 0.8, nz + 0.1));
     let n_world = normalize(
         view.world_from_view[0].xyz * n_view.x + view.world_from_view[1].xyz * n_view.y
             + view.world_from_view[2].xyz * n_view.z,
     );
     let l = sun_direction();
-    // Wrapped diffuse: ash scatters, so the shadow side is not black.
-    let diffuse = clamp((dot(n_world, l) + 0.35) / 1.35, 0.0, 1.0);
-    let dark = vec3<f32>(0.05, 0.045, 0.042);
-    let light = vec3<f32>(0.50, 0.485, 0.46);
-    let base = mix(dark, light, shade);
-    let sky = vec3<f32>(0.30, 0.36, 0.46) * (0.5 + 0.5 * n_world.y);
-    let colour = base * (0.22 + 0.62 * diffuse) + base * sky * 0.35;
-    return vec4<f32>(colour, 1.0);
+    var sun = vec3<f32>(3.0);
+    if (lights.n_directional_lights > 0u) {
+        sun = lights.directional_lights[0].color.rgb * view.exposure;
+    }
+    let ndl = dot(n_world, l);
+    // A detail sphere on the far side of its parent from the sun looks through the parent's
+    // body: Beer–Lambert over the chord (≈ 2 × depth behind the centre plane), darker for
+    // denser ash (shade 0).
+    let chord = max(-dot(in.place, l), 0.0) * 2.0;
+    let t_sun = in.light.x * exp(-chord * mix(3.0, 0.8, shade));
+    let t_sky = in.light.y;
+    // Sun side: Lambert; shadow side: a multiple-scattering floor (dense ash scatters less
+    // light round to its back).
+    // Light scattered round into the shade still mostly comes from the sun, but also reaches
+    // parents the grid puts in shadow (multiple scattering through the column).
+    let scatter = mix(0.08, 0.25, shade) * (0.35 + 0.65 * t_sun) * (0.5 + 0.5 * ndl);
+    let direct = sun * 0.6 * (t_sun * max(ndl, 0.0) + scatter) / PI;
+    // Sky: ambient light, occluded by the ash above and by the puff's own density.
+    let occlusion = t_sky * mix(0.45, 1.0, shade) * (0.6 + 0.4 * max(n_world.y, 0.0));
+    let ambient = lights.ambient_color.rgb * view.exposure * occlusion;
+    let albedo = mix(ASH_DENSE, ASH_DILUTE, shade);
+    var colour = albedo * (direct + ambient);
+    // Incandescent base: orange emission, stronger in the puff's core (seen at any exposure).
+    colour = colour + vec3<f32>(1.0, 0.33, 0.07) * (in.light.z * 1.2 * (0.2 + 0.8 * nz));
+    return vec4<f32>(colour * alpha, alpha);
 }

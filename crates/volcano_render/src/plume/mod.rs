@@ -3,8 +3,10 @@
 //! - **Main view** ([`PlumeRenderMode::Ash`]): one instanced draw per frame of every sphere of
 //!   every scale. s1 and umbrella spheres are camera-facing smoke billboards whose texture
 //!   turns with the spin projected on the screen (thesis §3.7.1); s2/s3 detail spheres are
-//!   lit sphere impostors; all shaded by density, darker and denser near the vent, lighter and
-//!   thinner aloft. [`volcano_plume::PlumeViewPlugin`] packs the parents and their instance
+//!   lit sphere impostors; pyroclastic particles flattened dark puffs. All are coloured by
+//!   density (dark brown-grey near the vent, light grey aloft), lit by the sun through the ash
+//!   toward it and by the sky through the ash above (`volcano_plume::view::light_parents`), with
+//!   soft blended edges and an incandescent glow at the vent. [`volcano_plume::PlumeViewPlugin`] packs the parents and their instance
 //!   counts; the vertex shader expands the detail spheres (see `pipeline`).
 //! - **Debug views**: s1/umbrella spheres as mesh spheres and slices as gizmo circles.
 
@@ -14,7 +16,7 @@ mod pipeline;
 use bevy::asset::embedded_asset;
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::prelude::*;
-use volcano_plume::{PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};
+use volcano_plume::{AshLightSettings, PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};
 
 pub use debug::PlumeVisuals;
 pub use pipeline::AshCloud;
@@ -65,7 +67,10 @@ impl Plugin for PlumeRenderPlugin {
             .register_type::<PlumeRenderMode>()
             .register_type::<AshCloud>()
             .add_systems(Startup, spawn_ash_cloud)
-            .add_systems(PostUpdate, (follow_camera, apply_mode).before(volcano_plume::view::update_parents));
+            .add_systems(
+                PostUpdate,
+                (follow_camera, follow_sun, apply_mode).before(volcano_plume::view::update_parents),
+            );
         debug::build(app);
         pipeline::build(app);
     }
@@ -91,6 +96,16 @@ fn follow_camera(
     let v = camera.iter().next().map(|t| t.translation());
     if viewpoint.0 != v {
         viewpoint.0 = v;
+    }
+}
+
+/// The ash is lit by the first directional light (the sun), through the ash toward it.
+fn follow_sun(sun: Query<&GlobalTransform, With<DirectionalLight>>, mut light: ResMut<AshLightSettings>) {
+    let Some(t) = sun.iter().next() else { return };
+    // A light shines along its forward (−z): the sun is behind it.
+    let toward = t.back().as_vec3();
+    if toward.is_finite() && light.sun != toward {
+        light.sun = toward;
     }
 }
 

@@ -4,9 +4,11 @@
 //! bind group 3), and the draw asks for `total` instances; the vertex shader (`ash.wgsl`)
 //! finds instance `i`'s parent by binary search, computes the billboard or the s2/s3 child with
 //! the CPU enumeration's 32-bit hash, and turns the quad toward the camera. The fragment stage
-//! draws a smoke puff (s1 and umbrella spheres) or a lit sphere impostor (detail spheres).
-//! Fragments write depth and cut out (no blending), so half a million unsorted instances draw
-//! correctly in any order.
+//! draws a smoke puff (s1, umbrella and pyroclastic spheres) or a lit sphere impostor (detail
+//! spheres) with soft edges, blended with premultiplied alpha and without depth writes (the
+//! terrain still hides them). Blending needs back-to-front order: the parents are sorted far
+//! to near from the camera here, before upload (the children of one parent stay unsorted; they
+//! lie within its radius), and an instanced draw blends its instances in instance order.
 //!
 //! The structure (specialised mesh pipeline, custom draw command) follows Bevy 0.19's "custom
 //! shader instancing" technique, with storage buffers in place of the instance vertex buffer.
@@ -95,28 +97,52 @@ fn extract_instances(mut target: ResMut<RenderAshParents>, source: Extract<Optio
     target.0 = source.as_ref().map(|s| s.0.clone()).unwrap_or_default();
 }
 
+/// The parents reordered far to near from `eye` (ties keep their order), with their prefix sums
+/// rebuilt: the same instances, in the order premultiplied blending needs.
+fn sort_far_to_near(list: &AshParents, eye: Vec3, out: &mut AshParents) {
+    let mut order: Vec<(f32, usize)> = list
+        .parents
+        .iter()
+        .enumerate()
+        .map(|(i, p)| (Vec3::from_array(p.center).distance_squared(eye), i))
+        .collect();
+    // NaN distances (never packed, but cheap to guard) sort first, drawn under everything.
+    order.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    out.parents.clear();
+    out.starts.clear();
+    out.starts.push(0);
+    for (_, i) in order {
+        out.parents.push(list.parents[i]);
+        let count = list.starts[i + 1] - list.starts[i];
+        out.starts.push(out.starts.last().copied().unwrap_or(0) + count);
+    }
+}
+
 fn prepare_buffer(
     mut commands: Commands,
     clouds: Query<Entity, With<AshCloud>>,
+    views: Query<&ExtractedView>,
     list: Res<RenderAshParents>,
-    device: Res<RenderDevice>,
-    pipeline: Res<AshPipeline>,
-    cache: Res<PipelineCache>,
+    (device, pipeline, cache): (Res<RenderDevice>, Res<AshPipeline>, Res<PipelineCache>),
+    mut sorted: Local<AshParents>,
 ) {
+    // One order for every view: the first camera's (the scenes have one).
+    let eye = views.iter().next().map(|v| v.world_from_view.translation()).unwrap_or(Vec3::ZERO);
     for entity in &clouds {
         let total = list.0.total();
         if total == 0 || list.0.parents.is_empty() {
             commands.entity(entity).remove::<AshParentBuffers>();
             continue;
         }
+        sort_far_to_near(&list.0, eye, &mut sorted);
         let parents = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("volcano ash parents"),
-            contents: bytemuck::cast_slice(list.0.parents.as_slice()),
+            contents: bytemuck::cast_slice(sorted.parents.as_slice()),
             usage: BufferUsages::STORAGE,
         });
         let starts = device.create_buffer_with_data(&BufferInitDescriptor {
             label: Some("volcano ash instance starts"),
-            contents: bytemuck::cast_slice(list.0.starts.as_slice()),
+            contents: bytemuck::cast_slice(sorted.starts.as_slice()),
             usage: BufferUsages::STORAGE,
         });
         let bind_group = device.create_bind_group(
@@ -173,6 +199,15 @@ impl SpecializedMeshPipeline for AshPipeline {
         }
         // Both faces: the quad always faces the camera, but cheap insurance against winding.
         descriptor.primitive.cull_mode = None;
+        // Soft edges: premultiplied alpha over what is behind, depth tested, not written.
+        if let Some(fragment) = descriptor.fragment.as_mut() {
+            for target in fragment.targets.iter_mut().flatten() {
+                target.blend = Some(BlendState::PREMULTIPLIED_ALPHA_BLENDING);
+            }
+        }
+        if let Some(depth) = descriptor.depth_stencil.as_mut() {
+            depth.depth_write_enabled = Some(false);
+        }
         Ok(descriptor)
     }
 }
@@ -207,7 +242,7 @@ fn queue_ash(
                 continue;
             };
             phase.add_retained(Transparent3d {
-                // Drawn first among transparent items: it writes depth like an opaque object.
+                // Drawn first among transparent items (sorted within itself, see `prepare_buffer`).
                 sorting_info: TransparentSortingInfo3d::Sorted { mesh_center: Vec3::ZERO, depth_bias: 0.0 },
                 entity: (entity, *main_entity),
                 pipeline: id,
@@ -271,5 +306,25 @@ impl<P: PhaseItem> RenderCommand<P> for DrawAshInstanced {
             RenderMeshBufferInfo::NonIndexed => pass.draw(vertices.range, 0..instances.total),
         }
         RenderCommandResult::Success
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parents_are_sorted_far_to_near_with_their_instances() {
+        let parent = |z: f32| AshParent { center: [0.0, 0.0, z], ..Default::default() };
+        let list = AshParents {
+            parents: vec![parent(10.0), parent(300.0), parent(-50.0)],
+            starts: vec![0, 1, 21, 24],
+        };
+        let mut out = AshParents::default();
+        sort_far_to_near(&list, Vec3::ZERO, &mut out);
+        let z: Vec<f32> = out.parents.iter().map(|p| p.center[2]).collect();
+        assert_eq!(z, vec![300.0, -50.0, 10.0]);
+        // Each parent keeps its instance count: 20, 3, 1.
+        assert_eq!(out.starts, vec![0, 20, 23, 24]);
     }
 }

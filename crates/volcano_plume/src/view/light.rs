@@ -1,0 +1,350 @@
+//! How much sun and sky reach each parent sphere: the ash between a parent and the light, from
+//! a coarse density grid splatted from the parents every frame (docs/ARCHITECTURE.md, "How ash
+//! is lit"). Engine-free: plain functions over [`ParentSphere`]s.
+//!
+//! The grid is aligned with the light (its third axis points at it), so the optical depth from
+//! every cell toward the light is one running sum per grid column, `O(cells)`. A parent reads
+//! the optical depth at its light-facing surface, minus its own contribution (a sphere does not
+//! shadow itself through the grid; the shader shades its own body with its normal).
+
+use bevy::prelude::*;
+
+use super::ParentSphere;
+
+/// Lighting inputs of the ash renderer (a resource, editable live through reflection).
+#[derive(Resource, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct AshLightSettings {
+    /// Direction toward the sun (world, y up; normalised on use). The renderer copies its
+    /// first directional light here every frame.
+    pub sun: Vec3,
+    /// Extinction per kg/m³ of mixture (m²/kg). A rendering choice, not a measured value:
+    /// the parents carry the mixture density, not the ash concentration, and the textbook
+    /// value for 20 µm ash (`3 Q_ext / (4 ρ_p r) ≈ 29 m²/kg`, Q_ext ≈ 2) would make even the
+    /// umbrella opaque at the grid's resolution.
+    pub extinction: f32,
+    /// Most grid cells per axis (the cell size follows from the column's extent).
+    pub max_cells_per_axis: u32,
+}
+
+impl Default for AshLightSettings {
+    fn default() -> Self {
+        Self { sun: Vec3::new(-0.58, 0.57, 0.58), extinction: 0.003, max_cells_per_axis: 64 }
+    }
+}
+
+/// A rejected [`AshLightSettings`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum AshLightError {
+    /// The sun direction is zero or not finite.
+    #[error("sun direction {0} is zero or not finite")]
+    Sun(Vec3),
+    /// The extinction is negative or not finite.
+    #[error("extinction {0} m²/kg must be finite and ≥ 0")]
+    Extinction(f32),
+    /// The grid would have fewer than 2 or more than 256 cells per axis.
+    #[error("max_cells_per_axis {0} must be in 2..=256")]
+    Cells(u32),
+}
+
+impl AshLightSettings {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), AshLightError> {
+        if !self.sun.is_finite() || self.sun.length_squared() < 1e-12 {
+            return Err(AshLightError::Sun(self.sun));
+        }
+        if !self.extinction.is_finite() || self.extinction < 0.0 {
+            return Err(AshLightError::Extinction(self.extinction));
+        }
+        if !(2..=256).contains(&self.max_cells_per_axis) {
+            return Err(AshLightError::Cells(self.max_cells_per_axis));
+        }
+        Ok(())
+    }
+}
+
+/// Light reaching one parent, as transmittances in [0, 1].
+#[derive(Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct ParentLight {
+    /// Sunlight reaching the parent's sun-facing surface, `exp(−τ_sun)`.
+    pub sun: f32,
+    /// Skylight from straight above, `exp(−τ_up)` (the ambient-occlusion term).
+    pub sky: f32,
+}
+
+impl ParentLight {
+    /// Nothing in the way.
+    pub const CLEAR: Self = Self { sun: 1.0, sky: 1.0 };
+
+    /// Packed as the shader reads it (`unpack4x8unorm`: x = sun, y = sky).
+    pub fn pack(self) -> u32 {
+        let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u32;
+        q(self.sun) | (q(self.sky) << 8)
+    }
+}
+
+/// Sun and sky transmittance of every parent (same order as `parents`), Beer–Lambert
+/// `T = exp(−∫ κ ρ ds)` through the other parents (Bohren & Huffman 1983, §3.4). Invalid
+/// settings are the caller's to reject ([`AshLightSettings::validate`]); here they give
+/// [`ParentLight::CLEAR`] for everyone.
+pub fn light_parents(parents: &[ParentSphere], settings: &AshLightSettings) -> Vec<ParentLight> {
+    if settings.validate().is_err() {
+        return vec![ParentLight::CLEAR; parents.len()];
+    }
+    let n = settings.max_cells_per_axis as usize;
+    let sun = DepthGrid::build(parents, settings.sun.normalize(), settings.extinction, n);
+    let up = DepthGrid::build(parents, Vec3::Y, settings.extinction, n);
+    let mut own = Vec::new();
+    parents
+        .iter()
+        .map(|p| {
+            let t = |g: &Option<DepthGrid>, own: &mut Vec<(usize, f32)>| {
+                g.as_ref().map_or(1.0, |g| (-g.depth_at_surface(p, own)).exp())
+            };
+            ParentLight { sun: t(&sun, &mut own), sky: t(&up, &mut own) }
+        })
+        .collect()
+}
+
+fn valid(p: &ParentSphere) -> bool {
+    p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0 && p.density.is_finite() && p.density > 0.0
+}
+
+/// Optical depth toward a light, on a grid whose third axis points at it.
+struct DepthGrid {
+    /// Rows: the grid axes u, v, w (w toward the light).
+    axes: [Vec3; 3],
+    /// Grid coordinates of the lower corner.
+    origin: Vec3,
+    /// Cell size (m).
+    h: f32,
+    dims: [usize; 3],
+    /// Optical depth from each cell centre to the grid's end toward the light.
+    tau: Vec<f32>,
+    extinction: f32,
+}
+
+impl DepthGrid {
+    fn build(parents: &[ParentSphere], toward: Vec3, extinction: f32, max_cells: usize) -> Option<Self> {
+        let w = toward;
+        let u = w.any_orthonormal_vector();
+        let axes = [u, w.cross(u), w];
+        let local = |c: Vec3| Vec3::new(c.dot(axes[0]), c.dot(axes[1]), c.dot(axes[2]));
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for p in parents.iter().filter(|p| valid(p)) {
+            let c = local(p.center);
+            lo = lo.min(c - p.radius);
+            hi = hi.max(c + p.radius);
+        }
+        if !lo.is_finite() || !hi.is_finite() {
+            return None;
+        }
+        let extent = hi - lo;
+        let h = (extent.max_element() / max_cells as f32).max(1.0);
+        let dims = (extent / h).to_array().map(|e| (e.ceil() as usize).clamp(1, max_cells));
+        let mut grid =
+            Self { axes, origin: lo, h, dims, tau: vec![0.0; dims[0] * dims[1] * dims[2]], extinction };
+        // Extinction coefficient per cell (1/m), then the running sum toward the light.
+        let mut sigma = vec![0.0f32; grid.tau.len()];
+        let mut cells = Vec::new();
+        for p in parents.iter().filter(|p| valid(p)) {
+            cells.clear();
+            grid.splat(p, &mut cells);
+            let s = grid.cross_section(p) / (h * h * h);
+            for &(i, wt) in &cells {
+                sigma[i] += s * wt;
+            }
+        }
+        let [nx, ny, nz] = dims;
+        for i in 0..nx * ny {
+            let mut acc = 0.0;
+            for k in (0..nz).rev() {
+                let c = i * nz + k;
+                grid.tau[c] = acc + 0.5 * sigma[c] * h;
+                acc += sigma[c] * h;
+            }
+        }
+        Some(grid)
+    }
+
+    /// Extinction cross-section of a parent, `κ ρ V` (m²).
+    fn cross_section(&self, p: &ParentSphere) -> f32 {
+        self.extinction * p.density * 4.0 / 3.0 * std::f32::consts::PI * p.radius.powi(3)
+    }
+
+    fn local(&self, c: Vec3) -> Vec3 {
+        (Vec3::new(c.dot(self.axes[0]), c.dot(self.axes[1]), c.dot(self.axes[2])) - self.origin) / self.h
+    }
+
+    fn index(&self, i: [usize; 3]) -> usize {
+        (i[0] * self.dims[1] + i[1]) * self.dims[2] + i[2]
+    }
+
+    /// Cells a parent's mass goes to, with weights summing to 1: trilinear around the centre
+    /// for spheres smaller than a cell, else the cells whose centre lies inside the sphere.
+    fn splat(&self, p: &ParentSphere, out: &mut Vec<(usize, f32)>) {
+        let g = self.local(p.center) - 0.5; // in cell-centre coordinates
+        let r = p.radius / self.h;
+        if r > 1.0 {
+            let span = r.min(12.0);
+            let lo = (g - span).ceil().max(Vec3::ZERO);
+            let hi = (g + span).floor();
+            let mut n = 0usize;
+            for x in lo.x as usize..=(hi.x.max(0.0) as usize).min(self.dims[0] - 1) {
+                for y in lo.y as usize..=(hi.y.max(0.0) as usize).min(self.dims[1] - 1) {
+                    for z in lo.z as usize..=(hi.z.max(0.0) as usize).min(self.dims[2] - 1) {
+                        if (Vec3::new(x as f32, y as f32, z as f32) - g).length() <= span {
+                            out.push((self.index([x, y, z]), 1.0));
+                            n += 1;
+                        }
+                    }
+                }
+            }
+            if n > 0 {
+                out.iter_mut().for_each(|c| c.1 = 1.0 / n as f32);
+                return;
+            }
+        }
+        self.trilinear(g, |i, wt| out.push((i, wt)));
+    }
+
+    /// Calls `f(cell, weight)` for the (up to 8) cells around `g` (cell-centre coordinates,
+    /// clamped to the grid).
+    fn trilinear(&self, g: Vec3, mut f: impl FnMut(usize, f32)) {
+        let max = Vec3::new(self.dims[0] as f32, self.dims[1] as f32, self.dims[2] as f32) - 1.0;
+        let g = g.clamp(Vec3::ZERO, max);
+        let base = g.floor();
+        let t = g - base;
+        for corner in 0..8u32 {
+            let o = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
+            let mut wt = 1.0;
+            let mut idx = [0usize; 3];
+            for a in 0..3 {
+                let ta = t[a];
+                wt *= if o[a] == 1 { ta } else { 1.0 - ta };
+                idx[a] = ((base[a] as usize) + o[a] as usize).min(self.dims[a] - 1);
+            }
+            if wt > 0.0 {
+                f(self.index(idx), wt);
+            }
+        }
+    }
+
+    /// Optical depth from the parent's light-facing surface to the light, without the
+    /// parent's own contribution. `own` is scratch space.
+    fn depth_at_surface(&self, p: &ParentSphere, own: &mut Vec<(usize, f32)>) -> f32 {
+        if !valid(p) {
+            return 0.0;
+        }
+        let q = self.local(p.center + self.axes[2] * p.radius) - 0.5;
+        let nz = self.dims[2];
+        let mut total = 0.0;
+        let mut mine = 0.0;
+        own.clear();
+        self.splat(p, own);
+        let own_sigma = self.cross_section(p) / (self.h * self.h * self.h);
+        self.trilinear(q, |c, wt| {
+            total += wt * self.tau[c];
+            // The parent's share of tau[c]: its cells in the same grid column at or beyond c.
+            let (column, k) = (c / nz, c % nz);
+            for &(o, ow) in own.iter() {
+                if o / nz == column && o % nz >= k {
+                    let part = if o % nz == k { 0.5 } else { 1.0 };
+                    mine += wt * part * own_sigma * ow * self.h;
+                }
+            }
+        });
+        (total - mine).max(0.0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere(id: u64, center: Vec3, radius: f32, density: f32) -> ParentSphere {
+        ParentSphere {
+            id,
+            eruption: 0,
+            center,
+            radius,
+            rotation: Quat::IDENTITY,
+            density,
+            umbrella: false,
+            flow: false,
+        }
+    }
+
+    fn settings(sun: Vec3) -> AshLightSettings {
+        AshLightSettings { sun, ..Default::default() }
+    }
+
+    #[test]
+    fn a_lone_parent_is_not_shadowed_by_itself() {
+        let p = [sphere(1, Vec3::new(10.0, 2_000.0, -5.0), 80.0, 200.0)];
+        let l = light_parents(&p, &settings(Vec3::new(0.3, 0.8, 0.2)));
+        assert!(l[0].sun > 0.99 && l[0].sky > 0.99, "{:?}", l[0]);
+    }
+
+    #[test]
+    fn ash_between_a_parent_and_the_sun_shadows_it() {
+        let sun = Vec3::new(1.0, 1.0, 0.0).normalize();
+        let target = Vec3::new(0.0, 1_000.0, 0.0);
+        // A dense cloud of parents 600 m toward the sun, and one far off to the side.
+        let mut parents = vec![sphere(0, target, 50.0, 5.0)];
+        for i in 0..27u64 {
+            let o = Vec3::new((i % 3) as f32, (i / 3 % 3) as f32, (i / 9) as f32) * 60.0 - 60.0;
+            parents.push(sphere(1 + i, target + sun * 600.0 + o, 50.0, 5.0));
+        }
+        parents.push(sphere(99, target + Vec3::new(0.0, 0.0, 3_000.0), 50.0, 5.0));
+        let l = light_parents(&parents, &settings(sun));
+        assert!(l[0].sun < 0.2, "behind the cloud: {:?}", l[0]);
+        assert!(l[28].sun > 0.95, "beside it: {:?}", l[28]);
+        // The cloud is not above the target: the sky is open.
+        assert!(l[0].sky > 0.9, "{:?}", l[0]);
+        // The cloud's far side is shaded by its near side.
+        let far = (1..28).min_by(|&a, &b| parents[a].center.dot(sun).total_cmp(&parents[b].center.dot(sun)));
+        let near = (1..28).max_by(|&a, &b| parents[a].center.dot(sun).total_cmp(&parents[b].center.dot(sun)));
+        let (far, near) = (far.unwrap(), near.unwrap());
+        assert!(l[far].sun < l[near].sun - 0.2, "far {:?} near {:?}", l[far], l[near]);
+    }
+
+    #[test]
+    fn a_layer_above_occludes_the_sky() {
+        let mut parents = vec![sphere(0, Vec3::new(0.0, 500.0, 0.0), 40.0, 5.0)];
+        for i in 0..25u64 {
+            let o = Vec3::new((i % 5) as f32 * 80.0 - 160.0, 1_500.0, (i / 5) as f32 * 80.0 - 160.0);
+            parents.push(sphere(1 + i, o, 60.0, 15.0));
+        }
+        let sideways_sun = settings(Vec3::new(1.0, 0.05, 0.0));
+        let l = light_parents(&parents, &sideways_sun);
+        assert!(l[0].sky < 0.3, "{:?}", l[0]);
+        assert!(l[0].sun > 0.95, "{:?}", l[0]);
+    }
+
+    #[test]
+    fn bad_settings_are_rejected_and_light_everything() {
+        for bad in [
+            AshLightSettings { sun: Vec3::ZERO, ..Default::default() },
+            AshLightSettings { sun: Vec3::NAN, ..Default::default() },
+            AshLightSettings { extinction: -1.0, ..Default::default() },
+            AshLightSettings { extinction: f32::INFINITY, ..Default::default() },
+            AshLightSettings { max_cells_per_axis: 1, ..Default::default() },
+        ] {
+            assert!(bad.validate().is_err(), "{bad:?}");
+            let l = light_parents(&[sphere(0, Vec3::ZERO, 1.0, 1.0)], &bad);
+            assert_eq!(l, vec![ParentLight::CLEAR]);
+        }
+        // NaN parents neither poison the grid nor get NaN light.
+        let parents = [sphere(0, Vec3::ZERO, 10.0, 5.0), sphere(1, Vec3::NAN, f32::NAN, f32::NAN)];
+        let l = light_parents(&parents, &AshLightSettings::default());
+        assert!(l.iter().all(|l| l.sun.is_finite() && l.sky.is_finite()), "{l:?}");
+    }
+
+    #[test]
+    fn packing_is_what_the_shader_unpacks() {
+        assert_eq!(ParentLight { sun: 1.0, sky: 0.0 }.pack(), 0xff);
+        assert_eq!(ParentLight { sun: 0.0, sky: 1.0 }.pack(), 0xff00);
+        assert_eq!(ParentLight { sun: f32::NAN, sky: 2.0 }.pack() >> 8, 0xff);
+    }
+}

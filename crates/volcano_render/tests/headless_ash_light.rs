@@ -1,0 +1,131 @@
+//! The ash is lit: one smoke puff in front of the camera, the sun from the camera's right.
+//!
+//! 1. Its sun side (right half) is brighter than its shadow side (left half): luminance 183
+//!    against 103 when written. Tried without the per-fragment sun term (`direct` with
+//!    `t_sun * 0.5` in place of `t_sun * max(ndl, 0)`): 161 against 156, and this fails.
+//! 2. The same puff with a dense cloud of parents between it and the sun (not drawn: only the
+//!    puff is packed, its light comes from `light_parents` over all of them) is darker than
+//!    without: sun half 92 against 183. Tried with the transmittance ignored in the shader
+//!    (`t_sun = 1.0 * …`): 183 both times, and this fails.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use bevy::prelude::*;
+use volcano_core::VolcanoCorePlugin;
+use volcano_plume::view::{AshLightSettings, ParentSphere, light_parents};
+use volcano_plume::{AshParent, AshParents, PlumeParents};
+use volcano_render::{
+    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
+    headless_default_plugins, read_png_rgb, rgb_region_mean,
+};
+
+const W: u32 = 320;
+const H: u32 = 240;
+/// Puff radius (m), 2 km in front of the camera: ≈ 72 px on screen.
+const RADIUS: f32 = 500.0;
+const DISTANCE: f32 = 2_000.0;
+
+#[derive(Resource, Clone, Copy)]
+struct Occluded(bool);
+
+fn scene(mut commands: Commands) {
+    let orbit =
+        OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
+    commands.spawn(camera_bundle(orbit));
+    commands.spawn((
+        DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: false, ..default() },
+        Transform::default(),
+    ));
+}
+
+/// Points the sun from the camera's right and replaces the frame's parents with the puff.
+fn puff(
+    camera: Query<&GlobalTransform, With<VolcanoViewer>>,
+    mut sun: Query<&mut Transform, With<DirectionalLight>>,
+    occluded: Res<Occluded>,
+    mut list: ResMut<PlumeParents>,
+) {
+    let Some(cam) = camera.iter().next() else { return };
+    let (fwd, right) = (cam.forward().as_vec3(), cam.right().as_vec3());
+    // Toward the sun: right, a little up and toward the camera (the lit half faces it).
+    let toward = (right + 0.3 * Vec3::Y - 0.3 * fwd).normalize();
+    for mut t in &mut sun {
+        *t = Transform::from_rotation(Quat::from_rotation_arc(Vec3::NEG_Z, -toward));
+    }
+    let center = cam.translation() + fwd * DISTANCE;
+    let sphere = |id: u64, c: Vec3, r: f32| ParentSphere {
+        id,
+        eruption: 0,
+        center: c,
+        radius: r,
+        rotation: Quat::IDENTITY,
+        density: 5.0,
+        umbrella: true,
+        flow: false,
+    };
+    let mut spheres = vec![sphere(0, center, RADIUS / 1.35)];
+    if occluded.0 {
+        for i in 0..27u64 {
+            let o = Vec3::new((i % 3) as f32, (i / 3 % 3) as f32, (i / 9) as f32) * 120.0 - 120.0;
+            spheres.push(sphere(1 + i, center + toward * 1_500.0 + o, 100.0));
+        }
+    }
+    let light = light_parents(&spheres, &AshLightSettings { sun: toward, ..default() });
+    let parent = AshParent {
+        center: center.to_array(),
+        radius: RADIUS / 1.35,
+        rotation: Quat::IDENTITY.to_array(),
+        angle: 0.3,
+        shade: 0.5,
+        coverage: 1.0,
+        variant: 0.4,
+        key: 11,
+        flags: AshParent::BILLBOARD,
+        billboard_radius: RADIUS,
+        light: light[0].pack(),
+    };
+    list.0 = Arc::new(AshParents { parents: vec![parent], starts: vec![0, 1] });
+}
+
+/// Renders the puff; returns the mean RGB of its left (shadow) and right (sun) halves.
+fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
+    let name = if occluded { "headless_ash_light_occluded.png" } else { "headless_ash_light.png" };
+    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_file(&out);
+    let exit = App::new()
+        .add_plugins(headless_default_plugins())
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
+        .add_plugins(HeadlessCapturePlugin {
+            width: W,
+            height: H,
+            out: out.clone(),
+            capture_after_updates: 8,
+        })
+        .insert_resource(Occluded(occluded))
+        .add_systems(Startup, scene)
+        .add_systems(PostUpdate, puff.after(volcano_plume::view::update_parents))
+        .run();
+    assert!(exit.is_success(), "app exited with {exit:?}");
+    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    let (cx, cy) = (W / 2, H / 2);
+    let left = rgb_region_mean(&rgb, W, (cx - 55, cx - 15), (cy - 20, cy + 20));
+    let right = rgb_region_mean(&rgb, W, (cx + 15, cx + 55), (cy - 20, cy + 20));
+    eprintln!("occluded {occluded}: shadow half {left:?}, sun half {right:?} ({})", out.display());
+    (left, right)
+}
+
+fn luminance(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+#[test]
+fn ash_has_a_sun_side_and_is_shadowed_by_ash_toward_the_sun() {
+    let (shadow, sun) = render(false);
+    let (ls, lu) = (luminance(shadow), luminance(sun));
+    assert!(lu > ls + 25.0, "sun side {lu:.1} not clearly brighter than shadow side {ls:.1}");
+    let (o_shadow, o_sun) = render(true);
+    let (os, ou) = (luminance(o_shadow), luminance(o_sun));
+    assert!(ou < lu - 25.0, "behind ash the sun side is {ou:.1}, in the open {lu:.1}");
+    assert!(os <= ls + 2.0, "behind ash the shadow side is {os:.1}, in the open {ls:.1}");
+}
