@@ -137,6 +137,7 @@ pub fn terrain_color(
         position: terrain.heights().position(i, j),
         altitude,
         normal,
+        footprint: terrain.heights().cell() as f32,
     };
     let base = ground_color(sample, relief);
     match terrain.added() {
@@ -267,11 +268,14 @@ pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
     (mesh, stride)
 }
 
+/// A terrain's mesh or far-ring child.
+type DrawnGround = Or<(With<TerrainMesh>, With<TerrainHorizonMesh>)>;
+
 /// Despawns the mesh and far-ring children of terrains that became [`UnrenderedTerrain`].
 fn drop_unrendered_meshes(
     mut commands: Commands,
     terrains: Query<&Children, (With<Terrain>, Added<UnrenderedTerrain>)>,
-    meshes: Query<(), Or<(With<TerrainMesh>, With<TerrainHorizonMesh>)>>,
+    meshes: Query<(), DrawnGround>,
 ) {
     for child in terrains.iter().flatten() {
         if meshes.contains(*child) {

@@ -12,6 +12,9 @@ use bevy::render::render_resource::{
     Extent3d, TextureDimension, TextureFormat, TextureViewDescriptor, TextureViewDimension,
 };
 
+/// Display brightness of a sky texel of 1.0 (after exposure), shared by the skybox and the fog.
+pub const SKY_GAIN: f32 = 1.2;
+
 /// Texels per side of each cubemap face.
 pub const FACE_SIZE: u32 = 64;
 
@@ -101,9 +104,10 @@ impl GradientSky {
         image
     }
 
-    /// Skybox showing `image` so that a texel of 1.0 is displayed as 1.0 at exposure `ev100`.
+    /// Skybox showing `image` so that a texel of 1.0 is displayed as [`SKY_GAIN`] at exposure
+    /// `ev100`.
     pub fn skybox(image: Handle<Image>, ev100: f32) -> Skybox {
-        Skybox { image: Some(image), brightness: 1.2 * ev100.exp2(), rotation: Quat::IDENTITY }
+        Skybox { image: Some(image), brightness: SKY_GAIN * ev100.exp2(), rotation: Quat::IDENTITY }
     }
 
     /// Distance fog fading terrain into the horizon colour (squared exponential, so the near
@@ -111,7 +115,9 @@ impl GradientSky {
     pub fn fog(&self) -> DistanceFog {
         let visibility = if self.visibility.is_finite() { self.visibility.max(100.0) } else { 90_000.0 };
         DistanceFog {
-            color: Color::from(self.horizon),
+            // Fog is mixed in after exposure, like the skybox: the same gain, so fogged land
+            // meets the sky's horizon colour.
+            color: Color::from(LinearRgba::from_vec3(self.horizon.to_vec3() * SKY_GAIN)),
             directional_light_color: Color::linear_rgba(1.0, 0.9, 0.7, 0.04),
             directional_light_exponent: 12.0,
             falloff: FogFalloff::from_visibility_squared(visibility),

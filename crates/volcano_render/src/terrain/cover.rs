@@ -19,13 +19,13 @@ use volcano_core::{LandCover, Terrain};
 const ROCK_GREY: Srgba = Srgba::rgb(0.27, 0.26, 0.25);
 const ROCK_BROWN: Srgba = Srgba::rgb(0.36, 0.30, 0.25);
 /// Scoria (oxidised, red-brown) and fresh ash (grey) of the upper cone.
-const SCORIA: Srgba = Srgba::rgb(0.40, 0.26, 0.20);
+const SCORIA: Srgba = Srgba::rgb(0.37, 0.27, 0.21);
 const ASH: Srgba = Srgba::rgb(0.46, 0.45, 0.43);
 /// Bare soil of gentle low ground without vegetation.
 const SOIL: Srgba = Srgba::rgb(0.40, 0.35, 0.28);
 /// Vegetation, lush (low, wet) and dry (higher, sparser).
 const VEG_LUSH: Srgba = Srgba::rgb(0.20, 0.31, 0.12);
-const VEG_DRY: Srgba = Srgba::rgb(0.39, 0.39, 0.21);
+const VEG_DRY: Srgba = Srgba::rgb(0.31, 0.34, 0.17);
 const SNOW: Srgba = Srgba::rgb(0.93, 0.94, 0.97);
 const WATER_DEEP: Srgba = Srgba::rgb(0.06, 0.16, 0.30);
 const WATER_SHALLOW: Srgba = Srgba::rgb(0.10, 0.25, 0.36);
@@ -41,6 +41,9 @@ pub struct GroundSample {
     pub altitude: f32,
     /// Unit surface normal (y up).
     pub normal: Vec3,
+    /// Distance to the neighbouring vertices, metres: noise finer than about twice this is
+    /// faded to its mean (it would alias into streaks between vertices).
+    pub footprint: f32,
 }
 
 /// The altitude range the rules are relative to: "near the summit" is near `high`.
@@ -76,10 +79,10 @@ impl Relief {
 
 /// Linear colour of a point of ground (see the module docs for the rules).
 pub fn ground_color(s: GroundSample, relief: Relief) -> LinearRgba {
-    let p = s.position;
-    let broad = value_noise(p, 2500.0, 1);
-    let mid = value_noise(p, 600.0, 2);
-    let fine = value_noise(p, 150.0, 3);
+    let (p, fp) = (s.position, s.footprint);
+    let broad = octave(p, 2500.0, 1, fp);
+    let mid = octave(p, 600.0, 2, fp);
+    let fine = octave(p, 150.0, 3, fp);
     // 0 on flat ground, 0.29 at 45°.
     let slope = (1.0 - s.normal.y.clamp(0.0, 1.0)).clamp(0.0, 1.0);
     let rel = relief.fraction(s.altitude);
@@ -87,14 +90,14 @@ pub fn ground_color(s: GroundSample, relief: Relief) -> LinearRgba {
     let steep = smoothstep(0.08, 0.22, slope + 0.04 * (mid - 0.5));
     let rock = mix(lin(ROCK_GREY), lin(ROCK_BROWN), broad);
     // Scoria or ash: ash more common towards the summit.
-    let cone = mix(lin(SCORIA), lin(ASH), smoothstep(0.35, 0.75, 0.6 * mid + 0.7 * rel - 0.1));
+    let cone = mix(lin(SCORIA), lin(ASH), smoothstep(0.25, 0.65, 0.6 * mid + 0.7 * rel - 0.1));
     let bare = mix(lin(SOIL), cone, smoothstep(0.25, 0.55, rel));
     let base = match s.cover {
         LandCover::Water => return mix(lin(WATER_DEEP), lin(WATER_SHALLOW), 0.6 * broad + 0.4 * fine),
         LandCover::Snow => mix(lin(SNOW), rock, steep),
         LandCover::Ground => mix(bare, rock, steep),
         LandCover::Vegetation => {
-            let veg = mix(lin(VEG_LUSH), lin(VEG_DRY), smoothstep(0.2, 0.8, 0.7 * broad + 0.6 * rel));
+            let veg = mix(lin(VEG_LUSH), lin(VEG_DRY), smoothstep(0.3, 0.9, 0.6 * broad + 0.5 * rel));
             // Sparser with height: bare patches show through from a third of the relief up.
             let patchy = smoothstep(0.3, 0.7, rel + 0.5 * (mid - 0.5));
             mix(mix(veg, bare, patchy), rock, steep)
@@ -103,6 +106,13 @@ pub fn ground_color(s: GroundSample, relief: Relief) -> LinearRgba {
     // Brightness varies ±12 % at the finest scale; steep faces darken (they read under flat light).
     let shade = (0.88 + 0.24 * fine) * (1.0 - 0.3 * smoothstep(0.0, 0.35, slope));
     LinearRgba::rgb(base.red * shade, base.green * shade, base.blue * shade)
+}
+
+/// [`value_noise`] faded to its mean 0.5 where vertices `footprint` metres apart cannot show it
+/// (from a quarter to half the wavelength).
+fn octave(p: Vec2, wavelength: f32, seed: u32, footprint: f32) -> f32 {
+    let keep = 1.0 - smoothstep(0.25 * wavelength, 0.5 * wavelength, footprint);
+    if keep <= 0.0 { 0.5 } else { 0.5 + (value_noise(p, wavelength, seed) - 0.5) * keep }
 }
 
 fn lin(c: Srgba) -> LinearRgba {
@@ -160,7 +170,10 @@ mod tests {
     const RELIEF: Relief = Relief { low: 200.0, high: 2700.0 };
 
     fn at(cover: LandCover, x: f32, altitude: f32, normal: Vec3) -> LinearRgba {
-        ground_color(GroundSample { cover, position: Vec2::new(x, 1234.0), altitude, normal }, RELIEF)
+        ground_color(
+            GroundSample { cover, position: Vec2::new(x, 1234.0), altitude, normal, footprint: 40.0 },
+            RELIEF,
+        )
     }
 
     fn steep() -> Vec3 {
@@ -203,6 +216,25 @@ mod tests {
         let ratio: Vec<f32> = cs.iter().map(|c| c.red / c.blue).collect();
         let (lo, hi) = ratio.iter().fold((f32::INFINITY, 0f32), |(a, b), &r| (a.min(r), b.max(r)));
         assert!(hi > 1.3 * lo, "red/blue from {lo} to {hi}: one hue");
+    }
+
+    /// Vertices kilometres apart get no metre-scale detail: the colour no longer depends on the
+    /// fine octaves (two points 75 m apart, half the finest wavelength, look the same).
+    #[test]
+    fn coarse_vertices_get_no_fine_noise() {
+        let c = |x: f32, footprint: f32| {
+            let s = GroundSample {
+                cover: LandCover::Ground,
+                position: Vec2::new(x, 0.0),
+                altitude: 300.0,
+                normal: Vec3::Y,
+                footprint,
+            };
+            ground_color(s, RELIEF)
+        };
+        assert_ne!(c(0.0, 40.0), c(75.0, 40.0));
+        let (a, b) = (c(0.0, 5000.0), c(75.0, 5000.0));
+        assert!((a.red - b.red).abs() < 1e-6 && (a.blue - b.blue).abs() < 1e-6, "{a:?} vs {b:?}");
     }
 
     #[test]

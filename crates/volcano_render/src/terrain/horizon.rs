@@ -6,7 +6,7 @@
 //! terrain's centre, spaced quadratically (fine near the terrain, kilometres apart far out),
 //! out to [`TerrainHorizon::width`] beyond the edge. Each vertex's height blends from the border
 //! height it extends to a base level over [`TerrainHorizon::blend`], plus low-frequency hills;
-//! ground that ends below the sea level is drawn as sea. Colours follow the land-cover rules of
+//! ground that ends below the sea level is drawn as sea, and sea at the border stays sea. Colours follow the land-cover rules of
 //! the terrain (`cover`), with the border's class carried outward. Distance fog (the gradient
 //! sky's, or the game's own) then fades the ring into the horizon. Opt-in: nothing is added to
 //! a terrain without the component (a game that draws its own surroundings leaves it off).
@@ -117,10 +117,11 @@ pub fn horizon_mesh(
     let border = border_loop(na, nb);
     let inner: Vec<([f32; 3], [f32; 3], [f32; 4])> =
         border.iter().map(|&(a, b)| samples.vertex(a, b)).collect();
+    // The sea continues as sea; snow gives way to bare ground.
     let covers: Vec<LandCover> = border
         .iter()
         .map(|&(a, b)| match terrain.cover().get(samples.xs[a], samples.ys[b]) {
-            LandCover::Snow | LandCover::Water => LandCover::Ground,
+            LandCover::Snow => LandCover::Ground,
             c => c,
         })
         .collect();
@@ -146,8 +147,13 @@ pub fn horizon_mesh(
         // Outward distance of this ring along the axes: quadratic spacing.
         let d = horizon.width * (k as f32 / rings as f32).powi(2);
         let scale = Vec2::new(1.0 + d / half.x, 1.0 + d / half.y);
-        for v in &inner {
+        for (v, cover) in inner.iter().zip(&covers) {
             let p = centre + (Vec2::new(v.0[0], v.0[2]) - centre) * scale;
+            if *cover == LandCover::Water {
+                water.push(true);
+                positions.push([p.x, sea, p.y]);
+                continue;
+            }
             let beyond = ((p - centre).abs() - half).max(Vec2::ZERO).length();
             let t = smoothstep(0.0, horizon.blend, beyond);
             let hills = 0.6 * value_noise(p, 9_000.0, 11) + 0.4 * value_noise(p, 3_500.0, 12);
@@ -179,6 +185,13 @@ pub fn horizon_mesh(
     }
     let mut normal_out: Vec<[f32; 3]> = normals.iter().map(|n| n.normalize_or(Vec3::Y).to_array()).collect();
     let relief = samples.relief();
+    // Radial distance between ring k and its outer neighbour (the coarser of the two spacings).
+    let spacing: Vec<f32> = (0..=rings)
+        .map(|k| {
+            let d = |k: usize| horizon.width * (k.min(rings) as f32 / rings as f32).powi(2);
+            (d(k + 1) - d(k)).max(d(k) - d(k.saturating_sub(1)))
+        })
+        .collect();
     let mut colors = Vec::with_capacity(positions.len());
     for (v, p) in positions.iter().enumerate() {
         let e = v % p_len;
@@ -192,6 +205,7 @@ pub fn horizon_mesh(
             position: Vec2::new(p[0], p[2]),
             altitude: p[1],
             normal: Vec3::from(normal_out[v]),
+            footprint: spacing[v / p_len],
         };
         colors.push(ground_color(sample, relief).to_f32_array());
     }
@@ -373,6 +387,18 @@ mod tests {
         };
         let c = c.last().unwrap();
         assert!(c[2] > c[0] && c[2] > c[1], "sea is blue: {c:?}");
+    }
+
+    /// An island's sea stays sea out to the ring's edge, whatever the hills.
+    #[test]
+    fn sea_at_the_border_stays_sea() {
+        let island =
+            StratovolcanoParams { resolution: 33, cell: 300.0, sea_level: 1000.0, ..Default::default() }
+                .generate()
+                .unwrap();
+        let ring = horizon_mesh(&island, &TerrainHorizon { hills: 2_000.0, ..default() }, 1).unwrap();
+        let p = positions(&ring);
+        assert!(p[128..].iter().all(|v| v[1] == 1000.0), "land rose out of the sea");
     }
 
     #[test]
