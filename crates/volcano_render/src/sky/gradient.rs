@@ -15,6 +15,9 @@ use bevy::render::render_resource::{
 /// Display brightness of a sky texel of 1.0 (after exposure), shared by the skybox and the fog.
 pub const SKY_GAIN: f32 = 1.2;
 
+/// Gains on the horizon colour for the fog colour (see [`GradientSky::fog`]).
+pub const FOG_MATCH: Vec3 = Vec3::new(1.23, 1.44, 1.87);
+
 /// Texels per side of each cubemap face.
 pub const FACE_SIZE: u32 = 64;
 
@@ -115,9 +118,12 @@ impl GradientSky {
     pub fn fog(&self) -> DistanceFog {
         let visibility = if self.visibility.is_finite() { self.visibility.max(100.0) } else { 90_000.0 };
         DistanceFog {
-            // Fog is mixed in after exposure, like the skybox: the same gain, so fogged land
-            // meets the sky's horizon colour.
-            color: Color::from(LinearRgba::from_vec3(self.horizon.to_vec3() * SKY_GAIN)),
+            // Fog is mixed into the lit colour before tonemapping, whose shoulder dims and
+            // desaturates it more than the skybox's horizon: per-channel gains measured so
+            // that fully fogged land meets the default horizon on screen (eruption scene,
+            // llvmpipe, ACES fitted, EV100 13: fog at 1.0× showed (162, 178, 197) against a
+            // sky of (177, 201, 233), at 1.2× (175, 189, 206)).
+            color: Color::from(LinearRgba::from_vec3(self.horizon.to_vec3() * FOG_MATCH)),
             directional_light_color: Color::linear_rgba(1.0, 0.9, 0.7, 0.04),
             directional_light_exponent: 12.0,
             falloff: FogFalloff::from_visibility_squared(visibility),
