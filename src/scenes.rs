@@ -130,6 +130,52 @@ pub struct SunSpec {
     pub illuminance_lux: f32,
 }
 
+/// A far ring of ground around the scene's terrain, fading into the sky's haze (drawn by
+/// `volcano_render::TerrainHorizon`; fields as there). Omitted fields take its defaults.
+#[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct HorizonSpec {
+    /// How far the ring reaches beyond the terrain's edge (m).
+    pub width: f32,
+    /// Distance over which the border heights blend to the base level (m).
+    pub blend: f32,
+    /// Altitude of the far land (m); `None`: the median height of the terrain's border.
+    pub base_altitude: Option<f32>,
+    /// Amplitude of the far land's hills (m).
+    pub hills: f32,
+}
+
+impl Default for HorizonSpec {
+    fn default() -> Self {
+        Self { width: 110_000.0, blend: 12_000.0, base_altitude: None, hills: 120.0 }
+    }
+}
+
+impl HorizonSpec {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        positive("horizon.width", self.width as f64)?;
+        positive("horizon.blend", self.blend as f64)?;
+        in_range("horizon.hills", self.hills as f64, 0.0, 1.0e4)?;
+        if let Some(b) = self.base_altitude {
+            finite("horizon.base_altitude", b as f64)?;
+        }
+        Ok(())
+    }
+
+    /// The component on the terrain entity.
+    #[cfg(feature = "render")]
+    pub fn component(&self) -> volcano_render::TerrainHorizon {
+        volcano_render::TerrainHorizon {
+            width: self.width,
+            blend: self.blend,
+            base_altitude: self.base_altitude,
+            hills: self.hills,
+            ..Default::default()
+        }
+    }
+}
+
 /// Which eruption a scene's volcano starts with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect, Serialize, Deserialize)]
 pub enum EruptionPreset {
@@ -181,6 +227,10 @@ pub struct SceneSpec {
     /// A layered atmosphere over the terrain, if any.
     #[serde(default)]
     pub atmosphere: Option<SceneAtmosphere>,
+    /// A far ring of ground around the terrain, if any (drawn only with the `render` feature;
+    /// a game embedding the plugins gets one only by adding `TerrainHorizon` itself).
+    #[serde(default)]
+    pub horizon: Option<HorizonSpec>,
 }
 
 impl SceneSpec {
@@ -214,6 +264,9 @@ impl SceneSpec {
         }
         if let Some(a) = &self.atmosphere {
             a.validate()?;
+        }
+        if let Some(h) = &self.horizon {
+            h.validate()?;
         }
         Ok(())
     }
@@ -272,7 +325,12 @@ impl Plugin for VolcanoScenePlugin {
             atmosphere::build(app, a, &terrain);
         }
         app.add_systems(Startup, move |mut commands: Commands| {
-            commands.spawn((Name::new("Terrain"), terrain.clone()));
+            let mut ground = commands.spawn((Name::new("Terrain"), terrain.clone()));
+            #[cfg(feature = "render")]
+            if let Some(h) = spec.horizon.filter(|_| !headless) {
+                ground.insert(h.component());
+            }
+            let _ = &mut ground;
             // `build` cannot fail here: the spec was validated in `new`.
             if let Ok((volcano, transform)) = spec.volcano.build() {
                 let mut e = commands.spawn((Name::new("Volcano"), volcano, transform));

@@ -1,4 +1,4 @@
-//! Pyroclastic deposit on the terrain: the terrain mesh's vertex colours darken toward ash
+//! Pyroclastic deposit on the terrain: the terrain mesh's vertex colours turn toward ash
 //! grey with the deposit thickness read from [`DepositMap`] (log scale: 1 mm barely shows,
 //! 10 m is fully ash-covered). Recoloured when the deposit changes, at most every
 //! [`DepositTint::every_frames`] frames.
@@ -9,7 +9,7 @@ use bevy::prelude::*;
 use volcano_core::Terrain;
 use volcano_plume::DepositMap;
 
-use crate::terrain::{TerrainMesh, mix, sample_axis, smoothstep, terrain_color};
+use crate::terrain::{MeshSamples, TerrainMesh, mix, smoothstep};
 
 /// How the deposit tints the terrain.
 #[derive(Resource, Debug, Clone, Copy, PartialEq, Reflect)]
@@ -25,7 +25,9 @@ pub struct DepositTint {
 
 impl Default for DepositTint {
     fn default() -> Self {
-        Self { enabled: true, ash: Srgba::rgb(0.17, 0.16, 0.15), every_frames: 10 }
+        // Medium grey: reads as ash on vegetation (lighter, greyer), on rock and basalt
+        // (lighter) and on scoria (greyer), rather than as a dark stain.
+        Self { enabled: true, ash: Srgba::rgb(0.42, 0.41, 0.40), every_frames: 10 }
     }
 }
 
@@ -81,25 +83,16 @@ fn tint_terrain(
         for child in children.iter() {
             let Ok((handle, marker)) = mesh_children.get(child) else { continue };
             let Some(mut mesh) = meshes.get_mut(&handle.0) else { continue };
-            let Ok(normals) =
-                mesh.try_attribute(Mesh::ATTRIBUTE_NORMAL).map(|n| n.as_float3().map(<[_]>::to_vec))
-            else {
-                continue;
-            };
-            let Some(normals) = normals else { continue };
-            let h = terrain.heights();
-            let xs = sample_axis(h.nx(), marker.stride);
-            let ys = sample_axis(h.ny(), marker.stride);
-            if normals.len() != xs.len() * ys.len() {
+            let samples = MeshSamples::new(terrain, marker.stride);
+            let (xs, ys) = (&samples.xs, &samples.ys);
+            if mesh.count_vertices() != xs.len() * ys.len() {
                 continue;
             }
-            let colors: Vec<[f32; 4]> = ys
-                .iter()
-                .flat_map(|&j| xs.iter().map(move |&i| (i, j)))
-                .zip(&normals)
-                .map(|((i, j), n)| {
-                    let base = terrain_color(terrain, i, j, Vec3::from(*n));
-                    let t = if wanted { deposit.thickness_at_node(i, j) } else { 0.0 };
+            let colors: Vec<[f32; 4]> = (0..ys.len())
+                .flat_map(|b| (0..xs.len()).map(move |a| (a, b)))
+                .map(|(a, b)| {
+                    let base = LinearRgba::from_f32_array(samples.vertex(a, b).2);
+                    let t = if wanted { deposit.thickness_at_node(xs[a], ys[b]) } else { 0.0 };
                     deposit_tint(base, ash, t).to_f32_array()
                 })
                 .collect();
@@ -118,10 +111,10 @@ mod tests {
     use crate::terrain::TerrainRenderPlugin;
     use volcano_core::{Grid2, StratovolcanoParams};
 
-    /// Headless app (no renderer): a deposit on one corner of the map darkens the mesh there
-    /// and nowhere else.
+    /// Headless app (no renderer): a deposit on one corner of the map turns the mesh there ash
+    /// grey, and nowhere else.
     #[test]
-    fn a_deposit_darkens_the_terrain_mesh_under_it() {
+    fn a_deposit_greys_the_terrain_mesh_under_it() {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, bevy::asset::AssetPlugin::default()))
             .init_asset::<Mesh>()
@@ -164,25 +157,27 @@ mod tests {
             app.update();
         }
         let after = colours(&mut app);
-        let lum = |c: [f32; 4]| c[0] + c[1] + c[2];
+        let ash = LinearRgba::from(DepositTint::default().ash).to_f32_array();
+        let off = |c: [f32; 4]| (0..3).map(|k| (c[k] - ash[k]).abs()).sum::<f32>();
         let corner = 2 * 33 + 2;
-        assert!(lum(after[corner]) < 0.7 * lum(before[corner]), "{:?} → {:?}", before[corner], after[corner]);
+        assert!(off(after[corner]) < 0.3 * off(before[corner]), "{:?} → {:?}", before[corner], after[corner]);
         let far = 30 * 33 + 30;
         assert_eq!(after[far], before[far]);
     }
 
     #[test]
-    fn thicker_deposits_are_darker_and_none_changes_nothing() {
-        let base = LinearRgba::rgb(0.3, 0.36, 0.19);
+    fn thicker_deposits_are_greyer_and_none_changes_nothing() {
+        let base = LinearRgba::rgb(0.03, 0.08, 0.015);
         let ash = LinearRgba::from(DepositTint::default().ash);
         assert_eq!(deposit_tint(base, ash, 0.0), base);
         assert_eq!(deposit_tint(base, ash, f64::NAN), base);
+        // Green vegetation loses its green cast: |g − r| shrinks with each thicker deposit.
         let mut last = f32::INFINITY;
         for t in [0.002, 0.01, 0.1, 1.0, 5.0] {
             let c = deposit_tint(base, ash, t);
-            let lum = c.red + c.green + c.blue;
-            assert!(lum < last, "{t} m: {lum} not darker than {last}");
-            last = lum;
+            let cast = (c.green - c.red).abs() + (c.green - c.blue).abs();
+            assert!(cast < last, "{t} m: green cast {cast} not below {last}");
+            last = cast;
         }
         assert!((deposit_cover(10.0) - 1.0).abs() < 1e-6 && deposit_cover(100.0) == 1.0);
         assert!(deposit_cover(0.1) > 0.3 && deposit_cover(0.1) < 0.7);

@@ -54,7 +54,8 @@ pub use sky::{
     sky_camera_components, sun_bundle,
 };
 pub use terrain::{
-    TerrainMesh, TerrainRenderPlugin, UnrenderedTerrain, VentMarker, cover_color, terrain_mesh,
+    GroundSample, HorizonError, Relief, TerrainHorizon, TerrainHorizonMesh, TerrainMesh, TerrainRenderPlugin,
+    UnrenderedTerrain, VentMarker, ground_color, horizon_mesh, terrain_mesh,
 };
 pub use window_capture::WindowScreenshotPlugin;
 
@@ -83,7 +84,7 @@ impl PluginGroup for VolcanoRenderPlugins {
 pub mod prelude {
     pub use crate::{
         HeadlessCapturePlugin, OrbitCamera, PlumeRenderMode, PointerCaptured, SkySettings, Sun,
-        UnrenderedTerrain, VolcanoRenderPlugins, VolcanoSkyCamera, VolcanoSkyPlugin, VolcanoViewer,
-        camera_bundle, headless_default_plugins, sun_bundle,
+        TerrainHorizon, UnrenderedTerrain, VolcanoRenderPlugins, VolcanoSkyCamera, VolcanoSkyPlugin,
+        VolcanoViewer, camera_bundle, headless_default_plugins, sun_bundle,
     };
 }

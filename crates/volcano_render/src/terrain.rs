@@ -1,20 +1,28 @@
 //! Terrain rendering: one vertex-coloured mesh per [`Terrain`] entity (a child of it, rebuilt
 //! whenever the terrain is added or changed, and updated in place over the nodes a
-//! [`TerrainChanged`] message names) and a glowing marker over each volcano's vent.
+//! [`TerrainChanged`] message names), an opt-in far ring around it ([`TerrainHorizon`]) and a
+//! glowing marker over each volcano's vent.
 //!
 //! The heightfield is downsampled with an integer stride so a mesh has at most
-//! [`MAX_VERTICES_PER_SIDE`]² vertices. Colours come from the land cover and darken on steep
-//! slopes, so the flanks read under flat lighting too; nodes under frozen lava (the terrain's
-//! added layer) turn basalt grey.
+//! [`MAX_VERTICES_PER_SIDE`]² vertices. Colours follow land-cover rules with procedural detail
+//! ([`ground_color`]: rock on steep slopes, scoria and ash on the upper cone, vegetation low,
+//! snow high, value-noise variation); nodes under frozen lava (the terrain's added layer) turn
+//! basalt grey.
 
 use bevy::asset::RenderAssetUsages;
 use bevy::color::{Color, ColorToComponents, LinearRgba, Srgba};
 use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
+mod cover;
+mod horizon;
 mod region;
 
 use volcano_core::{LandCover, Terrain, TerrainChanged, VentPosition, Volcano};
+
+pub use cover::{GroundSample, Relief, ground_color, value_noise};
+pub(crate) use cover::{mix, smoothstep};
+pub use horizon::{HorizonError, TerrainHorizon, TerrainHorizonMesh, horizon_mesh};
 
 use region::update_changed_regions;
 pub use region::{MeshSurface, update_terrain_mesh};
@@ -51,12 +59,15 @@ impl Plugin for TerrainRenderPlugin {
         app.register_type::<TerrainMesh>()
             .register_type::<VentMarker>()
             .register_type::<UnrenderedTerrain>()
+            .register_type::<TerrainHorizon>()
+            .register_type::<TerrainHorizonMesh>()
             .add_message::<TerrainChanged>()
             .add_systems(
                 Update,
                 (
                     drop_unrendered_meshes,
                     (build_terrain_meshes, update_changed_regions).chain(),
+                    (horizon::drop_horizons, horizon::build_horizons).chain(),
                     update_vent_markers,
                 ),
             );
@@ -103,43 +114,6 @@ impl FromWorld for TerrainAssets {
     }
 }
 
-/// Colour of a land-cover class on a surface with unit normal `normal` (y-up), in linear RGB.
-/// Vegetation and snow give way to rock on steep slopes, and everything darkens with slope.
-pub fn cover_color(cover: LandCover, normal: Vec3) -> LinearRgba {
-    let rock = LinearRgba::from(Srgba::rgb(0.34, 0.31, 0.26));
-    let base = match cover {
-        LandCover::Ground => rock,
-        LandCover::Vegetation => LinearRgba::from(Srgba::rgb(0.30, 0.36, 0.19)),
-        LandCover::Water => LinearRgba::from(Srgba::rgb(0.08, 0.20, 0.36)),
-        LandCover::Snow => LinearRgba::from(Srgba::rgb(0.92, 0.93, 0.96)),
-    };
-    if cover == LandCover::Water {
-        return base;
-    }
-    // 0 on flat ground, ~0.3 at 45°.
-    let slope = (1.0 - normal.y.clamp(0.0, 1.0)).clamp(0.0, 1.0);
-    let to_rock = smoothstep(0.06, 0.25, slope);
-    let mixed = match cover {
-        LandCover::Vegetation | LandCover::Snow => mix(base, rock, to_rock),
-        _ => base,
-    };
-    let shade = 1.0 - 0.45 * smoothstep(0.0, 0.35, slope);
-    LinearRgba::rgb(mixed.red * shade, mixed.green * shade, mixed.blue * shade)
-}
-
-pub(crate) fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
-}
-
-pub(crate) fn mix(a: LinearRgba, b: LinearRgba, t: f32) -> LinearRgba {
-    LinearRgba::rgb(
-        a.red + (b.red - a.red) * t,
-        a.green + (b.green - a.green) * t,
-        a.blue + (b.blue - a.blue) * t,
-    )
-}
-
 /// Colour of lava frozen into the terrain (linear; the lava renderer's frozen albedo).
 fn basalt() -> LinearRgba {
     LinearRgba::from(Srgba::rgb(0.12, 0.115, 0.11))
@@ -148,11 +122,24 @@ fn basalt() -> LinearRgba {
 /// Mean thickness (m) of the added layer at which a node is drawn wholly as frozen lava.
 pub const FROZEN_FULL_COVER: f64 = 0.05;
 
-/// Colour of terrain node `(i, j)` with unit normal `normal`: [`cover_color`], turning to
-/// basalt as the node's added layer (frozen lava, a mean over the node's footprint) thickens
-/// to [`FROZEN_FULL_COVER`].
-pub fn terrain_color(terrain: &Terrain, i: usize, j: usize, normal: Vec3) -> LinearRgba {
-    let base = cover_color(terrain.cover().get(i, j), normal);
+/// Colour of terrain node `(i, j)` drawn at `altitude` with unit normal `normal`:
+/// [`ground_color`] of its land cover, turning to basalt as the node's added layer (frozen lava,
+/// a mean over the node's footprint) thickens to [`FROZEN_FULL_COVER`].
+pub fn terrain_color(
+    terrain: &Terrain,
+    relief: Relief,
+    (i, j): (usize, usize),
+    altitude: f32,
+    normal: Vec3,
+) -> LinearRgba {
+    let sample = GroundSample {
+        cover: terrain.cover().get(i, j),
+        position: terrain.heights().position(i, j),
+        altitude,
+        normal,
+        footprint: terrain.heights().cell() as f32,
+    };
+    let base = ground_color(sample, relief);
     match terrain.added() {
         Some(a) => mix(base, basalt(), smoothstep(0.0, FROZEN_FULL_COVER as f32, a.get(i, j) as f32)),
         None => base,
@@ -177,14 +164,26 @@ pub(crate) fn stride_for(n: usize, max_per_side: usize) -> usize {
 /// The mesh samples of a terrain: which nodes are vertices, and how each vertex looks.
 pub(crate) struct MeshSamples<'a> {
     terrain: &'a Terrain,
-    xs: Vec<usize>,
-    ys: Vec<usize>,
+    pub(crate) xs: Vec<usize>,
+    pub(crate) ys: Vec<usize>,
+    /// Computed on first use (placing things on the mesh needs no colours).
+    relief: std::cell::OnceCell<Relief>,
 }
 
 impl<'a> MeshSamples<'a> {
     pub(crate) fn new(terrain: &'a Terrain, stride: usize) -> Self {
         let h = terrain.heights();
-        Self { terrain, xs: sample_axis(h.nx(), stride), ys: sample_axis(h.ny(), stride) }
+        Self {
+            terrain,
+            xs: sample_axis(h.nx(), stride),
+            ys: sample_axis(h.ny(), stride),
+            relief: std::cell::OnceCell::new(),
+        }
+    }
+
+    /// The terrain's relief, for the colour rules.
+    pub(crate) fn relief(&self) -> Relief {
+        *self.relief.get_or_init(|| Relief::of(self.terrain))
     }
 
     /// Drawn altitude of node `(i, j)`: water is lifted to sea level.
@@ -206,8 +205,9 @@ impl<'a> MeshSamples<'a> {
         let dhdx = if dx > 0.0 { (self.surface(i1, j) - self.surface(i0, j)) / dx } else { 0.0 };
         let dhdz = if dz > 0.0 { (self.surface(i, j1) - self.surface(i, j0)) / dz } else { 0.0 };
         let n = Vec3::new(-dhdx, 1.0, -dhdz).normalize_or(Vec3::Y);
-        let colour = terrain_color(self.terrain, i, j, n).to_f32_array();
-        ([p.x, self.surface(i, j), p.y], n.to_array(), colour)
+        let y = self.surface(i, j);
+        let colour = terrain_color(self.terrain, self.relief(), (i, j), y, n).to_f32_array();
+        ([p.x, y, p.y], n.to_array(), colour)
     }
 
     /// Vertex index range `[lo, hi]` along an axis whose mesh depends on nodes `lo_n..=hi_n`
@@ -268,11 +268,14 @@ pub fn terrain_mesh(terrain: &Terrain, max_per_side: usize) -> (Mesh, usize) {
     (mesh, stride)
 }
 
-/// Despawns the mesh child of terrains that became [`UnrenderedTerrain`].
+/// A terrain's mesh or far-ring child.
+type DrawnGround = Or<(With<TerrainMesh>, With<TerrainHorizonMesh>)>;
+
+/// Despawns the mesh and far-ring children of terrains that became [`UnrenderedTerrain`].
 fn drop_unrendered_meshes(
     mut commands: Commands,
     terrains: Query<&Children, (With<Terrain>, Added<UnrenderedTerrain>)>,
-    meshes: Query<(), With<TerrainMesh>>,
+    meshes: Query<(), DrawnGround>,
 ) {
     for child in terrains.iter().flatten() {
         if meshes.contains(*child) {
@@ -469,22 +472,17 @@ mod tests {
     #[test]
     fn frozen_lava_turns_the_terrain_basalt() {
         let mut t = Terrain::flat(4, 10.0, 100.0).unwrap();
-        let ground = terrain_color(&t, 1, 1, Vec3::Y);
+        let relief = Relief::of(&t);
+        let colour = |t: &Terrain, i, j| terrain_color(t, relief, (i, j), 100.0, Vec3::Y);
+        let ground = colour(&t, 2, 1);
         t.add_thickness(NodeRegion { i0: 1, j0: 1, ni: 2, nj: 1 }, &[FROZEN_FULL_COVER, 0.01]).unwrap();
-        let full = terrain_color(&t, 1, 1, Vec3::Y);
+        let full = colour(&t, 1, 1);
         assert!((full.red - basalt().red).abs() < 1e-6 && (full.green - basalt().green).abs() < 1e-6);
-        let partly = terrain_color(&t, 2, 1, Vec3::Y);
+        let partly = colour(&t, 2, 1);
         assert!(partly.red < ground.red && partly.red > basalt().red, "{partly:?}");
-        assert_eq!(terrain_color(&t, 0, 0, Vec3::Y), ground);
-    }
-
-    #[test]
-    fn steep_slopes_are_darker_and_rockier() {
-        let flat = cover_color(LandCover::Vegetation, Vec3::Y);
-        let steep = cover_color(LandCover::Vegetation, Vec3::new(0.7, 0.7, 0.0).normalize());
-        assert!(steep.green < flat.green);
-        assert!(flat.green > flat.red, "vegetation reads green");
-        let snow = cover_color(LandCover::Snow, Vec3::Y);
-        assert!(snow.red > 0.7 && snow.blue > 0.7);
+        assert_eq!(
+            colour(&t, 0, 0),
+            terrain_color(&Terrain::flat(4, 10.0, 100.0).unwrap(), relief, (0, 0), 100.0, Vec3::Y)
+        );
     }
 }

@@ -1,0 +1,85 @@
+//! The far ring draws and follows its input: from 250 m above a 2 km flat terrain, looking north
+//! just below the horizon, the band of the frame between the terrain's edge and the horizon
+//! shows the sky's below-horizon haze without a [`TerrainHorizon`], land with one, and sea when
+//! the ring's base sinks below the sea level. If the ring mesh, its child entity or its colours
+//! were missing, the three bands would look alike.
+
+use std::path::PathBuf;
+
+use bevy::prelude::*;
+use volcano_core::{Terrain, VolcanoCorePlugin};
+use volcano_render::{
+    HeadlessCapturePlugin, OrbitCamera, TerrainHorizon, VolcanoRenderPlugins, VolcanoSkyPlugin,
+    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean,
+};
+
+const W: u32 = 320;
+const H: u32 = 240;
+
+/// Renders the flat terrain with `horizon`; returns the mean RGB of the band 4°–9° below the
+/// horizon (ground 1.5–3.6 km beyond the terrain's edge).
+fn band(name: &str, horizon: Option<TerrainHorizon>) -> [f64; 3] {
+    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
+    let _ = std::fs::remove_file(&out);
+    let exit = App::new()
+        // One app after the other in this process: only the first may set the global logger.
+        .add_plugins(headless_default_plugins().disable::<bevy::log::LogPlugin>())
+        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
+        .add_plugins(HeadlessCapturePlugin {
+            width: W,
+            height: H,
+            out: out.clone(),
+            capture_after_updates: 8,
+        })
+        .add_systems(Startup, move |mut commands: Commands| {
+            // 1.92 km square at 100 m; the sea level is 0 m.
+            let flat = Terrain::flat(65, 30.0, 100.0).unwrap();
+            let flat = Terrain::new(flat.heights().clone(), flat.cover().clone(), 0.0).unwrap();
+            let mut terrain = commands.spawn(flat);
+            if let Some(h) = horizon.clone() {
+                terrain.insert(h);
+            }
+            // Camera over the centre at 350 m, looking north 1° down.
+            let orbit = OrbitCamera {
+                focus: Vec3::new(
+                    0.0,
+                    350.0 - 20_000.0 * 1f32.to_radians().sin(),
+                    -20_000.0 * 1f32.to_radians().cos(),
+                ),
+                yaw: 0.0,
+                pitch: 1f32.to_radians(),
+                distance: 20_000.0,
+                ..default()
+            };
+            commands.spawn(camera_bundle(orbit));
+        })
+        .run();
+    assert!(exit.is_success(), "app exited with {exit:?}");
+    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    // 50° vertical field: row 120 + 120·tan(θ − 1°)/tan 25° for θ below the horizontal; the
+    // terrain's edge (14°) is at row ≈ 179.
+    let band = rgb_region_mean(&rgb, W, (0, W), (137, 152));
+    eprintln!("{name}: band {band:?} ({})", out.display());
+    band
+}
+
+fn diff(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|c| (a[c] - b[c]).abs()).sum()
+}
+
+#[test]
+fn the_far_ring_draws_land_or_sea_beyond_the_edge() {
+    let none = band("headless_horizon_none.png", None);
+    let land = band(
+        "headless_horizon_land.png",
+        Some(TerrainHorizon { blend: 1_000.0, hills: 0.0, base_altitude: Some(100.0), ..default() }),
+    );
+    let sea = band(
+        "headless_horizon_sea.png",
+        Some(TerrainHorizon { blend: 1_000.0, hills: 0.0, base_altitude: Some(-500.0), ..default() }),
+    );
+    assert!(diff(land, none) > 30.0, "the ring draws nothing: {land:?} vs the sky's {none:?}");
+    assert!(land[0] > land[2], "bare land beyond the edge is not brown: {land:?}");
+    assert!(sea[2] > sea[0] + 20.0, "the sunk ring is not sea: {sea:?}");
+    assert!(diff(sea, land) > 30.0, "the ring ignores its base altitude: {sea:?} vs {land:?}");
+}
