@@ -92,7 +92,7 @@ pub mod prelude {
     pub use volcano_core::prelude::*;
     pub use volcano_coupling::{CouplingBudget, CouplingSettings, CouplingSystems};
     pub use volcano_plume::{
-        Eruption, PlumeCapReport, PlumeCaps, NeutralBuoyancyReached, PlumeCollapsed, PlumeParams, PlumeSlice, UmbrellaSpreading,
-        WindProfile,
+        Eruption, NeutralBuoyancyReached, PlumeCapReport, PlumeCaps, PlumeCollapsed, PlumeParams, PlumeSlice,
+        UmbrellaSpreading, WindProfile,
     };
 }

@@ -105,7 +105,9 @@ pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
 pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let (scene, ticks, warmup) = (opts.scene.as_str(), opts.ticks, opts.warmup);
     if ticks == 0 || ticks > 1_000_000 || warmup > 1_000_000 {
-        eprintln!("error: --ticks (or --seconds × 50) must be in 1..=1000000 and --warmup-ticks at most 1000000");
+        eprintln!(
+            "error: --ticks (or --seconds × 50) must be in 1..=1000000 and --warmup-ticks at most 1000000"
+        );
         return ExitCode::from(2);
     }
     let plugin = match VolcanoScenePlugin::builtin(scene) {

@@ -197,12 +197,19 @@ pub(crate) fn cap_particles(
 
 /// Keeps the `max` heaviest clusters (ties: the lower first member), in their original
 /// order; the number held back is returned.
-pub(crate) fn heaviest_clusters(groups: &mut Vec<Vec<usize>>, mass: impl Fn(&[usize]) -> f64, max: usize) -> usize {
+pub(crate) fn heaviest_clusters(
+    groups: &mut Vec<Vec<usize>>,
+    mass: impl Fn(&[usize]) -> f64,
+    max: usize,
+) -> usize {
     if groups.len() <= max {
         return 0;
     }
-    let mut order: Vec<(usize, f64, usize)> =
-        groups.iter().enumerate().map(|(k, g)| (k, mass(g), g.first().copied().unwrap_or(usize::MAX))).collect();
+    let mut order: Vec<(usize, f64, usize)> = groups
+        .iter()
+        .enumerate()
+        .map(|(k, g)| (k, mass(g), g.first().copied().unwrap_or(usize::MAX)))
+        .collect();
     order.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.2.cmp(&b.2)));
     let mut keep = vec![false; groups.len()];
     for &(k, ..) in &order[..max] {

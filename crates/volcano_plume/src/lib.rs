@@ -13,7 +13,7 @@ pub mod plugin;
 pub mod pyroclastic;
 pub mod view;
 
-pub use caps::{PlumeCaps, PlumeCapReport};
+pub use caps::{PlumeCapReport, PlumeCaps};
 pub use components::{
     AshReleased, EmissionState, Eruption, NeutralBuoyancyReached, PlumeAmbient, PlumeAshBudget,
     PlumeCollapsed, PlumeSlice, S1, Umbrella, UmbrellaSpreading,

@@ -41,7 +41,10 @@ impl Plugin for PlumePlugin {
             .register_type::<PlumeSlice>()
             .register_type::<S1>()
             .register_type::<Umbrella>()
-            .add_systems(PlumeStep, (emit_slices, crate::caps::cap_live_slices, step_slices, step_umbrella).chain())
+            .add_systems(
+                PlumeStep,
+                (emit_slices, crate::caps::cap_live_slices, step_slices, step_umbrella).chain(),
+            )
             .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
     }
 }
@@ -75,8 +78,7 @@ fn emit_slices(
             emission.emitted += 1;
             let state = Slice::at_vent(&eruption.params);
             ash.emitted_kg += state.solid_mass;
-            let slice =
-                PlumeSlice {
+            let slice = PlumeSlice {
                 volcano: entity,
                 index,
                 vent: vent.0,

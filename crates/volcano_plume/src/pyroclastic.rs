@@ -173,7 +173,14 @@ impl Plugin for PyroclasticPlugin {
             .register_type::<PyroclasticBudget>()
             .add_systems(
                 PyroclasticStep,
-                (hand_over, step_particles, crate::caps::cap_particles, relax_deposit, lift_secondary_columns).chain(),
+                (
+                    hand_over,
+                    step_particles,
+                    crate::caps::cap_particles,
+                    relax_deposit,
+                    lift_secondary_columns,
+                )
+                    .chain(),
             );
     }
 }
@@ -415,7 +422,8 @@ fn lift_secondary_columns(
             groups.extend(find_clusters(&list, &aloft, py.cluster_radius, 1).members);
         }
         let max = crate::caps::checked(&caps).max_secondary_per_step as usize;
-        let held = crate::caps::heaviest_clusters(&mut groups, |g| g.iter().map(|&i| list[i].mass).sum(), max);
+        let held =
+            crate::caps::heaviest_clusters(&mut groups, |g| g.iter().map(|&i| list[i].mass).sum(), max);
         if held > 0 {
             warn_once!(
                 "eruption {volcano}: more than {max} secondary columns in one step; the lighter clusters \
@@ -441,8 +449,15 @@ fn lift_secondary_columns(
                 mass: state.mass,
                 particles: members.len(),
             });
-            let slice =
-                PlumeSlice { volcano, index, vent, state, ring_phase: 0.0, ash_pending: 0.0, secondary: true };
+            let slice = PlumeSlice {
+                volcano,
+                index,
+                vent,
+                state,
+                ring_phase: 0.0,
+                ash_pending: 0.0,
+                secondary: true,
+            };
             spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Secondary column {index}"));
         }
     }

@@ -158,7 +158,10 @@ fn at_most_the_capped_number_of_secondary_columns_forms_per_step() {
             grounded: false,
         };
         m0 += particle.mass;
-        world.spawn((Transform::default(), PyroParticle { volcano, particle, vent: Vec3::ZERO, id: k, buoyant: false }));
+        world.spawn((
+            Transform::default(),
+            PyroParticle { volcano, particle, vent: Vec3::ZERO, id: k, buoyant: false },
+        ));
     }
     run(&mut app, 50 * 5);
     let world = app.world_mut();

@@ -11,8 +11,8 @@ use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
 use volcano_core::VolcanoCorePlugin;
 use volcano_render::{
-    CloudRenderSettings, CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins, VolcanoSkyPlugin,
-    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
+    CloudRenderSettings, CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins,
+    VolcanoSkyPlugin, camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
 };
 
 const W: u32 = 256;

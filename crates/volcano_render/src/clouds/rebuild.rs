@@ -142,7 +142,9 @@ pub(super) fn start_cloud_builds(
         let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
         status.started += 1;
         let job = match pool {
-            Some(pool) => Job::Running(pool.spawn(async move { build_clouds(state, s, threshold, memory, time) })),
+            Some(pool) => {
+                Job::Running(pool.spawn(async move { build_clouds(state, s, threshold, memory, time) }))
+            }
             None => {
                 status.on_main_thread += 1;
                 Job::Done(Box::new(build_clouds(state, s, threshold, memory, time)))
