@@ -156,7 +156,6 @@ pub(super) fn start_cloud_builds(
 
 /// Applies every finished rebuild: replaces the density image and the fog (or spawns them
 /// for a new atmosphere), hands the clustering memory back to the [`CloudVolume`].
-#[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's fog in step")]
 pub(super) fn apply_cloud_builds(
     mut commands: Commands,
     mut status: ResMut<CloudBuildStatus>,
