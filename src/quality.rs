@@ -45,7 +45,7 @@ pub struct QualitySettings {
     /// Plume instances per frame ([`PlumeViewSettings::max_instances`]): the detail spheres per
     /// parent fall evenly when the column has more parents than fit.
     pub max_instances: u32,
-    /// Caps on live slices, pyroclastic particles and secondary columns.
+    /// Caps on live slices, pyroclastic particles, secondary columns and umbrella spheres.
     pub caps: PlumeCaps,
 }
 
@@ -56,10 +56,11 @@ impl VolcanoQuality {
 
     /// The level's numbers.
     pub fn settings(self) -> QualitySettings {
-        let caps = |max_live_slices, max_particles, max_secondary_per_step| PlumeCaps {
+        let caps = |max_live_slices, max_particles, max_secondary_per_step, max_umbrella_spheres| PlumeCaps {
             max_live_slices,
             max_particles,
             max_secondary_per_step,
+            max_umbrella_spheres,
         };
         match self {
             VolcanoQuality::Low => QualitySettings {
@@ -68,7 +69,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: 40,
                 cloud_steps: 64,
                 max_instances: 150_000,
-                caps: caps(2_000, 20_000, 16),
+                caps: caps(2_000, 20_000, 16, 20_000),
             },
             VolcanoQuality::Medium => QualitySettings {
                 atmosphere_grid_scale: 0.5,
@@ -76,7 +77,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: 64,
                 cloud_steps: 128,
                 max_instances: 500_000,
-                caps: caps(5_000, 100_000, 64),
+                caps: caps(5_000, 100_000, 64, 50_000),
             },
             VolcanoQuality::High => {
                 let clouds = cloud_defaults();
@@ -95,7 +96,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: 128,
                 cloud_steps: 256,
                 max_instances: 3_000_000,
-                caps: caps(50_000, 1_000_000, 2_000),
+                caps: caps(50_000, 1_000_000, 2_000, 200_000),
             },
         }
     }

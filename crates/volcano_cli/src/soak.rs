@@ -41,12 +41,12 @@ pub struct SoakRow {
     pub capped_slices: u64,
     /// Particles settled by the particle cap so far.
     pub capped_particles: u64,
-    /// Secondary-column clusters held back by their cap so far.
-    pub deferred_secondary: u64,
+    /// Clusters lifted off without a column by the secondary-column cap so far.
+    pub retired_secondary: u64,
 }
 
 const HEADER: &str = "sim_s,wall_s,entities,rss_mib,tick_p50_ms,tick_p99_ms,tick_max_ms,slices,umbrella,\
-                      particles,secondary_columns,capped_slices,capped_particles,deferred_secondary";
+                      particles,secondary_columns,capped_slices,capped_particles,retired_secondary";
 
 /// Resident memory of this process (MiB), 0 if unknown.
 pub fn rss_mib() -> f64 {
@@ -114,7 +114,7 @@ impl Soak {
             r.secondary_columns,
             r.capped_slices,
             r.capped_particles,
-            r.deferred_secondary
+            r.retired_secondary
         )?;
         self.file.flush()?;
         self.rows.push(row);
@@ -143,6 +143,6 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
         secondary_columns: flows.secondary_columns,
         capped_slices: caps.slices_retired,
         capped_particles: caps.particles_settled,
-        deferred_secondary: caps.secondary_deferred,
+        retired_secondary: caps.secondary_retired,
     }
 }

@@ -134,7 +134,8 @@ pub struct PlumeAshBudget {
     /// Ash released as [`AshReleased`] messages by expiring umbrella spheres and by slices the
     /// live-slice cap retired.
     pub released_kg: f64,
-    /// Of `released_kg`, the ash of slices retired by [`crate::caps::PlumeCaps::max_live_slices`].
+    /// Of `released_kg`, the ash of slices and umbrella spheres retired by the caps
+    /// ([`crate::caps::PlumeCaps::max_live_slices`], `max_umbrella_spheres`).
     pub capped_kg: f64,
 }
 

@@ -43,7 +43,14 @@ impl Plugin for PlumePlugin {
             .register_type::<Umbrella>()
             .add_systems(
                 PlumeStep,
-                (emit_slices, crate::caps::cap_live_slices, step_slices, step_umbrella).chain(),
+                (
+                    emit_slices,
+                    crate::caps::cap_live_slices,
+                    step_slices,
+                    step_umbrella,
+                    crate::caps::cap_umbrella,
+                )
+                    .chain(),
             )
             .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
     }

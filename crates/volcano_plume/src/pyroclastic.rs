@@ -151,8 +151,9 @@ pub struct PyroclasticBudget {
     pub spawned: u64,
     /// Secondary columns formed so far.
     pub secondary_columns: u64,
-    /// Of `deposited` and `lost`, the mass of particles settled by the particle cap
-    /// ([`crate::caps::PlumeCaps::max_particles`]).
+    /// Of `deposited`, `lost` and `lifted`, the mass the caps removed (particles settled by
+    /// [`crate::caps::PlumeCaps::max_particles`], clusters lifted without a column by
+    /// [`crate::caps::PlumeCaps::max_secondary_per_step`]).
     pub capped: f64,
     /// Particles settled by that cap.
     pub capped_particles: u64,
@@ -422,14 +423,23 @@ fn lift_secondary_columns(
             groups.extend(find_clusters(&list, &aloft, py.cluster_radius, 1).members);
         }
         let max = crate::caps::checked(&caps).max_secondary_per_step as usize;
-        let held =
-            crate::caps::heaviest_clusters(&mut groups, |g| g.iter().map(|&i| list[i].mass).sum(), max);
-        if held > 0 {
+        let mass = |g: &[usize]| g.iter().map(|&i| list[i].mass).sum::<f64>();
+        let rest = crate::caps::heaviest_clusters(&mut groups, mass, max);
+        if !rest.is_empty() {
             warn_once!(
                 "eruption {volcano}: more than {max} secondary columns in one step; the lighter clusters \
-                 stay particles for a later step (PlumeCaps::max_secondary_per_step, PlumeCapReport)"
+                 lift off without a simulated column (PlumeCaps::max_secondary_per_step, PlumeCapReport)"
             );
-            report.secondary_deferred += held as u64;
+            for members in &rest {
+                let m = mass(members);
+                for &i in members {
+                    commands.entity(mine[i].0).despawn();
+                }
+                budget.lifted += m;
+                budget.capped += m;
+                report.secondary_retired += 1;
+                report.secondary_retired_kg += m;
+            }
             report.capped_steps += 1;
         }
         for members in &groups {

@@ -88,6 +88,58 @@ fn the_live_slice_cap_retires_the_oldest_and_releases_their_ash() {
     assert!((seen - b.released_kg).abs() <= 1e-9 * b.released_kg, "messages {seen} vs booked {b:?}");
 }
 
+#[test]
+fn the_umbrella_cap_retires_the_oldest_spheres_and_the_books_close() {
+    // 150 spheres of 10 t of ash each, detached one per 0.1 s of age (the column would take
+    // minutes to reach its umbrella); the eruption is off.
+    let caps = PlumeCaps { max_umbrella_spheres: 100, ..default() };
+    let mut app = app(Eruption::plinian(), caps, 5);
+    let world = app.world_mut();
+    let (volcano, params) = {
+        let (v, e) = world.query::<(Entity, &Eruption)>().single(world).unwrap();
+        (v, e.params.clone())
+    };
+    world.get_mut::<Eruption>(volcano).unwrap().active = false;
+    let mut slice = volcano_plume::model::slice::Slice::at_vent(&params);
+    slice.position.z = 9_000.0;
+    for k in 0..150u64 {
+        let sphere = volcano_plume::model::umbrella::UmbrellaSphere::detach(
+            &slice,
+            bevy::math::DVec3::X * 100.0,
+            volcano_plume::model::umbrella::Spread::Thesis,
+        );
+        let u = Umbrella {
+            volcano,
+            sphere,
+            radius: 100.0,
+            density: 1.0,
+            age: 0.1 * (150 - k) as f64,
+            vent: Vec3::ZERO,
+            id: k,
+            ash: 1.0e4,
+            ash_pending: 0.0,
+        };
+        world.spawn((Transform::default(), u));
+    }
+    world.get_mut::<PlumeAshBudget>(volcano).unwrap().emitted_kg = 150.0 * 1.0e4;
+    run(&mut app, 50);
+    let world = app.world_mut();
+    // The oldest went (ids 0–49 were the oldest).
+    let first_left = world.query::<&Umbrella>().iter(world).map(|u| u.id).min();
+    assert_eq!(first_left, Some(50));
+    let n = world.query::<&Umbrella>().iter(world).count();
+    let report = *world.resource::<PlumeCapReport>();
+    assert_eq!(n, 100, "umbrella spheres under a cap of 100");
+    assert!(report.umbrella_retired > 0 && report.umbrella_ash_released_kg > 0.0, "{report:?}");
+    let b = *world.query::<&PlumeAshBudget>().single(world).unwrap();
+    let in_slices: f64 =
+        world.query::<&PlumeSlice>().iter(world).map(|s| s.state.solid_mass.max(0.0) + s.ash_pending).sum();
+    let in_spheres: f64 = world.query::<&Umbrella>().iter(world).map(|u| u.ash + u.ash_pending).sum();
+    let accounted = in_slices + in_spheres + b.to_flows_kg + b.lost_kg + b.released_kg;
+    assert!((accounted - b.emitted_kg).abs() <= 1e-9 * b.emitted_kg, "books: {b:?}, {accounted}");
+    assert!((b.capped_kg - report.umbrella_ash_released_kg).abs() <= 1e-9 * b.capped_kg, "{b:?} {report:?}");
+}
+
 fn slices_fingerprint(app: &mut App) -> Vec<(u64, [u64; 3])> {
     let world = app.world_mut();
     let mut v: Vec<_> = world
@@ -131,7 +183,9 @@ fn the_particle_cap_settles_the_oldest_and_the_flow_budget_closes() {
 
 /// Six buoyant particles far apart, 100 m above a flank (more than r_pyr = 50 m: each lifts
 /// off alone on the first step, as in tests/pyroclastic_plugin.rs) under a cap of one
-/// secondary column per step: they lift on different steps, and all of them lift in the end.
+/// secondary column per step: the first (they weigh the same; ties go to the
+/// lower index) becomes a column, the five
+/// others lift off without one, and the budget closes.
 #[test]
 fn at_most_the_capped_number_of_secondary_columns_forms_per_step() {
     let caps = PlumeCaps { max_secondary_per_step: 1, ..default() };
@@ -170,7 +224,8 @@ fn at_most_the_capped_number_of_secondary_columns_forms_per_step() {
     let b = *world.resource::<PyroclasticBudget>();
     let left = world.query::<&PyroParticle>().iter(world).count();
     assert!(seen <= 1, "{seen} secondary columns in one step under a cap of 1");
-    assert!(report.secondary_deferred > 0, "the cap never acted: {report:?} {b:?}");
-    assert_eq!((left, b.secondary_columns), (0, 6), "{b:?}");
+    assert_eq!(report.secondary_retired, 5, "the cap did not act: {report:?} {b:?}");
+    assert_eq!((left, b.secondary_columns), (0, 1), "{b:?}");
+    assert!((b.capped - report.secondary_retired_kg).abs() < 1e-9 * m0, "{b:?} {report:?}");
     assert!((b.lifted + b.deposited + b.lost - m0).abs() < 1e-9 * m0, "{b:?}");
 }
