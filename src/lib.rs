@@ -31,6 +31,7 @@
 //! `volcano_render` (feature `render`, default) and `volcano_egui` (feature `debug`).
 
 pub mod lava_scene;
+pub mod quality;
 pub mod scenes;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
@@ -59,6 +60,8 @@ impl PluginGroup for VolcanoSimPlugins {
             .add(volcano_atmosphere::AtmospherePlugin::default())
             // A volcano inside an atmosphere's grid couples to it (thesis §4.3.3).
             .add(volcano_coupling::CouplingPlugin)
+            // Applies a `VolcanoQuality` the game inserts (nothing without one).
+            .add(quality::VolcanoQualityPlugin)
     }
 }
 
@@ -83,12 +86,13 @@ impl PluginGroup for VolcanoPlugins {
 
 /// What a game usually imports.
 pub mod prelude {
+    pub use crate::quality::VolcanoQuality;
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_core::prelude::*;
     pub use volcano_coupling::{CouplingBudget, CouplingSettings, CouplingSystems};
     pub use volcano_plume::{
-        Eruption, NeutralBuoyancyReached, PlumeCollapsed, PlumeParams, PlumeSlice, UmbrellaSpreading,
-        WindProfile,
+        Eruption, NeutralBuoyancyReached, PlumeCapReport, PlumeCaps, PlumeCollapsed, PlumeParams, PlumeSlice,
+        UmbrellaSpreading, WindProfile,
     };
 }

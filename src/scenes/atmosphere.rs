@@ -1,6 +1,7 @@
 //! The optional atmosphere of a scene: a built-in layered-atmosphere scenario
 //! (`volcano_atmosphere`) run over the scene's own terrain, pre-spun at startup so the clouds
 //! are there in the first frame, with a weather time scale so they move at a watchable pace.
+//! A [`crate::quality::VolcanoQuality`] present at startup scales its grid.
 
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -49,14 +50,21 @@ pub(crate) fn build(app: &mut App, spec: &SceneAtmosphere, terrain: &Terrain) {
     let (spec, terrain) = (spec.clone(), terrain.clone());
     app.add_systems(
         Startup,
-        move |mut commands: Commands, clock: Option<ResMut<Time<DomainClock<WeatherStep>>>>| {
+        move |mut commands: Commands,
+              clock: Option<ResMut<Time<DomainClock<WeatherStep>>>>,
+              quality: Option<Res<crate::quality::VolcanoQuality>>| {
             if let Some(mut clock) = clock
                 && let Err(e) = clock.context_mut().set_time_scale(spec.time_scale)
             {
                 error!("scene atmosphere: {e}");
             }
             let spawned = Scenario::builtin(&spec.scenario).and_then(|s| {
-                spawn_scenario_with(&mut commands, &s, spec.grid, Some(&terrain), spec.prespin_steps)
+                // A quality level scales the scene's grid (read here only: a restart applies it).
+                let grid = match quality {
+                    Some(q) => Some(q.atmosphere_cells(spec.grid.unwrap_or(s.grid))),
+                    None => spec.grid,
+                };
+                spawn_scenario_with(&mut commands, &s, grid, Some(&terrain), spec.prespin_steps)
             });
             if let Err(e) = spawned {
                 error!("scene atmosphere `{}` not spawned: {e}", spec.scenario);

@@ -7,6 +7,9 @@
 //! after one set and before the next), so a domain's time is everything its set ran on the
 //! main thread, including the parallel loops it waited for. What the renderer does each frame
 //! (instances, meshes, cloud volumes) is not in these numbers.
+//!
+//! `--quality` runs the scene at a `VolcanoQuality` level, `--seconds` sets the length in
+//! simulated seconds, and `--report-every S` adds the soak report (module `soak`).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -70,19 +73,41 @@ pub struct BenchReport {
     pub domains: std::collections::BTreeMap<&'static str, f64>,
     /// Wall time of the whole run (s).
     pub wall_s: f64,
+    /// The quality level, if one was set.
+    pub quality: Option<String>,
+    /// The soak report (`--report-every`), one row per interval.
+    pub soak: Vec<crate::soak::SoakRow>,
 }
 
-fn quantile(sorted: &[f64], q: f64) -> f64 {
+/// How long and how `volcano bench` runs.
+#[derive(Debug, Clone)]
+pub struct BenchOptions {
+    /// Scene name.
+    pub scene: String,
+    /// Base ticks timed.
+    pub ticks: u64,
+    /// Base ticks run first, untimed.
+    pub warmup: u64,
+    /// Quality level, if any.
+    pub quality: Option<VolcanoQuality>,
+    /// Soak report interval in base ticks (0: none).
+    pub report_every_ticks: u64,
+}
+
+pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
     }
     sorted[((sorted.len() - 1) as f64 * q).round() as usize]
 }
 
-/// Runs `scene` for `warmup + ticks` base ticks and writes `dir/bench.json`.
-pub fn run(scene: &str, ticks: u64, warmup: u64, dir: &Path) -> ExitCode {
+/// Runs the scene for `warmup + ticks` base ticks and writes `dir/bench.json`.
+pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
+    let (scene, ticks, warmup) = (opts.scene.as_str(), opts.ticks, opts.warmup);
     if ticks == 0 || ticks > 1_000_000 || warmup > 1_000_000 {
-        eprintln!("error: --ticks must be in 1..=1000000 and --warmup-ticks at most 1000000");
+        eprintln!(
+            "error: --ticks (or --seconds × 50) must be in 1..=1000000 and --warmup-ticks at most 1000000"
+        );
         return ExitCode::from(2);
     }
     let plugin = match VolcanoScenePlugin::builtin(scene) {
@@ -97,6 +122,10 @@ pub fn run(scene: &str, ticks: u64, warmup: u64, dir: &Path) -> ExitCode {
         return ExitCode::FAILURE;
     }
     let mut app = App::new();
+    if let Some(q) = opts.quality {
+        // Before the plugins' startup: the scene reads it when it spawns its atmosphere.
+        app.insert_resource(q);
+    }
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins, plugin))
         .insert_resource(Time::<Fixed>::from_hz(crate::TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / crate::TICK_HZ)))
@@ -129,6 +158,16 @@ pub fn run(scene: &str, ticks: u64, warmup: u64, dir: &Path) -> ExitCode {
     app.world_mut().resource_mut::<Stamps>().total = Default::default();
     let (mut all, mut weather_ms, mut other_ms) = (Vec::new(), Vec::new(), Vec::new());
     let first = tick(&app);
+    let mut soak = match opts.report_every_ticks {
+        0 => None,
+        every => match crate::soak::Soak::create(dir, every, first) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                eprintln!("error: cannot write soak.csv: {e}");
+                return ExitCode::FAILURE;
+            }
+        },
+    };
     let mut next_report = first + 3_000;
     while tick(&app) < first + ticks {
         let before = (tick(&app), weather(&mut app));
@@ -145,7 +184,13 @@ pub fn run(scene: &str, ticks: u64, warmup: u64, dir: &Path) -> ExitCode {
         } else {
             other_ms.push(ms)
         }
-        if after.0 >= next_report {
+        if let Some(s) = soak.as_mut()
+            && let Err(e) = s.tick(&mut app, after.0, ms, started.elapsed().as_secs_f64())
+        {
+            eprintln!("error: cannot write soak.csv: {e}");
+            return ExitCode::FAILURE;
+        }
+        if soak.is_none() && after.0 >= next_report {
             eprintln!("  {} / {ticks} ticks", after.0 - first);
             next_report += 3_000;
         }
@@ -178,6 +223,8 @@ pub fn run(scene: &str, ticks: u64, warmup: u64, dir: &Path) -> ExitCode {
         .into_iter()
         .collect(),
         wall_s: started.elapsed().as_secs_f64(),
+        quality: opts.quality.map(|q| format!("{q:?}")),
+        soak: soak.map(|s| s.rows).unwrap_or_default(),
     };
     let json = serde_json::to_string_pretty(&report).unwrap_or_default();
     if let Err(e) = std::fs::write(dir.join("bench.json"), &json) {

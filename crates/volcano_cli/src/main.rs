@@ -9,6 +9,7 @@ mod export;
 mod plots;
 mod plume;
 mod pyroclastic;
+mod soak;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -76,9 +77,19 @@ enum Command {
         /// Base ticks timed.
         #[arg(long, default_value_t = 3000)]
         ticks: u64,
+        /// Simulated seconds timed instead of `--ticks` (50 ticks each).
+        #[arg(long, value_parser = clap::value_parser!(u64).range(1..=20_000))]
+        seconds: Option<u64>,
         /// Base ticks run first and not timed (e.g. until the umbrella has formed).
         #[arg(long, default_value_t = 0)]
         warmup_ticks: u64,
+        /// Quality level (`VolcanoQuality`); without it the crates' defaults (= high).
+        #[arg(long, value_enum)]
+        quality: Option<Quality>,
+        /// Soak report: every S simulated seconds, a row of entity count, resident memory and
+        /// tick p50/p99/max in DIR/soak.csv (and bench.json).
+        #[arg(long, value_name = "S", value_parser = clap::value_parser!(u64).range(1..=3600))]
+        report_every: Option<u64>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -197,7 +208,17 @@ fn main() -> ExitCode {
         Command::Pyroclastic { params, seconds, out } => {
             with_params(&params, |p| pyroclastic::run(p, seconds, &out))
         }
-        Command::Bench { scene, ticks, warmup_ticks, out } => bench::run(&scene, ticks, warmup_ticks, &out),
+        Command::Bench { scene, ticks, seconds, warmup_ticks, quality, report_every, out } => {
+            let per_s = TICK_HZ as u64;
+            let opts = bench::BenchOptions {
+                scene,
+                ticks: seconds.map_or(ticks, |s| s * per_s),
+                warmup: warmup_ticks,
+                quality: quality.map(Quality::level),
+                report_every_ticks: report_every.map_or(0, |s| s * per_s),
+            };
+            bench::run(&opts, &out)
+        }
         Command::Eruption { scenario, seconds, grid, preset, out } => {
             eruption::run(scenario, seconds, grid, preset.preset(), &out)
         }
@@ -294,6 +315,26 @@ impl From<LavaView> for volcano::render::LavaRenderMode {
 }
 
 /// The CLI runs at the thesis' fixed rate (the plugins follow whatever rate a game sets).
+/// `--quality` values.
+#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
+enum Quality {
+    Low,
+    Medium,
+    High,
+    Ultra,
+}
+
+impl Quality {
+    fn level(self) -> VolcanoQuality {
+        match self {
+            Quality::Low => VolcanoQuality::Low,
+            Quality::Medium => VolcanoQuality::Medium,
+            Quality::High => VolcanoQuality::High,
+            Quality::Ultra => VolcanoQuality::Ultra,
+        }
+    }
+}
+
 pub(crate) const TICK_HZ: f64 = volcano::core::units::THESIS_TICK_HZ;
 
 /// A headless simulation app (no rendering) advancing 5 base ticks (50 Hz) per update, for the

@@ -140,6 +140,33 @@ fn bench_times_every_domain_of_the_eruption_scene() {
     for d in ["plume", "lava", "weather"] {
         assert!(v["domains"][d].as_f64().unwrap() > 0.0, "{d} took no time: {text}");
     }
+    // The soak report at a quality level: one row per simulated second.
+    let o = volcano()
+        .args([
+            "bench",
+            "--scene",
+            "eruption",
+            "--quality",
+            "low",
+            "--seconds",
+            "2",
+            "--report-every",
+            "1",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "soak failed: {}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(dir.join("soak.csv")).unwrap();
+    let rows: Vec<&str> = csv.lines().skip(1).collect();
+    assert_eq!(rows.len(), 2, "{csv}");
+    let cols: Vec<f64> = rows[1].split(',').map(|c| c.parse().unwrap()).collect();
+    assert_eq!(cols[0], 2.0, "simulated seconds: {csv}");
+    assert!(cols[2] > 100.0 && cols[3] > 1.0 && cols[4] > 0.0, "entities, MiB, p50: {csv}");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
+    assert_eq!((v["ticks"].as_u64(), v["quality"].as_str()), (Some(100), Some("Low")));
     let bad = volcano().args(["bench", "--scene", "atlantis", "--out"]).arg(&dir).output().unwrap();
     assert_eq!(bad.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);

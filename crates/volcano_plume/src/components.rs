@@ -131,8 +131,12 @@ pub struct PlumeAshBudget {
     /// Solid mass of slices or spheres removed without a place to put it (non-finite state,
     /// a slice with no ring spheres, an expired sphere's ash that no atmosphere took).
     pub lost_kg: f64,
-    /// Ash released as [`AshReleased`] messages by expiring umbrella spheres.
+    /// Ash released as [`AshReleased`] messages by expiring umbrella spheres and by slices the
+    /// live-slice cap retired.
     pub released_kg: f64,
+    /// Of `released_kg`, the ash of slices and umbrella spheres retired by the caps
+    /// ([`crate::caps::PlumeCaps::max_live_slices`], `max_umbrella_spheres`).
+    pub capped_kg: f64,
 }
 
 /// The ambient air of a coupled column, written by the coupling after each weather step.
@@ -160,6 +164,8 @@ pub struct PlumeSlice {
     pub ring_phase: f64,
     /// Ash this slice has shed (σ_col, eq 3.9) and not yet handed to an atmosphere (kg).
     pub ash_pending: f64,
+    /// A secondary column lifted off a pyroclastic flow (not emitted at the vent).
+    pub secondary: bool,
 }
 
 /// An s1 sphere riding on a slice's vortex ring.

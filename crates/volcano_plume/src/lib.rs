@@ -6,12 +6,14 @@
 //! `PlumeStep` domain: add an [`Eruption`] next to a `Volcano` and slices, s1 spheres and the
 //! umbrella appear as entities.
 
+pub mod caps;
 pub mod components;
 pub mod model;
 pub mod plugin;
 pub mod pyroclastic;
 pub mod view;
 
+pub use caps::{PlumeCapReport, PlumeCaps};
 pub use components::{
     AshReleased, EmissionState, Eruption, NeutralBuoyancyReached, PlumeAmbient, PlumeAshBudget,
     PlumeCollapsed, PlumeSlice, S1, Umbrella, UmbrellaSpreading,

@@ -31,13 +31,27 @@ impl Plugin for PlumePlugin {
             .add_message::<NeutralBuoyancyReached>()
             .add_message::<UmbrellaSpreading>()
             .add_message::<AshReleased>()
+            .init_resource::<crate::caps::PlumeCaps>()
+            .init_resource::<crate::caps::PlumeCapReport>()
+            .register_type::<crate::caps::PlumeCaps>()
+            .register_type::<crate::caps::PlumeCapReport>()
             .register_type::<Eruption>()
             .register_type::<PlumeAshBudget>()
             .register_type::<PlumeAmbient>()
             .register_type::<PlumeSlice>()
             .register_type::<S1>()
             .register_type::<Umbrella>()
-            .add_systems(PlumeStep, (emit_slices, step_slices, step_umbrella).chain())
+            .add_systems(
+                PlumeStep,
+                (
+                    emit_slices,
+                    crate::caps::cap_live_slices,
+                    step_slices,
+                    step_umbrella,
+                    crate::caps::cap_umbrella,
+                )
+                    .chain(),
+            )
             .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
     }
 }
@@ -71,8 +85,15 @@ fn emit_slices(
             emission.emitted += 1;
             let state = Slice::at_vent(&eruption.params);
             ash.emitted_kg += state.solid_mass;
-            let slice =
-                PlumeSlice { volcano: entity, index, vent: vent.0, state, ring_phase: 0.0, ash_pending: 0.0 };
+            let slice = PlumeSlice {
+                volcano: entity,
+                index,
+                vent: vent.0,
+                state,
+                ring_phase: 0.0,
+                ash_pending: 0.0,
+                secondary: false,
+            };
             spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Plume slice {index}"));
         }
         let backlog = (emission.since_last / interval).floor() as u64;

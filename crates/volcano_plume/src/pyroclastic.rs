@@ -122,7 +122,7 @@ impl DepositMap {
         true
     }
     /// Adds mass to the nearest node and raises the surface there.
-    fn add(&mut self, p: Vec2, mass: f64) {
+    pub(crate) fn add(&mut self, p: Vec2, mass: f64) {
         let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return };
         let (fx, fy) = g.to_grid(p);
         let i = (fx.round().max(0.0) as usize).min(g.nx() - 1);
@@ -151,6 +151,12 @@ pub struct PyroclasticBudget {
     pub spawned: u64,
     /// Secondary columns formed so far.
     pub secondary_columns: u64,
+    /// Of `deposited`, `lost` and `lifted`, the mass the caps removed (particles settled by
+    /// [`crate::caps::PlumeCaps::max_particles`], clusters lifted without a column by
+    /// [`crate::caps::PlumeCaps::max_secondary_per_step`]).
+    pub capped: f64,
+    /// Particles settled by that cap.
+    pub capped_particles: u64,
 }
 
 /// Pyroclastic particles, deposit and secondary columns.
@@ -168,7 +174,14 @@ impl Plugin for PyroclasticPlugin {
             .register_type::<PyroclasticBudget>()
             .add_systems(
                 PyroclasticStep,
-                (hand_over, step_particles, relax_deposit, lift_secondary_columns).chain(),
+                (
+                    hand_over,
+                    step_particles,
+                    crate::caps::cap_particles,
+                    relax_deposit,
+                    lift_secondary_columns,
+                )
+                    .chain(),
             );
     }
 }
@@ -366,7 +379,10 @@ fn relax_deposit(
 /// particles no cluster took that have risen more than r_pyr above the ground have left their
 /// flow: they lift off with the others like them within r_pyr (the same seed rule, any
 /// number), or alone, instead of hanging in the air for ever.
+#[allow(clippy::too_many_arguments)]
 fn lift_secondary_columns(
+    caps: Res<crate::caps::PlumeCaps>,
+    mut report: ResMut<crate::caps::PlumeCapReport>,
     mut commands: Commands,
     mut eruptions: Query<(Entity, &Eruption, &mut EmissionState, &VolcanoRng)>,
     particles: Query<(Entity, &PyroParticle)>,
@@ -406,6 +422,26 @@ fn lift_secondary_columns(
         if aloft.contains(&true) {
             groups.extend(find_clusters(&list, &aloft, py.cluster_radius, 1).members);
         }
+        let max = crate::caps::checked(&caps).max_secondary_per_step as usize;
+        let mass = |g: &[usize]| g.iter().map(|&i| list[i].mass).sum::<f64>();
+        let rest = crate::caps::heaviest_clusters(&mut groups, mass, max);
+        if !rest.is_empty() {
+            warn_once!(
+                "eruption {volcano}: more than {max} secondary columns in one step; the lighter clusters \
+                 lift off without a simulated column (PlumeCaps::max_secondary_per_step, PlumeCapReport)"
+            );
+            for members in &rest {
+                let m = mass(members);
+                for &i in members {
+                    commands.entity(mine[i].0).despawn();
+                }
+                budget.lifted += m;
+                budget.capped += m;
+                report.secondary_retired += 1;
+                report.secondary_retired_kg += m;
+            }
+            report.capped_steps += 1;
+        }
         for members in &groups {
             let Some(state) = secondary_column(&list, members) else { continue };
             for &i in members {
@@ -423,7 +459,15 @@ fn lift_secondary_columns(
                 mass: state.mass,
                 particles: members.len(),
             });
-            let slice = PlumeSlice { volcano, index, vent, state, ring_phase: 0.0, ash_pending: 0.0 };
+            let slice = PlumeSlice {
+                volcano,
+                index,
+                vent,
+                state,
+                ring_phase: 0.0,
+                ash_pending: 0.0,
+                secondary: true,
+            };
             spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Secondary column {index}"));
         }
     }

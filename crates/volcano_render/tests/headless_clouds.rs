@@ -11,8 +11,8 @@ use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
 use volcano_core::VolcanoCorePlugin;
 use volcano_render::{
-    CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins, VolcanoSkyPlugin,
-    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
+    CloudRenderSettings, CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins,
+    VolcanoSkyPlugin, camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
 };
 
 const W: u32 = 256;
@@ -57,6 +57,8 @@ fn a_dense_cloud_wall_hides_the_sky() {
             out: out.clone(),
             capture_after_updates: 8,
         })
+        // Built in the frame the weather moves, so the capture after 8 updates shows it.
+        .insert_resource(CloudRenderSettings { off_thread: false, ..default() })
         .add_systems(Startup, scene)
         .add_systems(Last, move |volumes: Query<&CloudVolume>| {
             *sink.lock().unwrap() = volumes.iter().map(|v| v.filled_fraction).collect();

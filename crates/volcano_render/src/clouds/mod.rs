@@ -2,7 +2,8 @@
 //! each [`Atmosphere`] gets one [`FogVolume`] over its footprint whose 3D density image is the
 //! crate's cloud density volume (`volcano_atmosphere::model::volume`: Table 4.3 forms,
 //! k-means++ coherence, type-keyed noise), rebuilt when the weather steps or a layer is
-//! edited, not every frame. [`VolcanoViewer`] cameras get [`VolumetricFog`] and [`Sun`]s
+//! edited, not every frame, on the async compute task pool from a snapshot of the layers
+//! (module `rebuild`: same content as a main-thread build, only when it appears varies). [`VolcanoViewer`] cameras get [`VolumetricFog`] and [`Sun`]s
 //! [`VolumetricLight`] while a cloud volume exists, so scenes without an atmosphere pay nothing
 //! (a game lighting the clouds with its own `DirectionalLight` adds `VolumetricLight` to it).
 //!
@@ -12,8 +13,10 @@
 //! ([`CloudRenderSettings::light_depth`]): dense cores stay grey, edges bright.
 
 mod image;
+mod rebuild;
 
 pub use image::{bounding_radius, density_factor, density_image, density_texels, texel, volume_transform};
+pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 
 use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
 use bevy::prelude::*;
@@ -52,6 +55,10 @@ pub struct CloudRenderSettings {
     pub clusters: usize,
     /// Fraction of the cloudy cells bordering another form in their layer that triggers k-means.
     pub fragmentation: f64,
+    /// Rebuild the volume on Bevy's `AsyncComputeTaskPool` (module `rebuild`); off, it is built
+    /// on the main thread in the frame the weather moved (the reference, and for captures that
+    /// must show the clouds in a given frame).
+    pub off_thread: bool,
 }
 
 impl Default for CloudRenderSettings {
@@ -67,6 +74,7 @@ impl Default for CloudRenderSettings {
             step_count: 192,
             clusters: 8,
             fragmentation: 0.3,
+            off_thread: true,
         }
     }
 }
@@ -102,6 +110,8 @@ pub struct CloudVolume {
     /// The last k-means clustering of the cloud forms, which the next rebuild starts from
     /// (thesis §4.2.6, temporal coherence).
     pub memory: ClusterMemory,
+    /// The settings the image was built with (a change rebuilds it).
+    pub settings: CloudRenderSettings,
 }
 
 /// Marks the fog volume entity of an atmosphere's clouds.
@@ -121,8 +131,13 @@ impl Plugin for CloudRenderPlugin {
         app.register_type::<CloudRenderSettings>()
             .register_type::<CloudVolume>()
             .register_type::<CloudFog>()
+            .register_type::<CloudBuildStatus>()
             .init_resource::<CloudRenderSettings>()
-            .add_systems(PostUpdate, (update_cloud_volumes, volumetric_views).chain());
+            .init_resource::<CloudBuildStatus>()
+            .add_systems(
+                PostUpdate,
+                (rebuild::start_cloud_builds, rebuild::apply_cloud_builds, volumetric_views).chain(),
+            );
     }
 }
 
@@ -182,93 +197,6 @@ pub fn cloud_fog(image: Handle<Image>, transform: &Transform, settings: &CloudRe
         scattering_asymmetry: settings.scattering_asymmetry,
         light_intensity: settings.light_intensity,
         ..default()
-    }
-}
-
-#[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's fog in step")]
-fn update_cloud_volumes(
-    mut commands: Commands,
-    settings: Res<CloudRenderSettings>,
-    mut atmospheres: Query<(Entity, &Atmosphere, Option<&mut CloudVolume>)>,
-    layers: Query<Ref<AirLayer>>,
-    mut fogs: Query<(&mut FogVolume, &mut Transform, &mut Visibility), With<CloudFog>>,
-    mut images: ResMut<Assets<Image>>,
-    mut removed: RemovedComponents<Atmosphere>,
-    orphans: Query<(Entity, &CloudFog)>,
-) {
-    for gone in removed.read() {
-        for (fog, owner) in &orphans {
-            if owner.atmosphere == gone {
-                commands.entity(fog).despawn();
-            }
-        }
-    }
-    for (entity, atmo, mut volume) in &mut atmospheres {
-        let mine: Vec<Ref<AirLayer>> = layers.iter().filter(|l| l.atmosphere == entity).collect();
-        // `is_added` counts as changed: skip the layers' first frame when the volume was built
-        // for the same weather time.
-        let changed = mine.iter().any(|l| l.is_changed() && !l.is_added());
-        let stale = match &volume {
-            None => true,
-            Some(v) => changed || v.built_at_s != atmo.time_s || settings.is_changed(),
-        };
-        if !stale {
-            continue;
-        }
-        if let Some(v) = &volume
-            && let Ok((_, _, mut vis)) = fogs.get_mut(v.fog)
-        {
-            vis.set_if_neq(if settings.enabled { Visibility::Inherited } else { Visibility::Hidden });
-        }
-        if !settings.enabled {
-            continue;
-        }
-        let refs: Vec<&AirLayer> = mine.iter().map(|l| &**l).collect();
-        let mut memory = volume.as_mut().map(|v| std::mem::take(&mut v.memory)).unwrap_or_default();
-        let built = cloud_state(atmo, &refs)
-            .and_then(|state| build_cloud_image(&state, &settings, atmo.params.cloud_threshold, &mut memory));
-        let (image, transform, filled) = match built {
-            Ok(b) => {
-                debug!("clouds of {entity} rebuilt: {:.1} % of voxels filled", 100.0 * b.2);
-                b
-            }
-            Err(e) => {
-                warn_once!("clouds of {entity} not rendered: {e}");
-                continue;
-            }
-        };
-        match volume {
-            Some(mut v) => {
-                if images.insert(v.image.id(), image).is_err() {
-                    warn_once!("cloud density image of {entity} could not be replaced");
-                }
-                if let Ok((mut fog, mut t, _)) = fogs.get_mut(v.fog) {
-                    *fog = cloud_fog(v.image.clone(), &transform, &settings);
-                    *t = transform;
-                }
-                v.built_at_s = atmo.time_s;
-                v.filled_fraction = filled;
-                v.memory = memory;
-            }
-            None => {
-                let handle = images.add(image);
-                let fog = commands
-                    .spawn((
-                        Name::new("Clouds"),
-                        CloudFog { atmosphere: entity },
-                        cloud_fog(handle.clone(), &transform, &settings),
-                        transform,
-                    ))
-                    .id();
-                commands.entity(entity).insert(CloudVolume {
-                    fog,
-                    image: handle,
-                    built_at_s: atmo.time_s,
-                    filled_fraction: filled,
-                    memory,
-                });
-            }
-        }
     }
 }
 

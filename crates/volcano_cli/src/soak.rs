@@ -1,0 +1,148 @@
+//! The soak report of `volcano bench --report-every S`: every S simulated seconds, the entity
+//! count, the process' resident memory, the main-thread tick cost over the interval (p50, p99,
+//! max) and what the plume holds and its caps removed, so a long run shows whether entity
+//! count, memory and tick cost stay bounded. Rows go to `DIR/soak.csv` as they come (a run
+//! stopped early keeps what it measured) and into `bench.json`.
+
+use std::io::Write;
+use std::path::Path;
+
+use bevy::prelude::*;
+use serde::Serialize;
+use volcano::plume::{PlumeCapReport, PlumeSlice, PyroParticle, PyroclasticBudget, Umbrella};
+
+/// One row of the soak report.
+#[derive(Debug, Clone, Serialize)]
+pub struct SoakRow {
+    /// Simulated time at the end of the interval (s).
+    pub sim_s: f64,
+    /// Wall time since the start of the run (s).
+    pub wall_s: f64,
+    /// Entities alive in the world.
+    pub entities: u32,
+    /// Resident set size of the process (MiB), from `/proc/self/status` (`VmRSS`); 0 where
+    /// there is no `/proc`.
+    pub rss_mib: f64,
+    /// Main-thread ms per base tick over the interval.
+    pub tick_p50_ms: f64,
+    /// 99th percentile over the interval.
+    pub tick_p99_ms: f64,
+    /// Largest over the interval.
+    pub tick_max_ms: f64,
+    /// Live plume slices (column and secondary columns).
+    pub slices: usize,
+    /// Umbrella spheres.
+    pub umbrella: usize,
+    /// Pyroclastic particles.
+    pub particles: usize,
+    /// Secondary columns formed so far.
+    pub secondary_columns: u64,
+    /// Slices retired by the live-slice cap so far.
+    pub capped_slices: u64,
+    /// Particles settled by the particle cap so far.
+    pub capped_particles: u64,
+    /// Clusters lifted off without a column by the secondary-column cap so far.
+    pub retired_secondary: u64,
+}
+
+const HEADER: &str = "sim_s,wall_s,entities,rss_mib,tick_p50_ms,tick_p99_ms,tick_max_ms,slices,umbrella,\
+                      particles,secondary_columns,capped_slices,capped_particles,retired_secondary";
+
+/// Resident memory of this process (MiB), 0 if unknown.
+pub fn rss_mib() -> f64 {
+    let Ok(status) = std::fs::read_to_string("/proc/self/status") else { return 0.0 };
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmRSS:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
+        .map_or(0.0, |kb| kb / 1024.0)
+}
+
+/// Collects tick times and writes a row every `every_ticks` base ticks.
+pub struct Soak {
+    every_ticks: u64,
+    next: u64,
+    times: Vec<f64>,
+    file: std::fs::File,
+    /// Rows written so far.
+    pub rows: Vec<SoakRow>,
+}
+
+impl Soak {
+    /// Starts `dir/soak.csv`; the first row is due `every_ticks` after tick `first`.
+    pub fn create(dir: &Path, every_ticks: u64, first: u64) -> std::io::Result<Self> {
+        let mut file = std::fs::File::create(dir.join("soak.csv"))?;
+        writeln!(file, "{HEADER}")?;
+        Ok(Self { every_ticks, next: first + every_ticks, times: Vec::new(), file, rows: Vec::new() })
+    }
+
+    /// Records one base tick's main-thread time; writes a row when an interval is complete.
+    pub fn tick(&mut self, app: &mut App, tick: u64, ms: f64, wall_s: f64) -> std::io::Result<()> {
+        self.times.push(ms);
+        if tick < self.next {
+            return Ok(());
+        }
+        self.next += self.every_ticks;
+        let mut sorted = std::mem::take(&mut self.times);
+        sorted.sort_by(f64::total_cmp);
+        let row = row(app, tick, &sorted, wall_s);
+        eprintln!(
+            "  {:>6.0} s: {} entities, {:.0} MiB, tick p50 {:.2} / p99 {:.2} / max {:.2} ms, {} slices, {} particles",
+            row.sim_s,
+            row.entities,
+            row.rss_mib,
+            row.tick_p50_ms,
+            row.tick_p99_ms,
+            row.tick_max_ms,
+            row.slices,
+            row.particles
+        );
+        let r = &row;
+        writeln!(
+            self.file,
+            "{},{:.1},{},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{}",
+            r.sim_s,
+            r.wall_s,
+            r.entities,
+            r.rss_mib,
+            r.tick_p50_ms,
+            r.tick_p99_ms,
+            r.tick_max_ms,
+            r.slices,
+            r.umbrella,
+            r.particles,
+            r.secondary_columns,
+            r.capped_slices,
+            r.capped_particles,
+            r.retired_secondary
+        )?;
+        self.file.flush()?;
+        self.rows.push(row);
+        Ok(())
+    }
+}
+
+fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
+    let world = app.world_mut();
+    let slices = world.query::<&PlumeSlice>().iter(world).count();
+    let umbrella = world.query::<&Umbrella>().iter(world).count();
+    let particles = world.query::<&PyroParticle>().iter(world).count();
+    let caps = world.get_resource::<PlumeCapReport>().copied().unwrap_or_default();
+    let flows = world.get_resource::<PyroclasticBudget>().copied().unwrap_or_default();
+    SoakRow {
+        sim_s: tick as f64 / crate::TICK_HZ,
+        wall_s,
+        entities: world.entities().count_spawned(),
+        rss_mib: rss_mib(),
+        tick_p50_ms: crate::bench::quantile(sorted, 0.5),
+        tick_p99_ms: crate::bench::quantile(sorted, 0.99),
+        tick_max_ms: sorted.last().copied().unwrap_or(0.0),
+        slices,
+        umbrella,
+        particles,
+        secondary_columns: flows.secondary_columns,
+        capped_slices: caps.slices_retired,
+        capped_particles: caps.particles_settled,
+        retired_secondary: caps.secondary_retired,
+    }
+}

@@ -1,0 +1,308 @@
+//! Caps on what an eruption keeps alive, so a runaway eruption (a huge live edit, a collapse
+//! shedding thousands of light stragglers) cannot eat the frame: live slices per eruption,
+//! pyroclastic particles, secondary columns formed per step. These are bookkeeping limits, not
+//! physics: when one acts, what it removes is booked in the existing budgets and counted in
+//! [`PlumeCapReport`] (with a warning the first time), never dropped silently, and the choice
+//! is deterministic (a stable order, the same at any frame rate).
+//!
+//! - Live slices ([`PlumeCaps::max_live_slices`]): beyond the cap, secondary columns are
+//!   retired first (lightest first, then by index), then the column's oldest slices (lowest
+//!   emission index, the top of the column). A retired slice's ash (solid mass and what it shed
+//!   and has not handed over) is released into the air where it is, as an [`AshReleased`]
+//!   message, and booked in [`PlumeAshBudget::released_kg`] and [`PlumeAshBudget::capped_kg`].
+//! - Umbrella spheres ([`PlumeCaps::max_umbrella_spheres`], per eruption): beyond it the
+//!   oldest (largest age, then id) expire early: their ash is released as when they expire
+//!   (an [`AshReleased`] message, [`PlumeAshBudget::released_kg`] and `capped_kg`).
+//! - Pyroclastic particles ([`PlumeCaps::max_particles`], all flows): beyond it the oldest
+//!   (lowest id, i.e. from the earliest collapse) settle where they are: their mass is
+//!   deposited on the ground below them ([`PyroclasticBudget::deposited`], or `lost` off the
+//!   map) and counted in [`PyroclasticBudget::capped`].
+//! - Secondary columns ([`PlumeCaps::max_secondary_per_step`], per eruption and pyroclastic
+//!   step): the heaviest clusters become columns; the lighter ones lift off all the same (their
+//!   particles are removed and their mass booked in [`PyroclasticBudget::lifted`] and
+//!   [`PyroclasticBudget::capped`]) but no column is simulated for them. A secondary column
+//!   carries no ash account (`model::pyroclastic::secondary_column`), so only the light
+//!   column's own rise and its heat and moisture for a coupled atmosphere are not simulated.
+//!   (Holding them back as particles for a later step was tried first: after the eruption
+//!   scene's collapse it re-clustered thousands of stragglers every step.)
+
+use bevy::ecs::entity::{EntityHashMap, EntityHashSet};
+use bevy::prelude::*;
+use volcano_core::ConfigError;
+use volcano_core::error::in_range;
+use volcano_core::prelude::Terrain;
+
+use crate::components::{AshReleased, PlumeAshBudget, PlumeSlice, S1, Umbrella, plume_to_world};
+use crate::model::slice::Phase;
+use crate::pyroclastic::{DepositMap, PyroParticle, PyroclasticBudget};
+
+/// The caps (a resource, editable live; `volcano::VolcanoQuality` sets it). The defaults are
+/// far above what the built-in scenes reach, so they only act on runaway eruptions.
+#[derive(Resource, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Resource, Debug, Default)]
+pub struct PlumeCaps {
+    /// Most live slices per eruption (rising column slices and secondary columns; collapsed
+    /// slices waiting for the pyroclastic hand-over are not counted), 16–1,000,000.
+    pub max_live_slices: u32,
+    /// Most pyroclastic particles alive, all flows together, 100–10,000,000.
+    pub max_particles: u32,
+    /// Most secondary columns an eruption forms per pyroclastic step, 1–100,000.
+    pub max_secondary_per_step: u32,
+    /// Most umbrella spheres per eruption, 100–10,000,000.
+    pub max_umbrella_spheres: u32,
+}
+
+impl Default for PlumeCaps {
+    fn default() -> Self {
+        Self {
+            max_live_slices: 20_000,
+            max_particles: 500_000,
+            max_secondary_per_step: 1_000,
+            max_umbrella_spheres: 100_000,
+        }
+    }
+}
+
+impl PlumeCaps {
+    /// Checks every field; the error names it.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        in_range("max_live_slices", self.max_live_slices as f64, 16.0, 1.0e6)?;
+        in_range("max_particles", self.max_particles as f64, 100.0, 1.0e7)?;
+        in_range("max_secondary_per_step", self.max_secondary_per_step as f64, 1.0, 1.0e5)?;
+        in_range("max_umbrella_spheres", self.max_umbrella_spheres as f64, 100.0, 1.0e7)?;
+        Ok(())
+    }
+}
+
+/// What the caps removed so far (a resource).
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Resource, Debug, Default)]
+pub struct PlumeCapReport {
+    /// Slices retired by [`PlumeCaps::max_live_slices`].
+    pub slices_retired: u64,
+    /// Their ash released into the air (kg).
+    pub slice_ash_released_kg: f64,
+    /// Umbrella spheres retired by [`PlumeCaps::max_umbrella_spheres`].
+    pub umbrella_retired: u64,
+    /// Their ash released into the air (kg).
+    pub umbrella_ash_released_kg: f64,
+    /// Particles settled by [`PlumeCaps::max_particles`].
+    pub particles_settled: u64,
+    /// Their mass (kg), deposited (or lost off the map).
+    pub particle_kg: f64,
+    /// Clusters that lifted off without becoming a column ([`PlumeCaps::max_secondary_per_step`]).
+    pub secondary_retired: u64,
+    /// Their mass (kg), booked as lifted.
+    pub secondary_retired_kg: f64,
+    /// Domain steps (plume substeps, pyroclastic steps) on which a cap acted, one per cap.
+    pub capped_steps: u64,
+}
+
+/// The caps to use: invalid values fall back to the defaults (with a warning).
+pub(crate) fn checked(caps: &PlumeCaps) -> PlumeCaps {
+    match caps.validate() {
+        Ok(()) => caps.clone(),
+        Err(e) => {
+            warn_once!("PlumeCaps: {e}; using the defaults");
+            PlumeCaps::default()
+        }
+    }
+}
+
+/// Retires live slices beyond [`PlumeCaps::max_live_slices`] (see the module docs).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cap_live_slices(
+    caps: Res<PlumeCaps>,
+    mut commands: Commands,
+    mut budgets: Query<&mut PlumeAshBudget>,
+    slices: Query<(Entity, &PlumeSlice, &Transform)>,
+    spheres: Query<(Entity, &S1)>,
+    mut report: ResMut<PlumeCapReport>,
+    mut released: MessageWriter<AshReleased>,
+) {
+    let max = checked(&caps).max_live_slices as usize;
+    let mut by_volcano: EntityHashMap<Vec<(Entity, &PlumeSlice, &Transform)>> = EntityHashMap::default();
+    for (e, s, t) in &slices {
+        if s.state.phase != Phase::Collapsed {
+            by_volcano.entry(s.volcano).or_default().push((e, s, t));
+        }
+    }
+    let mut volcanoes: Vec<_> = by_volcano.into_iter().filter(|(_, l)| l.len() > max).collect();
+    if volcanoes.is_empty() {
+        return;
+    }
+    volcanoes.sort_by_key(|(v, _)| *v);
+    let mut retired = EntityHashSet::default();
+    for (volcano, mut list) in volcanoes {
+        // Secondary columns first (lightest first), then the column from its oldest slice.
+        list.sort_by(|a, b| {
+            (!a.1.secondary)
+                .cmp(&!b.1.secondary)
+                .then_with(|| match a.1.secondary {
+                    true => a.1.state.mass.total_cmp(&b.1.state.mass),
+                    false => std::cmp::Ordering::Equal,
+                })
+                .then(a.1.index.cmp(&b.1.index))
+        });
+        let excess = list.len() - max;
+        warn_once!(
+            "eruption {volcano}: more than {max} live slices; the excess is retired with its ash released \
+             into the air (PlumeCaps::max_live_slices, PlumeCapReport)"
+        );
+        for &(entity, slice, transform) in &list[..excess] {
+            let ash = slice.state.solid_mass.max(0.0) + slice.ash_pending.max(0.0);
+            if ash > 0.0 {
+                if let Ok(mut b) = budgets.get_mut(volcano) {
+                    b.released_kg += ash;
+                    b.capped_kg += ash;
+                }
+                released.write(AshReleased { volcano, position: transform.translation, mass: ash });
+            }
+            report.slices_retired += 1;
+            report.slice_ash_released_kg += ash;
+            retired.insert(entity);
+            commands.entity(entity).despawn();
+        }
+    }
+    for (sphere, s1) in &spheres {
+        if retired.contains(&s1.slice) {
+            commands.entity(sphere).despawn();
+        }
+    }
+    report.capped_steps += 1;
+}
+
+/// Retires the oldest umbrella spheres beyond [`PlumeCaps::max_umbrella_spheres`] (see the
+/// module docs).
+pub(crate) fn cap_umbrella(
+    caps: Res<PlumeCaps>,
+    mut commands: Commands,
+    mut budgets: Query<&mut PlumeAshBudget>,
+    spheres: Query<(Entity, &Umbrella, &Transform)>,
+    mut report: ResMut<PlumeCapReport>,
+    mut released: MessageWriter<AshReleased>,
+) {
+    let max = checked(&caps).max_umbrella_spheres as usize;
+    if spheres.iter().len() <= max {
+        return;
+    }
+    let mut by_volcano: EntityHashMap<Vec<(Entity, &Umbrella, &Transform)>> = EntityHashMap::default();
+    for (e, u, t) in &spheres {
+        by_volcano.entry(u.volcano).or_default().push((e, u, t));
+    }
+    let mut volcanoes: Vec<_> = by_volcano.into_iter().filter(|(_, l)| l.len() > max).collect();
+    volcanoes.sort_by_key(|(v, _)| *v);
+    for (volcano, mut list) in volcanoes {
+        list.sort_by(|a, b| b.1.age.total_cmp(&a.1.age).then(a.1.id.cmp(&b.1.id)));
+        warn_once!(
+            "eruption {volcano}: more than {max} umbrella spheres; the oldest expire early with their ash \
+             released (PlumeCaps::max_umbrella_spheres, PlumeCapReport)"
+        );
+        for &(entity, u, transform) in &list[..list.len() - max] {
+            let ash = u.ash.max(0.0) + u.ash_pending.max(0.0);
+            if ash > 0.0 {
+                if let Ok(mut b) = budgets.get_mut(volcano) {
+                    b.released_kg += ash;
+                    b.capped_kg += ash;
+                }
+                released.write(AshReleased { volcano, position: transform.translation, mass: ash });
+            }
+            report.umbrella_retired += 1;
+            report.umbrella_ash_released_kg += ash;
+            commands.entity(entity).despawn();
+        }
+        report.capped_steps += 1;
+    }
+}
+
+/// Settles the oldest pyroclastic particles beyond [`PlumeCaps::max_particles`] (see the
+/// module docs).
+pub(crate) fn cap_particles(
+    caps: Res<PlumeCaps>,
+    mut commands: Commands,
+    terrains: Query<&Terrain>,
+    mut deposit: ResMut<DepositMap>,
+    mut budget: ResMut<PyroclasticBudget>,
+    particles: Query<(Entity, &PyroParticle)>,
+    mut report: ResMut<PlumeCapReport>,
+) {
+    let max = checked(&caps).max_particles as usize;
+    let n = particles.iter().len();
+    if n <= max {
+        return;
+    }
+    warn_once!(
+        "more than {max} pyroclastic particles: the oldest settle where they are (PlumeCaps::max_particles, \
+         PlumeCapReport)"
+    );
+    let mut all: Vec<(Entity, &PyroParticle)> = particles.iter().collect();
+    all.sort_by_key(|(_, p)| p.id);
+    let terrain = terrains.iter().next();
+    for &(entity, pp) in &all[..n - max] {
+        let m = pp.particle.mass;
+        let at = pp.vent + plume_to_world(pp.particle.position);
+        let on_map = terrain.is_some_and(|t| t.contains(at.x, at.z)) && deposit.mass.is_some();
+        if m.is_finite() && m > 0.0 {
+            if on_map {
+                deposit.add(Vec2::new(at.x, at.z), m);
+                budget.deposited += m;
+            } else {
+                budget.lost += m;
+            }
+            budget.capped += m;
+            report.particle_kg += m;
+        }
+        budget.capped_particles += 1;
+        report.particles_settled += 1;
+        commands.entity(entity).despawn();
+    }
+    report.capped_steps += 1;
+}
+
+/// Keeps the `max` heaviest clusters (ties: the lower first member) in their original order
+/// and returns the others (in their original order).
+pub(crate) fn heaviest_clusters(
+    groups: &mut Vec<Vec<usize>>,
+    mass: impl Fn(&[usize]) -> f64,
+    max: usize,
+) -> Vec<Vec<usize>> {
+    if groups.len() <= max {
+        return Vec::new();
+    }
+    let mut order: Vec<(usize, f64, usize)> = groups
+        .iter()
+        .enumerate()
+        .map(|(k, g)| (k, mass(g), g.first().copied().unwrap_or(usize::MAX)))
+        .collect();
+    order.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.2.cmp(&b.2)));
+    let mut keep = vec![false; groups.len()];
+    for &(k, ..) in &order[..max] {
+        keep[k] = true;
+    }
+    let (kept, rest): (Vec<_>, Vec<_>) =
+        std::mem::take(groups).into_iter().zip(keep).partition(|(_, keep)| *keep);
+    *groups = kept.into_iter().map(|(g, _)| g).collect();
+    rest.into_iter().map(|(g, _)| g).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_heaviest_clusters_are_kept_in_order() {
+        let mut groups = vec![vec![0], vec![1, 2], vec![3], vec![4, 5, 6], vec![7]];
+        let mass = |g: &[usize]| g.len() as f64;
+        assert_eq!(heaviest_clusters(&mut groups, mass, 3), vec![vec![3], vec![7]]);
+        // Masses 1, 2, 1, 3, 1: keeps 2 and 3, then the first of the 1s.
+        assert_eq!(groups, vec![vec![0], vec![1, 2], vec![4, 5, 6]]);
+        assert!(heaviest_clusters(&mut groups, mass, 3).is_empty());
+    }
+
+    #[test]
+    fn caps_are_validated() {
+        assert!(PlumeCaps::default().validate().is_ok());
+        let e = PlumeCaps { max_particles: 0, ..default() }.validate().unwrap_err();
+        assert!(e.to_string().contains("max_particles"), "{e}");
+    }
+}

@@ -1,0 +1,333 @@
+//! The cloud volume rebuild off the main thread. When an atmosphere's weather time moves (a
+//! weather step was written back), a layer is edited or the [`CloudRenderSettings`] change,
+//! the main thread takes a snapshot of the layers ([`cloud_state`], a copy of their fields)
+//! and the previous k-means clustering, and starts [`build_cloud_image`] on them on Bevy's
+//! `AsyncComputeTaskPool`. The clustering memory travels with the task and comes back with the
+//! image, which replaces the old one in the first `PostUpdate` after the task has finished.
+//!
+//! Content is deterministic, timing is not: the image built from a snapshot is a function of
+//! that snapshot, the settings and the clustering memory of the previous build only (tested
+//! equal to the synchronous build), but when it appears depends on the worker. One build per
+//! atmosphere runs at a time; weather steps that land while one runs are not built on their
+//! own — the next build takes the newest state (as the synchronous rebuild skipped steps when
+//! several landed in one frame), so a slow machine may chain the clustering memory through
+//! fewer steps than a fast one. Clouds are render-only: nothing in the simulation reads them.
+
+use bevy::light::FogVolume;
+use bevy::prelude::*;
+use bevy::tasks::futures::check_ready;
+use bevy::tasks::{AsyncComputeTaskPool, Task};
+use volcano_atmosphere::model::fields::AtmosphereState;
+use volcano_atmosphere::model::volume::ClusterMemory;
+use volcano_atmosphere::{AirLayer, Atmosphere};
+use volcano_core::ConfigError;
+
+use super::{CloudFog, CloudRenderSettings, CloudVolume, build_cloud_image, cloud_fog, cloud_state};
+
+/// What a rebuild produces, with the memory and inputs it was made from.
+pub struct BuiltClouds {
+    /// Density image, fog transform and filled fraction (or why it failed).
+    pub result: Result<(Image, Transform, f32), ConfigError>,
+    /// The clustering of this build, which the next one starts from.
+    pub memory: ClusterMemory,
+    /// Weather time of the snapshot (s).
+    pub time_s: f64,
+    /// The settings it was built with.
+    pub settings: CloudRenderSettings,
+}
+
+/// Builds the clouds of a snapshot (what the task runs; also callable directly).
+pub fn build_clouds(
+    state: AtmosphereState,
+    settings: CloudRenderSettings,
+    cloud_threshold: f64,
+    mut memory: ClusterMemory,
+    time_s: f64,
+) -> BuiltClouds {
+    let result = build_cloud_image(&state, &settings, cloud_threshold, &mut memory);
+    BuiltClouds { result, memory, time_s, settings }
+}
+
+enum Job {
+    Running(Task<BuiltClouds>),
+    Done(Box<BuiltClouds>),
+}
+
+/// On an [`Atmosphere`] entity while its cloud rebuild runs (not reflected: it holds a task).
+#[derive(Component)]
+pub struct CloudBuild {
+    job: Option<Job>,
+    /// A layer was edited after the snapshot: build again when this one is applied.
+    restart: bool,
+}
+
+impl CloudBuild {
+    /// Whether the build runs on a worker (false once finished or when built inline).
+    pub fn running(&self) -> bool {
+        matches!(self.job, Some(Job::Running(_)))
+    }
+}
+
+/// Marks an atmosphere whose clouds must be rebuilt although its weather time has not moved.
+#[derive(Component)]
+pub(super) struct CloudStale;
+
+/// Counts of cloud rebuilds (diagnostics, tests).
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
+#[reflect(Resource, Debug, Default)]
+pub struct CloudBuildStatus {
+    /// Builds started.
+    pub started: u64,
+    /// Of those, built on the main thread (`off_thread` off, or no task pool).
+    pub on_main_thread: u64,
+    /// Builds whose image was applied.
+    pub applied: u64,
+}
+
+/// Starts a rebuild for every atmosphere whose clouds are stale and that has none running.
+#[expect(clippy::type_complexity, reason = "one query over the atmospheres and their builds")]
+pub(super) fn start_cloud_builds(
+    mut commands: Commands,
+    settings: Res<CloudRenderSettings>,
+    mut status: ResMut<CloudBuildStatus>,
+    mut atmospheres: Query<(
+        Entity,
+        &Atmosphere,
+        Option<&mut CloudVolume>,
+        Option<&mut CloudBuild>,
+        Has<CloudStale>,
+    )>,
+    layers: Query<Ref<AirLayer>>,
+    mut fogs: Query<&mut Visibility, With<CloudFog>>,
+) {
+    for (entity, atmo, mut volume, build, marked) in &mut atmospheres {
+        let mine: Vec<Ref<AirLayer>> = layers.iter().filter(|l| l.atmosphere == entity).collect();
+        // `is_added` counts as changed: skip the layers' first frame when the volume was built
+        // for the same weather time.
+        let changed = mine.iter().any(|l| l.is_changed() && !l.is_added());
+        let stale = marked
+            || match &volume {
+                None => true,
+                Some(v) => changed || v.built_at_s != atmo.time_s || v.settings != *settings,
+            };
+        if !stale {
+            continue;
+        }
+        if let Some(v) = &volume
+            && let Ok(mut vis) = fogs.get_mut(v.fog)
+        {
+            vis.set_if_neq(if settings.enabled { Visibility::Inherited } else { Visibility::Hidden });
+        }
+        if !settings.enabled {
+            continue;
+        }
+        if let Some(mut b) = build {
+            b.restart |= changed;
+            continue;
+        }
+        if let Err(e) = settings.validate() {
+            warn_once!("clouds not rendered: {e}");
+            continue;
+        }
+        let refs: Vec<&AirLayer> = mine.iter().map(|l| &**l).collect();
+        let state = match cloud_state(atmo, &refs) {
+            Ok(s) => s,
+            Err(e) => {
+                warn_once!("clouds of {entity} not rendered: {e}");
+                continue;
+            }
+        };
+        let memory = volume.as_mut().map(|v| std::mem::take(&mut v.memory)).unwrap_or_default();
+        let (s, threshold, time) = (settings.clone(), atmo.params.cloud_threshold, atmo.time_s);
+        let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
+        status.started += 1;
+        let job = match pool {
+            Some(pool) => {
+                Job::Running(pool.spawn(async move { build_clouds(state, s, threshold, memory, time) }))
+            }
+            None => {
+                status.on_main_thread += 1;
+                Job::Done(Box::new(build_clouds(state, s, threshold, memory, time)))
+            }
+        };
+        commands.entity(entity).remove::<CloudStale>().insert(CloudBuild { job: Some(job), restart: false });
+    }
+}
+
+/// Applies every finished rebuild: replaces the density image and the fog (or spawns them
+/// for a new atmosphere), hands the clustering memory back to the [`CloudVolume`].
+pub(super) fn apply_cloud_builds(
+    mut commands: Commands,
+    mut status: ResMut<CloudBuildStatus>,
+    mut atmospheres: Query<(Entity, &mut CloudBuild, Option<&mut CloudVolume>)>,
+    mut fogs: Query<(&mut FogVolume, &mut Transform), With<CloudFog>>,
+    mut images: ResMut<Assets<Image>>,
+    mut removed: RemovedComponents<Atmosphere>,
+    orphans: Query<(Entity, &CloudFog)>,
+) {
+    for gone in removed.read() {
+        for (fog, owner) in &orphans {
+            if owner.atmosphere == gone {
+                commands.entity(fog).despawn();
+            }
+        }
+    }
+    for (entity, mut build, volume) in &mut atmospheres {
+        let built = match build.job.take() {
+            Some(Job::Done(b)) => *b,
+            Some(Job::Running(mut task)) => match check_ready(&mut task) {
+                Some(b) => b,
+                None => {
+                    build.job = Some(Job::Running(task));
+                    continue;
+                }
+            },
+            None => continue,
+        };
+        let mut e = commands.entity(entity);
+        e.remove::<CloudBuild>();
+        if build.restart {
+            e.insert(CloudStale);
+        }
+        let BuiltClouds { result, memory, time_s, settings } = built;
+        let (image, transform, filled) = match result {
+            Ok(b) => b,
+            Err(err) => {
+                warn_once!("clouds of {entity} not rendered: {err}");
+                if let Some(mut v) = volume {
+                    v.memory = memory;
+                    v.built_at_s = time_s;
+                    v.settings = settings;
+                }
+                continue;
+            }
+        };
+        status.applied += 1;
+        debug!("clouds of {entity} rebuilt: {:.1} % of voxels filled", 100.0 * filled);
+        match volume {
+            Some(mut v) => {
+                if images.insert(v.image.id(), image).is_err() {
+                    warn_once!("cloud density image of {entity} could not be replaced");
+                }
+                if let Ok((mut fog, mut t)) = fogs.get_mut(v.fog) {
+                    *fog = cloud_fog(v.image.clone(), &transform, &settings);
+                    *t = transform;
+                }
+                v.built_at_s = time_s;
+                v.filled_fraction = filled;
+                v.memory = memory;
+                v.settings = settings;
+            }
+            None => {
+                let handle = images.add(image);
+                let fog = commands
+                    .spawn((
+                        Name::new("Clouds"),
+                        CloudFog { atmosphere: entity },
+                        cloud_fog(handle.clone(), &transform, &settings),
+                        transform,
+                    ))
+                    .id();
+                commands.entity(entity).insert(CloudVolume {
+                    fog,
+                    image: handle,
+                    built_at_s: time_s,
+                    filled_fraction: filled,
+                    memory,
+                    settings,
+                });
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clouds::CloudRenderPlugin;
+    use bevy::asset::AssetPlugin;
+    use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
+
+    /// A convection atmosphere with a cloud wall over its western half, on a coarse volume.
+    fn app(off_thread: bool) -> App {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+            .init_asset::<Image>()
+            .add_plugins(CloudRenderPlugin)
+            .insert_resource(CloudRenderSettings { voxels_xy: 24, voxels_z: 8, off_thread, ..default() })
+            .add_systems(Startup, |mut commands: Commands| {
+                let mut state = Scenario::builtin("convection").unwrap().build(Some(16)).unwrap();
+                let n = state.grid.n;
+                for layer in &mut state.layers {
+                    for k in 0..n * n {
+                        if state.grid.centre(k).0 < 0.0 {
+                            layer.w.data_mut()[k] = 1.0;
+                            layer.d.data_mut()[k] = 1.0;
+                        }
+                    }
+                }
+                spawn_atmosphere(&mut commands, state, AtmosphereParams::default()).unwrap();
+            });
+        app
+    }
+
+    /// The state the app's snapshot is taken from, built the same way on this thread.
+    fn reference(world: &mut World) -> BuiltClouds {
+        let (entity, atmo) = {
+            let mut q = world.query::<(Entity, &Atmosphere)>();
+            let (e, a) = q.single(world).unwrap();
+            (e, a.clone())
+        };
+        let mut q = world.query::<&AirLayer>();
+        let layers: Vec<&AirLayer> = q.iter(world).filter(|l| l.atmosphere == entity).collect();
+        let state = cloud_state(&atmo, &layers).unwrap();
+        let settings = world.resource::<CloudRenderSettings>().clone();
+        build_clouds(state, settings, atmo.params.cloud_threshold, ClusterMemory::default(), atmo.time_s)
+    }
+
+    fn run_until_applied(app: &mut App) {
+        for _ in 0..20_000 {
+            app.update();
+            if app.world().resource::<CloudBuildStatus>().applied > 0 {
+                return;
+            }
+            std::thread::yield_now();
+        }
+        panic!("no cloud build was applied");
+    }
+
+    #[test]
+    fn the_rebuild_runs_on_a_worker_and_builds_what_the_main_thread_would() {
+        let mut app = app(true);
+        app.update();
+        let status = *app.world().resource::<CloudBuildStatus>();
+        assert_eq!((status.started, status.on_main_thread), (1, 0), "{status:?}");
+        run_until_applied(&mut app);
+        let expected = reference(app.world_mut());
+        let (want, want_t, want_f) = expected.result.unwrap();
+        let world = app.world_mut();
+        let v = world.query::<&CloudVolume>().single(world).unwrap().clone();
+        let got = world.resource::<Assets<Image>>().get(&v.image).unwrap();
+        assert_eq!(got.data, want.data, "the worker's image differs from the main thread's");
+        assert!(want_f > 0.0, "empty image: the comparison would say nothing");
+        assert_eq!((v.filled_fraction, world.get::<Transform>(v.fog).copied()), (want_f, Some(want_t)));
+        assert_eq!(v.memory, expected.memory, "the clustering memory did not come back");
+        let status = *app.world().resource::<CloudBuildStatus>();
+        assert_eq!((status.started, status.on_main_thread, status.applied), (1, 0, 1), "{status:?}");
+    }
+
+    #[test]
+    fn off_thread_off_builds_in_the_frame() {
+        let mut app = app(false);
+        app.update();
+        let status = *app.world().resource::<CloudBuildStatus>();
+        assert_eq!((status.started, status.on_main_thread, status.applied), (1, 1, 1), "{status:?}");
+        // Nothing moved: no further build.
+        app.update();
+        assert_eq!(app.world().resource::<CloudBuildStatus>().started, 1);
+        // A settings change rebuilds.
+        app.world_mut().resource_mut::<CloudRenderSettings>().voxels_z = 12;
+        app.update();
+        assert_eq!(app.world().resource::<CloudBuildStatus>().applied, 2);
+    }
+}

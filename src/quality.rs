@@ -1,0 +1,200 @@
+//! [`VolcanoQuality`]: one resource that picks grid sizes, instance caps, cloud-volume
+//! resolution and the plume's caps for a machine. It lives in the umbrella crate because it
+//! sets the settings of several crates at once (`volcano_plume`'s [`PlumeCaps`] and
+//! [`PlumeViewSettings`], `volcano_render`'s `CloudRenderSettings`, the scene's atmosphere
+//! grid); the crates themselves keep their own settings resources and know nothing of it.
+//!
+//! Nothing happens unless a game inserts the resource: without it every crate keeps its own
+//! defaults, which are the `High` column ([`VolcanoQuality::High`] is today's values). When it
+//! is inserted or changed, [`VolcanoQualityPlugin`] writes the level's [`QualitySettings`]
+//! into those resources in `PreUpdate` (overwriting edits of the same fields). What needs a
+//! restart: the atmosphere grid, read when a scene ([`crate::scenes::VolcanoScenePlugin`])
+//! spawns its atmosphere at startup. Everything else applies on the next frame.
+
+use bevy::prelude::*;
+use serde::{Deserialize, Serialize};
+use volcano_plume::{PlumeCaps, PlumeViewSettings};
+
+/// Quality level (a resource; insert it before `App::run`, or change it live).
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Reflect, Serialize, Deserialize)]
+#[reflect(Resource, Debug, Default)]
+pub enum VolcanoQuality {
+    /// Coarse weather, small clouds, few instances, tight caps (the soak runs at this level).
+    Low,
+    /// Half the weather resolution, smaller clouds.
+    Medium,
+    /// The crates' defaults.
+    #[default]
+    High,
+    /// Twice the weather resolution, larger clouds, more instances.
+    Ultra,
+}
+
+/// What a level sets (plain numbers; see the README's quality table for their cost).
+#[derive(Debug, Clone, PartialEq, Reflect)]
+pub struct QualitySettings {
+    /// Factor on a scene atmosphere's cells per side (a power of two, the result kept in
+    /// 16–1024). Needs a restart.
+    pub atmosphere_grid_scale: f64,
+    /// Cloud volume voxels per side horizontally (`CloudRenderSettings::voxels_xy`).
+    pub cloud_voxels_xy: u32,
+    /// Cloud volume voxels vertically (`CloudRenderSettings::voxels_z`).
+    pub cloud_voxels_z: u32,
+    /// Ray-march steps per pixel through the clouds (`CloudRenderSettings::step_count`).
+    pub cloud_steps: u32,
+    /// Plume instances per frame ([`PlumeViewSettings::max_instances`]): the detail spheres per
+    /// parent fall evenly when the column has more parents than fit.
+    pub max_instances: u32,
+    /// Caps on live slices, pyroclastic particles, secondary columns and umbrella spheres.
+    pub caps: PlumeCaps,
+}
+
+impl VolcanoQuality {
+    /// Every level, lowest first.
+    pub const ALL: [VolcanoQuality; 4] =
+        [VolcanoQuality::Low, VolcanoQuality::Medium, VolcanoQuality::High, VolcanoQuality::Ultra];
+
+    /// The level's numbers.
+    pub fn settings(self) -> QualitySettings {
+        let caps = |max_live_slices, max_particles, max_secondary_per_step, max_umbrella_spheres| PlumeCaps {
+            max_live_slices,
+            max_particles,
+            max_secondary_per_step,
+            max_umbrella_spheres,
+        };
+        match self {
+            VolcanoQuality::Low => QualitySettings {
+                atmosphere_grid_scale: 0.25,
+                cloud_voxels_xy: 96,
+                cloud_voxels_z: 40,
+                cloud_steps: 64,
+                max_instances: 150_000,
+                caps: caps(2_000, 20_000, 16, 20_000),
+            },
+            VolcanoQuality::Medium => QualitySettings {
+                atmosphere_grid_scale: 0.5,
+                cloud_voxels_xy: 160,
+                cloud_voxels_z: 64,
+                cloud_steps: 128,
+                max_instances: 500_000,
+                caps: caps(5_000, 100_000, 64, 50_000),
+            },
+            VolcanoQuality::High => {
+                let clouds = cloud_defaults();
+                QualitySettings {
+                    atmosphere_grid_scale: 1.0,
+                    cloud_voxels_xy: clouds.0,
+                    cloud_voxels_z: clouds.1,
+                    cloud_steps: clouds.2,
+                    max_instances: PlumeViewSettings::default().max_instances,
+                    caps: PlumeCaps::default(),
+                }
+            }
+            VolcanoQuality::Ultra => QualitySettings {
+                atmosphere_grid_scale: 2.0,
+                cloud_voxels_xy: 384,
+                cloud_voxels_z: 128,
+                cloud_steps: 256,
+                max_instances: 3_000_000,
+                caps: caps(50_000, 1_000_000, 2_000, 200_000),
+            },
+        }
+    }
+
+    /// Cells per side of an atmosphere whose scene asks for `scene_cells` (a power of two).
+    pub fn atmosphere_cells(self, scene_cells: usize) -> usize {
+        let n = (scene_cells as f64 * self.settings().atmosphere_grid_scale).round() as usize;
+        n.clamp(16, 1024)
+    }
+}
+
+/// `CloudRenderSettings`' voxels and steps by default (the `High` column).
+#[cfg(feature = "render")]
+fn cloud_defaults() -> (u32, u32, u32) {
+    let d = volcano_render::CloudRenderSettings::default();
+    (d.voxels_xy, d.voxels_z, d.step_count)
+}
+
+/// Without the renderer the cloud numbers are not used; these are its defaults.
+#[cfg(not(feature = "render"))]
+fn cloud_defaults() -> (u32, u32, u32) {
+    (256, 96, 192)
+}
+
+/// Applies an inserted or changed [`VolcanoQuality`] (part of `VolcanoSimPlugins`).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct VolcanoQualityPlugin;
+
+impl Plugin for VolcanoQualityPlugin {
+    fn build(&self, app: &mut App) {
+        app.register_type::<VolcanoQuality>().add_systems(PreUpdate, apply_quality);
+    }
+}
+
+/// What a level changed, for the log.
+fn apply_quality(
+    quality: Option<Res<VolcanoQuality>>,
+    mut caps: Option<ResMut<PlumeCaps>>,
+    mut view: Option<ResMut<PlumeViewSettings>>,
+    #[cfg(feature = "render")] mut clouds: Option<ResMut<volcano_render::CloudRenderSettings>>,
+) {
+    let Some(quality) = quality.filter(|q| q.is_changed()) else { return };
+    let s = quality.settings();
+    if let Some(caps) = caps.as_mut() {
+        caps.set_if_neq(s.caps.clone());
+    }
+    if let Some(view) = view.as_mut()
+        && view.max_instances != s.max_instances
+    {
+        view.max_instances = s.max_instances;
+    }
+    #[cfg(feature = "render")]
+    if let Some(c) = clouds.as_mut()
+        && (c.voxels_xy, c.voxels_z, c.step_count) != (s.cloud_voxels_xy, s.cloud_voxels_z, s.cloud_steps)
+    {
+        c.voxels_xy = s.cloud_voxels_xy;
+        c.voxels_z = s.cloud_voxels_z;
+        c.step_count = s.cloud_steps;
+    }
+    info!("quality {:?} applied (the atmosphere grid needs a restart)", *quality);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_level_is_valid_and_high_is_the_defaults() {
+        for q in VolcanoQuality::ALL {
+            let s = q.settings();
+            s.caps.validate().unwrap();
+            assert!(q.atmosphere_cells(128).is_power_of_two(), "{q:?}");
+        }
+        let high = VolcanoQuality::High.settings();
+        assert_eq!(high.caps, PlumeCaps::default());
+        assert_eq!(high.max_instances, PlumeViewSettings::default().max_instances);
+        assert_eq!(VolcanoQuality::High.atmosphere_cells(128), 128);
+        assert_eq!(VolcanoQuality::Low.atmosphere_cells(128), 32);
+        assert_eq!(VolcanoQuality::default(), VolcanoQuality::High);
+    }
+
+    #[test]
+    fn an_inserted_level_is_applied_and_a_change_applies_live() {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, VolcanoQualityPlugin))
+            .init_resource::<PlumeCaps>()
+            .init_resource::<PlumeViewSettings>();
+        // Not inserted: a game's own settings are left alone.
+        app.world_mut().resource_mut::<PlumeViewSettings>().max_instances = 1234;
+        app.update();
+        assert_eq!(app.world().resource::<PlumeViewSettings>().max_instances, 1234);
+        app.insert_resource(VolcanoQuality::Low);
+        app.update();
+        let low = VolcanoQuality::Low.settings();
+        assert_eq!(*app.world().resource::<PlumeCaps>(), low.caps);
+        assert_eq!(app.world().resource::<PlumeViewSettings>().max_instances, low.max_instances);
+        *app.world_mut().resource_mut::<VolcanoQuality>() = VolcanoQuality::Ultra;
+        app.update();
+        assert_eq!(*app.world().resource::<PlumeCaps>(), VolcanoQuality::Ultra.settings().caps);
+    }
+}
