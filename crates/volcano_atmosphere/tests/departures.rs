@@ -1,7 +1,8 @@
 //! The departures from the printed equations that docs/ARCHITECTURE.md §5.4 argues, each with
 //! the behaviour that makes the printed form unusable here and ours hold: convection (4.5) as
 //! the anomaly of MSE_i − MSE_{i+1}, heat exchange (4.11) as a sensible-heat flux, and the
-//! pressure coupling (4.7) left out.
+//! pressure coupling (4.7) left out, and the printed non-convective uplift replaced by the
+//! upslope law.
 
 use volcano_atmosphere::model::scenario::Scenario;
 use volcano_atmosphere::model::terrain::ground_heat_step;
@@ -149,4 +150,61 @@ fn a_supersaturated_layer_condenses_and_warms_by_the_latent_heat_in_a_full_step(
     assert!((l.h.data()[0] + dw - h0).abs() < 1e-9 * h0, "water is kept");
     assert!((dt - latent).abs() < 0.02 * latent, "warming {dt} K vs latent heat {latent} K");
     assert!(st.layers[0].w.data().iter().all(|&w| w == 0.0), "dry layers stay dry");
+}
+
+/// The printed non-convective uplift `U_i = ν (P_{i+1} − P_i)` (§4.2.4.2, ν = 1e-3 per metre
+/// in the authors' later implementation, docs/ARCHITECTURE.md §5.5) closes a loop through the
+/// continuity projection: a vertical velocity D_i through a layer's top asks the layer below
+/// to converge and the layer above to diverge, the projection answers with a pressure low below
+/// and a high above, and the printed law turns that pressure difference into more uplift in
+/// the same place. The loop gain of one horizontal mode, measured here with the model's own
+/// continuity target and projection on the orographic scenario's layers, is far above 1 for
+/// the domain-sized modes (157: an uplift multiplies itself at every step, the oscillation "to
+/// its bound" the docs describe), and still 3 for waves four cells (6.4 km) long: the gain
+/// goes as `ν (1/h_i + 1/h_{i+1}) / k²`, above 1 for every wave longer than ≈ 4 km. The code's upslope law
+/// `U = ν V·∇Θ_T e^{−z/H}` does not read P, so it has no such loop; the behaviour it is built
+/// for (windward up, lee down) is checked by `behaviour.rs`'s orographic test.
+#[test]
+fn the_printed_uplift_feeds_itself_through_the_projection_the_upslope_law_cannot() {
+    use volcano_atmosphere::model::projection::{ProjectionWork, project};
+    use volcano_atmosphere::model::vertical::divergence_target;
+    let s = Scenario::builtin("orographic").unwrap();
+    let st = s.build(Some(32)).unwrap();
+    let (n, dx) = (st.grid.n, st.grid.dx);
+    let nu = 1e-3;
+    let gain = |waves: f64| {
+        let mut layers = st.layers.clone();
+        let shape: Vec<f64> =
+            (0..n * n).map(|k| (std::f64::consts::TAU * waves * (k % n) as f64 / n as f64).sin()).collect();
+        for l in layers.iter_mut() {
+            l.d.data_mut().fill(0.0);
+            l.u.data_mut().fill(0.0);
+            l.v.data_mut().fill(0.0);
+            l.p.data_mut().fill(0.0);
+        }
+        // One metre per second of uplift through the top of layer 0, in the mode's shape.
+        layers[0].d.data_mut().iter_mut().zip(&shape).for_each(|(d, s)| *d = *s as f32);
+        let open = vec![1.0f32; n * n];
+        let mut pressure = Vec::new();
+        for i in 0..2 {
+            let mut target = vec![0.0; n * n];
+            divergence_target(&layers, i, &mut target);
+            let (mut u, mut v, mut p) = (vec![0.0f32; n * n], vec![0.0f32; n * n], vec![0.0f64; n * n]);
+            let mut work = ProjectionWork::new(n, dx).unwrap();
+            project(&mut u, &mut v, &mut p, &target, &open, &open, &mut work, dx, 50, 1e-10).unwrap();
+            pressure.push(p);
+        }
+        // The printed uplift this pressure gives, projected on the mode.
+        let up: f64 = (0..n * n).map(|k| nu * (pressure[1][k] - pressure[0][k]) * shape[k]).sum();
+        up / shape.iter().map(|s| s * s).sum::<f64>()
+    };
+    let (domain, few_cells) = (gain(1.0), gain(8.0));
+    eprintln!(
+        "loop gain of the printed uplift: one wave over the domain {domain:.1}, 4-cell waves {few_cells:.3}"
+    );
+    assert!(domain > 100.0, "the domain-sized mode feeds itself: gain {domain}");
+    assert!(few_cells > 1.0, "so do 6.4 km waves: gain {few_cells}");
+    // 1/k²: a quarter of the gain for twice the wavenumber (the discrete Laplacian's k²).
+    let twice = gain(2.0);
+    assert!((domain / twice - 4.0).abs() < 0.1, "gain {domain} at one wave, {twice} at two");
 }
