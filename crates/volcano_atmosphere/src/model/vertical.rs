@@ -340,6 +340,51 @@ mod tests {
         assert!(layers.iter().all(|l| l.h.data().iter().all(|&h| h >= 0.0)));
     }
 
+    /// Ash in the air (the coupling's tracer) rides the transfers (4.6) exactly as moisture
+    /// does: given the same shape as the humidity in both layers, it keeps that shape cell by
+    /// cell after an updraft over a warm spot and the compensating subsidence around it, it
+    /// goes up over the spot, and not a gram is made or lost.
+    #[test]
+    fn ash_rides_the_vertical_transfers_like_moisture() {
+        let n = 16;
+        let mut layers = two_layers(n);
+        layers[0].t.data_mut()[5] += 8.0;
+        layers[0].t.data_mut()[200] -= 4.0;
+        for (i, l) in layers.iter_mut().enumerate() {
+            let base = [8.0, 2.0][i];
+            for (k, (h, a)) in l.h.data_mut().iter_mut().zip(l.ash.data_mut().iter_mut()).enumerate() {
+                *h = base * (1.0 + 0.3 * ((k as f64) * 0.7).sin());
+                *a = 0.05 * *h;
+            }
+        }
+        let p = AtmosphereParams::default();
+        vertical_velocity(&mut layers, &vec![0.0; n * n], 100.0, &p, 30.0);
+        let (d5, lowest) =
+            (layers[0].d.data()[5], layers[0].d.data().iter().copied().fold(f32::MAX, f32::min));
+        assert!(d5 > 0.5 && lowest < -0.1, "an updraft ({d5} m/s) and downdrafts ({lowest} m/s)");
+        let total = |l: &[LayerFields]| -> f64 {
+            l.iter()
+                .map(|l| {
+                    l.ash
+                        .data()
+                        .iter()
+                        .zip(l.sigma.data())
+                        .map(|(a, s)| a * *s as f64 * l.thickness)
+                        .sum::<f64>()
+                })
+                .sum()
+        };
+        let (before, up_before) = (total(&layers), layers[1].ash.data()[5]);
+        transfer(&mut layers, 30.0);
+        assert!(((total(&layers) - before) / before).abs() < 1e-14, "ash made or lost");
+        assert!(layers[1].ash.data()[5] > 1.01 * up_before, "ash carried up over the warm spot");
+        for l in &layers {
+            for (a, h) in l.ash.data().iter().zip(l.h.data()) {
+                assert!((a - 0.05 * *h).abs() < 1e-5 * a.abs().max(1e-9), "ash {a} vs moisture {h}");
+            }
+        }
+    }
+
     /// A sliver of cold air (2 % of the slab, as where a slope cuts the layer) is a small mass
     /// anomaly: it pulls air down far less than a full column with the same anomaly.
     #[test]
