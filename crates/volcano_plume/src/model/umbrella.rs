@@ -90,15 +90,17 @@ impl UmbrellaSphere {
     /// the vortex ring in the slice frame: it starts where it is, the slice centre plus
     /// `slice.rotation() * local` (a slice bent by the wind has a tilted ring), spreads from the
     /// column axis (the vertical through the slice centre) along the horizontal direction of
-    /// that offset, and relaxes from its own altitude toward `z_neutral`. A gravity current is
-    /// fed on the axis: its spheres start at `d = 0`.
+    /// that offset, and relaxes from its own altitude toward `z_neutral`. Under either law: a
+    /// gravity current's spheres too start where they sit and move on at the speed the front
+    /// would have there (they once started on the axis, a jump of half a slice — up to a
+    /// kilometre for the physical column — at detachment).
     pub fn detach(slice: &Slice, local: DVec3, spread: Spread) -> Self {
         let offset = slice.rotation() * local;
         let h = offset.truncate();
         Self {
             axis: slice.position.truncate(),
             direction: h.try_normalize().unwrap_or(DVec2::X),
-            d: if matches!(spread, Spread::Thesis) { h.length() } else { 0.0 },
+            d: h.length(),
             r: slice.r,
             v_neutral: slice.neutral_speed.unwrap_or(0.0),
             z_apex: slice.position.z + offset.z,
@@ -245,5 +247,29 @@ mod tests {
         // A standard troposphere holds it up (N ≈ 0.011 /s); an isothermal-free adiabat does not.
         let (n, floored) = buoyancy_frequency(&volcano_core::UsStandard1976, 5_000.0);
         assert!((n - 0.0114).abs() < 0.001 && !floored, "N = {n}");
+    }
+
+    /// A sphere leaving a wind-tilted slice starts where it sits on the ring, under either
+    /// spreading law (issue 17 item 11: the gravity current's spheres used to start on the axis).
+    #[test]
+    fn a_detached_sphere_starts_where_it_sat_on_the_tilted_ring() {
+        use super::super::params::Preset;
+        let p = Preset::Physical.params();
+        let mut slice = Slice::at_vent(&p);
+        slice.r = 1_500.0;
+        slice.position = DVec3::new(2_000.0, -500.0, 16_000.0);
+        slice.velocity = DVec3::new(8.0, 3.0, 10.0);
+        slice.apex = 16_000.0;
+        slice.neutral_altitude = Some(14_000.0);
+        let local = DVec3::new(0.6, -0.8, 0.0) * 0.5 * slice.r;
+        let at = slice.position + slice.rotation() * local;
+        for spread in [Spread::Thesis, Spread::GravityCurrent { c: 20.0 }] {
+            let u = UmbrellaSphere::detach(&slice, local, spread);
+            let (h, z) = (u.horizontal(), u.altitude());
+            assert!(
+                h.distance(at.truncate()) < 1e-6 && (z - at.z).abs() < 1e-6,
+                "{spread:?}: starts at ({h}, {z}) m, sat at {at} m"
+            );
+        }
     }
 }
