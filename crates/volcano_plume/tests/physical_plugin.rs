@@ -1,6 +1,6 @@
 //! The physical column in the plugin: the emitted mass per second is the mass eruption rate,
 //! the in-game column tops out where the single slice says, its umbrella spreads as a gravity
-//! current (front ∝ t^{2/3}), and an emission backlog is carried and reported, not dropped.
+//! current (front ∝ (t + t_v)^{2/3} from where the sphere left the ring), and an emission backlog is carried and reported, not dropped.
 
 use std::time::Duration;
 
@@ -19,8 +19,10 @@ struct Seen {
     apex: f64,
     collapsed: usize,
     first_umbrella_tick: Option<u64>,
-    /// (seconds since the first umbrella, largest distance of an umbrella sphere from the axis).
-    front: Vec<(f64, f64)>,
+    /// The first umbrella sphere seen, and its (seconds since the first umbrella, distance from
+    /// the axis).
+    first: Option<Entity>,
+    track: Vec<(f64, f64)>,
 }
 
 fn watch(
@@ -28,7 +30,7 @@ fn watch(
     tick: Res<SimTick>,
     mut c: MessageReader<PlumeCollapsed>,
     mut u: MessageReader<UmbrellaSpreading>,
-    spheres: Query<&Umbrella>,
+    spheres: Query<(Entity, &Umbrella)>,
 ) {
     seen.collapsed += c.read().count();
     for m in u.read() {
@@ -36,8 +38,12 @@ fn watch(
         seen.first_umbrella_tick.get_or_insert(tick.0);
     }
     if let Some(t0) = seen.first_umbrella_tick {
-        let front = spheres.iter().map(|s| s.sphere.d).fold(0.0, f64::max);
-        seen.front.push(((tick.0 - t0) as f64 * BASE_TICK_SECONDS, front));
+        if seen.first.is_none() {
+            seen.first = spheres.iter().map(|(e, _)| e).min();
+        }
+        if let Some((_, u)) = seen.first.and_then(|e| spheres.get(e).ok()) {
+            seen.track.push(((tick.0 - t0) as f64 * BASE_TICK_SECONDS, u.sphere.d));
+        }
     }
 }
 
@@ -116,11 +122,19 @@ fn column_top_matches_the_single_slice_and_umbrella_spreads_as_t_two_thirds() {
         seen.apex,
         single.apex_m
     );
-    // Front of the umbrella: log-log slope between 15 s and 75 s after the first umbrella.
-    let at = |t: f64| seen.front.iter().find(|f| f.0 >= t).map(|f| f.1).unwrap();
-    let slope = (at(75.0) / at(15.0)).ln() / 5f64.ln();
-    println!("front {:.0} m at 15 s, {:.0} m at 75 s, exponent {slope:.4}", at(15.0), at(75.0));
-    assert!((slope - 2.0 / 3.0).abs() < 0.07, "exponent {slope}");
+    // The first umbrella sphere starts where it sat on its slice's ring (not on the axis) and
+    // spreads as a gravity current's front from a virtual origin, `d = c (t + t_v)^{2/3}`:
+    // `d^{3/2}` grows by the same amount in each of two 30 s spans.
+    let at = |t: f64| seen.track.iter().find(|f| f.0 >= t).map(|f| f.1).unwrap();
+    let (d0, d15, d45, d75) = (at(0.0), at(15.0), at(45.0), at(75.0));
+    let (early, late) = (d45.powf(1.5) - d15.powf(1.5), d75.powf(1.5) - d45.powf(1.5));
+    println!("first sphere at {d0:.0} m, {d15:.0} m at 15 s, {d45:.0} m at 45 s, {d75:.0} m at 75 s");
+    assert!(d0 > 100.0, "the sphere started on the axis: {d0} m");
+    // At ≈ 4.5 km from the axis (the slice's ring: near the apex a slice is ≈ 9 km wide) the
+    // front law gives ≈ 5 m/s: 300 m in the minute.
+    assert!(d75 - d15 > 200.0, "it spreads: {d15} → {d75} m");
+    println!("d^(3/2) grew {early:.4e} then {late:.4e} m^(3/2)");
+    assert!((late / early - 1.0).abs() < 0.05, "d^(3/2) grew {early:.4e} then {late:.4e} m^(3/2)");
 }
 
 #[test]
