@@ -46,16 +46,29 @@ pub fn flux_divergence(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, d
 }
 
 /// Orographic damping of the wind, thesis eq. (4.8) "σ is used for damping the velocity field
-/// around obstacles": each face's velocity is multiplied by how much narrower the face is
-/// than the air it joins, `a / max(σ_left, σ_right)` (1 where the terrain cuts both cells
-/// alike, e.g. a flat floor inside the lowest slab; 0 against a wall). Multiplying by `a`
-/// itself, as when σ was read at the layer's centre, would brake a layer whose slab reaches
-/// below a flat ground every step (docs/ARCHITECTURE.md §5).
-pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: usize) {
+/// around obstacles": each face's velocity is scaled by how much narrower the face is than the
+/// air it joins, `f = a / max(σ_left, σ_right)` (1 where the terrain cuts both cells alike,
+/// e.g. a flat floor inside the lowest slab; 0 against a wall). Multiplying by `a` itself, as
+/// when σ was read at the layer's centre, would brake a layer whose slab reaches below a flat
+/// ground every step (docs/ARCHITECTURE.md §5). The thesis applies `f` once per step, so the
+/// damping doubled when the step was halved and the wind over a ridge did not converge in Δt
+/// (`tests/convergence.rs`); here it is a rate: `f^{Δt/τ}` per step, `f` every `tau` seconds.
+pub fn damp(
+    u: &mut [f32],
+    v: &mut [f32],
+    ax: &[f32],
+    ay: &[f32],
+    sigma: &[f32],
+    n: usize,
+    dt: f64,
+    tau: f64,
+) {
     let mask = n - 1;
+    let power = (dt / tau) as f32;
     let rel = |a: f32, s0: f32, s1: f32| {
         let s = s0.max(s1);
-        if s > 0.0 { (a / s).min(1.0) } else { 0.0 }
+        let f = if s > 0.0 { (a / s).min(1.0) } else { 0.0 };
+        if f >= 1.0 { 1.0 } else { f.powf(power) }
     };
     u.par_chunks_mut(n).zip(v.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(|(j, (ur, vr))| {
         let jm = (j + n - 1) & mask;

@@ -305,7 +305,16 @@ fn layer_dynamics(
     }
     apertures(layer.sigma.data(), n, &mut w.ax, &mut w.ay);
     // Orographic damping, eq. (4.8).
-    damp(layer.u.data_mut(), layer.v.data_mut(), &w.ax, &w.ay, layer.sigma.data(), n);
+    damp(
+        layer.u.data_mut(),
+        layer.v.data_mut(),
+        &w.ax,
+        &w.ay,
+        layer.sigma.data(),
+        n,
+        dt,
+        params.terrain_damping_s,
+    );
     let rep = project(
         layer.u.data_mut(),
         layer.v.data_mut(),
