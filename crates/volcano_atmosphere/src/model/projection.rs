@@ -52,19 +52,11 @@ pub fn flux_divergence(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, d
 /// when σ was read at the layer's centre, would brake a layer whose slab reaches below a flat
 /// ground every step (docs/ARCHITECTURE.md §5). The thesis applies `f` once per step, so the
 /// damping doubled when the step was halved and the wind over a ridge did not converge in Δt
-/// (`tests/convergence.rs`); here it is a rate: `f^{Δt/τ}` per step, `f` every `tau` seconds.
-pub fn damp(
-    u: &mut [f32],
-    v: &mut [f32],
-    ax: &[f32],
-    ay: &[f32],
-    sigma: &[f32],
-    n: usize,
-    dt: f64,
-    tau: f64,
-) {
+/// (`tests/convergence.rs`); here it is a rate: `f^{steps}` with `steps = Δt/τ`, i.e. `f`
+/// every τ seconds.
+pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: usize, steps: f64) {
     let mask = n - 1;
-    let power = (dt / tau) as f32;
+    let power = steps as f32;
     let rel = |a: f32, s0: f32, s1: f32| {
         let s = s0.max(s1);
         let f = if s > 0.0 { (a / s).min(1.0) } else { 0.0 };

@@ -312,8 +312,7 @@ fn layer_dynamics(
         &w.ay,
         layer.sigma.data(),
         n,
-        dt,
-        params.terrain_damping_s,
+        dt / params.terrain_damping_s,
     );
     let rep = project(
         layer.u.data_mut(),
