@@ -33,7 +33,6 @@ use volcano_core::error::in_range;
 use volcano_core::prelude::Terrain;
 
 use crate::components::{AshReleased, PlumeAshBudget, PlumeSlice, S1, Umbrella, plume_to_world};
-use crate::model::slice::Phase;
 use crate::pyroclastic::{DepositMap, PyroParticle, PyroclasticBudget};
 
 /// The caps (a resource, editable live; `volcano::VolcanoQuality` sets it). The defaults are
@@ -123,9 +122,7 @@ pub(crate) fn cap_live_slices(
     let max = checked(&caps).max_live_slices as usize;
     let mut by_volcano: EntityHashMap<Vec<(Entity, &PlumeSlice, &Transform)>> = EntityHashMap::default();
     for (e, s, t) in &slices {
-        if s.state.phase != Phase::Collapsed {
-            by_volcano.entry(s.volcano).or_default().push((e, s, t));
-        }
+        by_volcano.entry(s.volcano).or_default().push((e, s, t));
     }
     let mut volcanoes: Vec<_> = by_volcano.into_iter().filter(|(_, l)| l.len() > max).collect();
     if volcanoes.is_empty() {

@@ -229,6 +229,19 @@ pub struct PlumeCollapsed {
     pub mass: f64,
 }
 
+/// Hand-over from the plume domain to the pyroclastic domain: a slice that collapsed this step,
+/// already removed from the world with its spheres (its ash is booked as `to_flows_kg`). The
+/// pyroclastic domain turns it into particles in the same base tick. Written once per
+/// collapsed slice, after [`PlumeCollapsed`]; a game may read it too.
+#[derive(Message, Debug, Clone, PartialEq)]
+pub struct SliceCollapsed(pub PlumeSlice);
+
+/// Hand-over from the pyroclastic domain to the plume domain: buoyant particles that lifted off
+/// as a new rising slice (already numbered and booked, see `SecondaryColumnFormed`). The plume
+/// domain spawns it with its ring of s1 spheres right after the lift-off, in the same step.
+#[derive(Message, Debug, Clone, PartialEq)]
+pub struct SecondaryColumnRising(pub PlumeSlice);
+
 /// A slice rose through its neutral-buoyancy altitude.
 #[derive(Message, Debug, Clone, Copy, PartialEq)]
 pub struct NeutralBuoyancyReached {

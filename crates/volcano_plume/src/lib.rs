@@ -16,7 +16,7 @@ pub mod view;
 pub use caps::{PlumeCapReport, PlumeCaps};
 pub use components::{
     AshReleased, EmissionState, Eruption, NeutralBuoyancyReached, PlumeAmbient, PlumeAshBudget,
-    PlumeCollapsed, PlumeSlice, S1, Umbrella, UmbrellaSpreading,
+    PlumeCollapsed, PlumeSlice, S1, SecondaryColumnRising, SliceCollapsed, Umbrella, UmbrellaSpreading,
 };
 pub use model::ambient::{AmbientLevel, LayeredAmbient};
 pub use model::params::{Dynamics, PlumeParams, Preset};
@@ -26,7 +26,7 @@ pub use model::wind::WindProfile;
 pub use plugin::{PlumePlugin, PlumeStep};
 pub use pyroclastic::{
     DepositMap, PyroParticle, PyroclasticBudget, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery,
-    PyroclasticStep, SecondaryColumnFormed,
+    PyroclasticStep, PyroclasticSystems, SecondaryColumnFormed,
 };
 pub use view::{
     AshInstance, AshLightSettings, AshParent, AshParents, PlumeInstances, PlumeParents, PlumeViewPlugin,

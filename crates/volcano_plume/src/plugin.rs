@@ -28,6 +28,8 @@ impl Plugin for PlumePlugin {
         }
         app.add_sim_domain::<PlumeStep>(SimSystems::Plume, Cadence::Substeps(10))
             .add_message::<PlumeCollapsed>()
+            .add_message::<SliceCollapsed>()
+            .add_message::<SecondaryColumnRising>()
             .add_message::<NeutralBuoyancyReached>()
             .add_message::<UmbrellaSpreading>()
             .add_message::<AshReleased>()
@@ -51,6 +53,12 @@ impl Plugin for PlumePlugin {
                     crate::caps::cap_umbrella,
                 )
                     .chain(),
+            )
+            // In the pyroclastic step, right after the lift-off, so a secondary column exists
+            // from the tick it formed in.
+            .add_systems(
+                crate::pyroclastic::PyroclasticStep,
+                adopt_secondary_columns.after(crate::pyroclastic::PyroclasticSystems::LiftOff),
             )
             .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
     }
@@ -136,6 +144,7 @@ fn step_slices(
     mut slices: Query<(Entity, &mut PlumeSlice, &mut Transform), Without<S1>>,
     spheres: Query<(Entity, &S1)>,
     mut collapsed: MessageWriter<PlumeCollapsed>,
+    mut hand_over: MessageWriter<SliceCollapsed>,
     mut neutral: MessageWriter<NeutralBuoyancyReached>,
     mut umbrella: MessageWriter<UmbrellaSpreading>,
 ) {
@@ -145,14 +154,14 @@ fn step_slices(
         eruptions.iter().filter(|(_, e, _, _)| e.validate().is_err()).map(|(e, ..)| e).collect();
     let mut finished: Vec<(Entity, Phase, PlumeSlice)> = Vec::new();
     for (entity, mut slice, mut transform) in &mut slices {
-        if slice.state.phase == Phase::Collapsed {
-            // Waiting for the pyroclastic hand-over (once per base tick).
-            continue;
-        }
         let Ok((_, eruption, ambient, _)) = eruptions.get(slice.volcano) else {
-            // Its volcano is gone: the hand-over will find no eruption and remove it.
-            slice.state.phase = Phase::Collapsed;
-            finished.push((entity, Phase::Collapsed, slice.clone()));
+            // Its volcano is gone: the slice and its spheres go with it.
+            commands.entity(entity).despawn();
+            for (sphere_entity, s1) in spheres.iter() {
+                if s1.slice == entity {
+                    commands.entity(sphere_entity).despawn();
+                }
+            }
             continue;
         };
         if invalid.contains(&slice.volcano) {
@@ -247,9 +256,24 @@ fn step_slices(
                 commands.entity(sphere_entity).despawn();
             }
         }
-        // A collapsed slice stays for the pyroclastic hand-over, which removes it.
-        if phase != Phase::Collapsed {
-            commands.entity(entity).despawn();
+        commands.entity(entity).despawn();
+        if phase == Phase::Collapsed {
+            hand_over.write(SliceCollapsed(slice));
+        }
+    }
+}
+
+/// Spawns the secondary columns the pyroclastic domain handed over (with their s1 rings from
+/// their own random streams), right after its lift-off.
+fn adopt_secondary_columns(
+    mut commands: Commands,
+    mut rising: MessageReader<SecondaryColumnRising>,
+    eruptions: Query<(&Eruption, &VolcanoRng)>,
+) {
+    for SecondaryColumnRising(slice) in rising.read() {
+        if let Ok((eruption, rng)) = eruptions.get(slice.volcano) {
+            let name = format!("Secondary column {}", slice.index);
+            spawn_slice(&mut commands, slice.clone(), &eruption.spheres, rng, name);
         }
     }
 }

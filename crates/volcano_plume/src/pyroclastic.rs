@@ -11,13 +11,24 @@ use volcano_core::prelude::*;
 use crate::components::*;
 use crate::model::deposit;
 use crate::model::pyroclastic::{Particle, collapse, find_clusters, secondary_column, step_particle};
-use crate::model::slice::{Phase, SliceEnv};
+use crate::model::slice::SliceEnv;
 use crate::model::spheres::SphereParams;
-use crate::plugin::spawn_slice;
 
 /// Schedule of the pyroclastic domain.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
 pub struct PyroclasticStep;
+
+/// The pyroclastic domain's step, in order, inside [`PyroclasticStep`]: games and the plume
+/// domain order their systems against these.
+#[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum PyroclasticSystems {
+    /// Collapsed slices ([`SliceCollapsed`]) become particles.
+    HandOver,
+    /// Particles move, deposit and are capped; the deposit relaxes.
+    Step,
+    /// Buoyant particles lift off as secondary columns ([`SecondaryColumnRising`]).
+    LiftOff,
+}
 
 /// One pyroclastic sphere. Its `Transform` is kept in world space (scale = radius).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
@@ -168,6 +179,8 @@ impl Plugin for PyroclasticPlugin {
         app.add_sim_domain::<PyroclasticStep>(SimSystems::Pyroclastic, Cadence::Substeps(1))
             .add_message::<PyroclasticFlowStarted>()
             .add_message::<SecondaryColumnFormed>()
+            .add_message::<SliceCollapsed>()
+            .add_message::<SecondaryColumnRising>()
             .init_resource::<DepositMap>()
             .init_resource::<PyroclasticBudget>()
             .register_type::<PyroParticle>()
@@ -175,11 +188,11 @@ impl Plugin for PyroclasticPlugin {
             .add_systems(
                 PyroclasticStep,
                 (
-                    hand_over,
-                    step_particles,
-                    crate::caps::cap_particles,
-                    relax_deposit,
-                    lift_secondary_columns,
+                    hand_over.in_set(PyroclasticSystems::HandOver),
+                    (step_particles, crate::caps::cap_particles, relax_deposit)
+                        .chain()
+                        .in_set(PyroclasticSystems::Step),
+                    lift_secondary_columns.in_set(PyroclasticSystems::LiftOff),
                 )
                     .chain(),
             );
@@ -190,20 +203,16 @@ impl Plugin for PyroclasticPlugin {
 /// the thesis' sphere sizes; the cap only matters for extreme edits).
 pub const MAX_PARTICLES_PER_SLICE: usize = 2_000;
 
-/// Collapsed slices (left by the plume step) become particles.
+/// Collapsed slices (handed over by the plume step as [`SliceCollapsed`]) become particles.
 fn hand_over(
     mut commands: Commands,
-    eruptions: Query<(&Eruption, &VolcanoRng)>,
-    slices: Query<(Entity, &PlumeSlice)>,
+    mut collapsed: MessageReader<SliceCollapsed>,
+    eruptions: Query<&VolcanoRng>,
     mut budget: ResMut<PyroclasticBudget>,
     mut started: MessageWriter<PyroclasticFlowStarted>,
 ) {
-    for (entity, slice) in &slices {
-        if slice.state.phase != Phase::Collapsed {
-            continue;
-        }
-        commands.entity(entity).despawn();
-        let Ok((_, rng)) = eruptions.get(slice.volcano) else { continue };
+    for SliceCollapsed(slice) in collapsed.read() {
+        let Ok(rng) = eruptions.get(slice.volcano) else { continue };
         // s2 radius: s1 spheres have radius r/2, their children ÷5.
         let r_s2 = 0.5 * slice.state.r * SphereParams::CHILD_RATIO;
         let mut stream = rng.stream("collapse", slice.index);
@@ -384,13 +393,14 @@ fn lift_secondary_columns(
     caps: Res<crate::caps::PlumeCaps>,
     mut report: ResMut<crate::caps::PlumeCapReport>,
     mut commands: Commands,
-    mut eruptions: Query<(Entity, &Eruption, &mut EmissionState, &VolcanoRng)>,
+    mut eruptions: Query<(Entity, &Eruption, &mut EmissionState)>,
     particles: Query<(Entity, &PyroParticle)>,
     deposit: Res<DepositMap>,
     mut budget: ResMut<PyroclasticBudget>,
     mut formed: MessageWriter<SecondaryColumnFormed>,
+    mut rising: MessageWriter<SecondaryColumnRising>,
 ) {
-    for (volcano, eruption, mut emission, rng) in &mut eruptions {
+    for (volcano, eruption, mut emission) in &mut eruptions {
         // Candidates in a fixed order (spawn order) for determinism.
         let mut mine: Vec<(Entity, &PyroParticle)> =
             particles.iter().filter(|(_, p)| p.buoyant && p.volcano == volcano).collect();
@@ -468,7 +478,7 @@ fn lift_secondary_columns(
                 ash_pending: 0.0,
                 secondary: true,
             };
-            spawn_slice(&mut commands, slice, &eruption.spheres, rng, format!("Secondary column {index}"));
+            rising.write(SecondaryColumnRising(slice));
         }
     }
 }
