@@ -156,12 +156,7 @@ fn step_slices(
     for (entity, mut slice, mut transform) in &mut slices {
         let Ok((_, eruption, ambient, _)) = eruptions.get(slice.volcano) else {
             // Its volcano is gone: the slice and its spheres go with it.
-            commands.entity(entity).despawn();
-            for (sphere_entity, s1) in spheres.iter() {
-                if s1.slice == entity {
-                    commands.entity(sphere_entity).despawn();
-                }
-            }
+            despawn_with_ring(&mut commands, entity, &spheres);
             continue;
         };
         if invalid.contains(&slice.volcano) {
@@ -198,12 +193,7 @@ fn step_slices(
             if let Ok((.., mut ash)) = eruptions.get_mut(slice.volcano) {
                 ash.lost_kg += slice.ash_pending + slice.state.solid_mass.max(0.0);
             }
-            commands.entity(entity).despawn();
-            for (sphere_entity, s1) in spheres.iter() {
-                if s1.slice == entity {
-                    commands.entity(sphere_entity).despawn();
-                }
-            }
+            despawn_with_ring(&mut commands, entity, &spheres);
             continue;
         }
         if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) {
@@ -259,6 +249,16 @@ fn step_slices(
         commands.entity(entity).despawn();
         if phase == Phase::Collapsed {
             hand_over.write(SliceCollapsed(slice));
+        }
+    }
+}
+
+/// Removes a slice and the s1 spheres of its ring.
+fn despawn_with_ring(commands: &mut Commands, slice: Entity, spheres: &Query<(Entity, &S1)>) {
+    commands.entity(slice).despawn();
+    for (sphere, s1) in spheres.iter() {
+        if s1.slice == slice {
+            commands.entity(sphere).despawn();
         }
     }
 }
