@@ -21,6 +21,8 @@ use serde::Serialize;
 use volcano::prelude::*;
 use volcano_atmosphere::WeatherPipelineStatus;
 
+mod soak;
+
 /// The chained sets in order; a stamp sits between each pair.
 const SETS: [SimSystems; 8] = SimSystems::ORDER;
 
@@ -76,7 +78,7 @@ pub struct BenchReport {
     /// The quality level, if one was set.
     pub quality: Option<String>,
     /// The soak report (`--report-every`), one row per interval.
-    pub soak: Vec<crate::soak::SoakRow>,
+    pub soak: Vec<soak::SoakRow>,
 }
 
 /// How long and how `volcano bench` runs.
@@ -160,7 +162,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let first = tick(&app);
     let mut soak = match opts.report_every_ticks {
         0 => None,
-        every => match crate::soak::Soak::create(dir, every, first) {
+        every => match soak::Soak::create(dir, every, first) {
             Ok(s) => Some(s),
             Err(e) => {
                 eprintln!("error: cannot write soak.csv: {e}");

@@ -9,7 +9,6 @@ mod export;
 mod plots;
 mod plume;
 mod pyroclastic;
-mod soak;
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -12,6 +12,8 @@ pub const R_STAR: f64 = 8314.32;
 pub const M_AIR: f64 = 28.9644;
 /// Specific gas constant of dry air, `R*/M` (J/(kg·K)) ≈ 287.053.
 pub const R_AIR: f64 = R_STAR / M_AIR;
+/// Specific gas constant of water vapour, `R*/18.015` (J/(kg·K)) ≈ 461.5.
+pub const R_VAPOUR: f64 = R_STAR / 18.015;
 /// Effective Earth radius for geopotential conversion in the US Standard Atmosphere 1976 (m).
 pub const EARTH_RADIUS: f64 = 6_356_766.0;
 /// Sea-level standard pressure (Pa).

@@ -30,10 +30,8 @@ use bevy::ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy::prelude::*;
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
-use volcano_core::prelude::Terrain;
 
-use crate::components::{AshReleased, PlumeAshBudget, PlumeSlice, S1, Umbrella, plume_to_world};
-use crate::pyroclastic::{DepositMap, PyroParticle, PyroclasticBudget};
+use crate::components::{AshReleased, PlumeAshBudget, PlumeSlice, S1, Umbrella};
 
 /// The caps (a resource, editable live; `volcano::VolcanoQuality` sets it). The defaults are
 /// far above what the built-in scenes reach, so they only act on runaway eruptions.
@@ -210,50 +208,6 @@ pub(crate) fn cap_umbrella(
         }
         report.capped_steps += 1;
     }
-}
-
-/// Settles the oldest pyroclastic particles beyond [`PlumeCaps::max_particles`] (see the
-/// module docs).
-pub(crate) fn cap_particles(
-    caps: Res<PlumeCaps>,
-    mut commands: Commands,
-    terrains: Query<&Terrain>,
-    mut deposit: ResMut<DepositMap>,
-    mut budget: ResMut<PyroclasticBudget>,
-    particles: Query<(Entity, &PyroParticle)>,
-    mut report: ResMut<PlumeCapReport>,
-) {
-    let max = checked(&caps).max_particles as usize;
-    let n = particles.iter().len();
-    if n <= max {
-        return;
-    }
-    warn_once!(
-        "more than {max} pyroclastic particles: the oldest settle where they are (PlumeCaps::max_particles, \
-         PlumeCapReport)"
-    );
-    let mut all: Vec<(Entity, &PyroParticle)> = particles.iter().collect();
-    all.sort_by_key(|(_, p)| p.id);
-    let terrain = terrains.iter().next();
-    for &(entity, pp) in &all[..n - max] {
-        let m = pp.particle.mass;
-        let at = pp.vent + plume_to_world(pp.particle.position);
-        let on_map = terrain.is_some_and(|t| t.contains(at.x, at.z)) && deposit.mass.is_some();
-        if m.is_finite() && m > 0.0 {
-            if on_map {
-                deposit.add(Vec2::new(at.x, at.z), m);
-                budget.deposited += m;
-            } else {
-                budget.lost += m;
-            }
-            budget.capped += m;
-            report.particle_kg += m;
-        }
-        budget.capped_particles += 1;
-        report.particles_settled += 1;
-        commands.entity(entity).despawn();
-    }
-    report.capped_steps += 1;
 }
 
 /// Keeps the `max` heaviest clusters (ties: the lower first member) in their original order

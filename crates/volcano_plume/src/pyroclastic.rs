@@ -189,9 +189,7 @@ impl Plugin for PyroclasticPlugin {
                 PyroclasticStep,
                 (
                     hand_over.in_set(PyroclasticSystems::HandOver),
-                    (step_particles, crate::caps::cap_particles, relax_deposit)
-                        .chain()
-                        .in_set(PyroclasticSystems::Step),
+                    (step_particles, cap_particles, relax_deposit).chain().in_set(PyroclasticSystems::Step),
                     lift_secondary_columns.in_set(PyroclasticSystems::LiftOff),
                 )
                     .chain(),
@@ -481,6 +479,50 @@ fn lift_secondary_columns(
             rising.write(SecondaryColumnRising(slice));
         }
     }
+}
+
+/// Settles the oldest pyroclastic particles beyond [`PlumeCaps::max_particles`] (see
+/// [`crate::caps`]).
+fn cap_particles(
+    caps: Res<crate::caps::PlumeCaps>,
+    mut commands: Commands,
+    terrains: Query<&Terrain>,
+    mut deposit: ResMut<DepositMap>,
+    mut budget: ResMut<PyroclasticBudget>,
+    particles: Query<(Entity, &PyroParticle)>,
+    mut report: ResMut<crate::caps::PlumeCapReport>,
+) {
+    let max = crate::caps::checked(&caps).max_particles as usize;
+    let n = particles.iter().len();
+    if n <= max {
+        return;
+    }
+    warn_once!(
+        "more than {max} pyroclastic particles: the oldest settle where they are (PlumeCaps::max_particles, \
+         PlumeCapReport)"
+    );
+    let mut all: Vec<(Entity, &PyroParticle)> = particles.iter().collect();
+    all.sort_by_key(|(_, p)| p.id);
+    let terrain = terrains.iter().next();
+    for &(entity, pp) in &all[..n - max] {
+        let m = pp.particle.mass;
+        let at = pp.vent + plume_to_world(pp.particle.position);
+        let on_map = terrain.is_some_and(|t| t.contains(at.x, at.z)) && deposit.mass.is_some();
+        if m.is_finite() && m > 0.0 {
+            if on_map {
+                deposit.add(Vec2::new(at.x, at.z), m);
+                budget.deposited += m;
+            } else {
+                budget.lost += m;
+            }
+            budget.capped += m;
+            report.particle_kg += m;
+        }
+        budget.capped_particles += 1;
+        report.particles_settled += 1;
+        commands.entity(entity).despawn();
+    }
+    report.capped_steps += 1;
 }
 
 /// Gameplay queries: "is this point inside a pyroclastic flow?", "how thick is the deposit

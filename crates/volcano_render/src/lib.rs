@@ -1,5 +1,5 @@
 //! Rendering for the volcano plugin set: the terrain mesh and vent markers ([`terrain`]), the
-//! eruption column ([`plume`]), the ash deposit ([`deposit`]), lava ([`lava`]), volumetric
+//! eruption column ([`plume`]), the ash deposit ([`terrain::deposit`]), lava ([`lava`]), volumetric
 //! clouds ([`clouds`]), an orbit camera ([`camera`]), the opt-in sun, ambient light and sky
 //! ([`sky`]) and windowless offscreen capture for tests and the CLI ([`headless`]).
 //!
@@ -29,7 +29,7 @@
 pub mod ash_fall;
 pub mod camera;
 pub mod clouds;
-pub mod deposit;
+pub mod fog_volume;
 pub mod headless;
 pub mod lava;
 pub mod plume;
@@ -42,7 +42,6 @@ use bevy::app::{PluginGroup, PluginGroupBuilder};
 pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
 pub use camera::{OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle};
 pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
-pub use deposit::{DepositRenderPlugin, DepositTint};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,
@@ -54,8 +53,9 @@ pub use sky::{
     sky_camera_components, sun_bundle,
 };
 pub use terrain::{
-    GroundSample, HorizonError, Relief, TerrainHorizon, TerrainHorizonMesh, TerrainMesh, TerrainRenderPlugin,
-    UnrenderedTerrain, VentMarker, ground_color, horizon_mesh, terrain_mesh,
+    DepositRenderPlugin, DepositTint, GroundSample, HorizonError, Relief, TerrainHorizon, TerrainHorizonMesh,
+    TerrainMesh, TerrainRenderPlugin, UnrenderedTerrain, VentMarker, ground_color, horizon_mesh,
+    terrain_mesh,
 };
 pub use window_capture::WindowScreenshotPlugin;
 

@@ -15,6 +15,7 @@ use bevy::mesh::{Indices, Mesh, Mesh3d, PrimitiveTopology};
 use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
 mod cover;
+pub mod deposit;
 mod horizon;
 mod region;
 
@@ -22,6 +23,7 @@ use volcano_core::{LandCover, Terrain, TerrainChanged, VentPosition, Volcano};
 
 pub use cover::{GroundSample, Relief, ground_color, value_noise};
 pub(crate) use cover::{mix, smoothstep};
+pub use deposit::{DepositRenderPlugin, DepositTint};
 pub use horizon::{HorizonError, TerrainHorizon, TerrainHorizonMesh, horizon_mesh};
 
 use region::update_changed_regions;

@@ -180,7 +180,7 @@ pub struct FlowField {
     pub(crate) budget: VolumeBudget,
     /// Simulated time (s).
     pub(crate) time: f64,
-    pub(crate) scratch: super::flow::Scratch,
+    pub(crate) scratch: super::scratch::Scratch,
     /// Per-cell mobility multiplier from the crust (1 = free surface, 1/4 = rigid crust).
     pub(crate) mob_factor: Vec<f64>,
 }
@@ -200,7 +200,7 @@ impl FlowField {
         }
         let (nx, ny, cell, origin) = (ground.nx(), ground.ny(), ground.cell(), ground.origin());
         let zero = Grid2::new(nx, ny, cell, origin, 0.0)?;
-        let scratch = super::flow::Scratch::new(&zero);
+        let scratch = super::scratch::Scratch::new(&zero);
         Ok(Self {
             solid: zero.clone(),
             h: zero.clone(),

@@ -16,40 +16,9 @@
 //! own buffer instead of waiting for a separate pass over the whole grid.
 
 use super::field::{Edge, FlowField};
-use volcano_core::Grid2;
 
 use super::bands::{BAND_ROWS, band_range, par_bands};
 use super::params::{GRAVITY, LavaParams, ViscosityModel};
-
-/// Reusable work arrays of one field (allocated once).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scratch {
-    /// x-face fluxes, `(nx+1) × ny` (m²/s, +x positive); face `i` is west of cell `i`.
-    fx: Vec<f64>,
-    /// y-face fluxes, `nx × (ny+1)`; face `j` is south of row `j`.
-    fy: Vec<f64>,
-    /// Per band: cell mobility ρ g h³/(3η(T)) of the band's rows and the row below.
-    mob: Vec<Vec<f64>>,
-    /// Per band: limiter factor in [0, 1] of the row below, the band's rows, the row above.
-    lim: Vec<Vec<f64>>,
-    h_new: Grid2<f64>,
-    t_new: Grid2<f64>,
-}
-
-impl Scratch {
-    pub(crate) fn new(template: &Grid2<f64>) -> Self {
-        let (nx, ny) = (template.nx(), template.ny());
-        let bands = ny.div_ceil(BAND_ROWS);
-        Self {
-            fx: vec![0.0; (nx + 1) * ny],
-            fy: vec![0.0; nx * (ny + 1)],
-            mob: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 1) * nx]).collect(),
-            lim: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 2) * nx]).collect(),
-            h_new: template.clone(),
-            t_new: template.clone(),
-        }
-    }
-}
 
 /// What one call to [`advance_flow`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]

@@ -5,12 +5,14 @@
 pub mod bands;
 pub mod breakout;
 pub mod budget;
+pub mod crust;
 pub mod field;
 pub mod flow;
 pub mod folds;
 pub mod imprint;
 pub mod params;
 pub mod samples;
+pub mod scratch;
 pub mod surface;
 pub mod thermal;
 

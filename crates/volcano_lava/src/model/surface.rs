@@ -7,38 +7,13 @@ use super::field::FlowField;
 use super::params::LavaParams;
 use super::samples::{CellSurface, SurfaceSamples, update_samples};
 
-/// Crust thickness (m) above which divergence changes the crust (thesis §5.4.2: 1 cm).
-pub const DIVERGENCE_MIN_CRUST: f64 = 0.01;
-/// Lava thinner than this (m) and moving carries no crust (thesis §5.4.2: 20 cm).
-pub const NO_CRUST_BELOW: f64 = 0.2;
-/// Speed (m/s) above which lava counts as moving for the no-crust rule.
-pub const MOVING_SPEED: f64 = 1e-3;
+pub use super::crust::{
+    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
+};
 
 /// Ratio of the surface speed to the depth-averaged speed of a Jeffreys (half-Poiseuille)
 /// profile, `u(h)/ū = 3/2`.
 pub const SURFACE_TO_MEAN: f64 = 1.5;
-
-/// Crust thickness after `t` seconds of contact with the air, `2√(κt)` (thesis eq 5.1).
-///
-/// Its rate of change is `(1/h_crust) ∂h_crust/∂t = 1/(2t)`. Eq 5.2 as printed
-/// (`(1/h) ∂h_crust/∂t = 1/t`) is inconsistent with 5.1; see docs/ARCHITECTURE.md §6. The code
-/// follows eq 5.1 (integrated exactly in [`update_surface`] as `h ← √(h² + 4κ dt)`).
-pub fn crust_from_contact(kappa: f64, t: f64) -> f64 {
-    2.0 * (kappa * t.max(0.0)).sqrt()
-}
-
-/// Contact time giving crust `h`, `t = h²/(4κ)`: the reset after stretching (thesis §5.4.2).
-pub fn contact_from_crust(kappa: f64, h: f64) -> f64 {
-    h * h / (4.0 * kappa)
-}
-
-/// `eˣ`, by its Taylor series to x⁴ when |x| < 10⁻² (relative error < 10⁻¹², the usual
-/// case: divergence × 0.02 s), else `f64::exp`. The divergence factor of eq (5.3) is
-/// evaluated for every crusted cell each step, and `exp` was most of the crust update.
-#[inline]
-pub fn exp_small(x: f64) -> f64 {
-    if x.abs() < 1e-2 { 1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0)))) } else { x.exp() }
-}
 
 /// Per-cell surface state of a lava field.
 #[derive(Debug, Clone, PartialEq)]
@@ -256,6 +231,10 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     };
     update_samples(&mut s.samples, field, params, cells, dt, params.surface_samples);
 }
+
+#[cfg(test)]
+#[path = "surface_samples_tests.rs"]
+mod samples_tests;
 
 #[cfg(test)]
 mod tests {

@@ -3,9 +3,7 @@
 //! simulated atmosphere's moisture instead (`model::ambient`).
 
 use volcano_core::atmosphere::{AirState, AtmosphereModel, AtmosphereProfile};
-use volcano_core::units::R_AIR;
-
-use super::params::R_VAPOUR;
+use volcano_core::units::{R_AIR, R_VAPOUR};
 
 /// Saturation vapour pressure over liquid water (Pa) at `t` K (Bolton 1980, eq 10).
 pub fn saturation_vapour_pressure(t: f64) -> f64 {

@@ -11,5 +11,26 @@ pub mod pyroclastic;
 pub mod run;
 pub mod slice;
 pub mod spheres;
+pub mod timeline;
 pub mod umbrella;
 pub mod wind;
+
+use params::{Dynamics, PlumeParams};
+use slice::{Phase, Slice, SliceEnv, StepReport};
+
+impl Slice {
+    /// Advances the slice by `dt` seconds (`p.dt` in stand-alone runs, the plume domain's step
+    /// in the plugin) while it rises (jet or buoyant), by the thesis' slice law
+    /// ([`Dynamics::Thesis`]) or the physical column ([`Dynamics::Column`], [`column`]).
+    /// Umbrella and collapsed slices are left to the umbrella and pyroclastic models and are
+    /// not changed here. A non-finite or non-positive `dt` does nothing.
+    pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
+        if matches!(self.phase, Phase::Umbrella | Phase::Collapsed) || !(dt.is_finite() && dt > 0.0) {
+            return StepReport::default();
+        }
+        match p.dynamics {
+            Dynamics::Column => column::step(self, p, env, dt),
+            Dynamics::Thesis => self.step_thesis(p, env, dt),
+        }
+    }
+}

@@ -283,8 +283,8 @@ pub fn mixture_density(n: f64, t: f64, p: f64, rho_s: f64) -> f64 {
     1.0 / (n * R_VAPOUR * t / p + (1.0 - n) / rho_s)
 }
 
-/// Gas constant of water vapour (J/kg/K): `R* / 18.015`.
-pub const R_VAPOUR: f64 = volcano_core::units::R_STAR / 18.015;
+/// Gas constant of water vapour (J/kg/K), kept here for the crate's public path.
+pub use volcano_core::units::R_VAPOUR;
 
 #[cfg(test)]
 mod tests {

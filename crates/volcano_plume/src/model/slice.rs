@@ -150,18 +150,11 @@ impl Slice {
         }
     }
 
-    /// Advances the slice by `dt` seconds (`p.dt` in stand-alone runs, the plume domain's step
-    /// in the plugin) while it rises (jet or buoyant). Umbrella and collapsed slices are left to
-    /// the umbrella and pyroclastic models and are not changed here. A non-finite or
-    /// non-positive `dt` does nothing.
-    pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
+    /// One step of the thesis' slice ([`Dynamics::Thesis`], eqs 3.1–3.10) of a rising slice;
+    /// [`Slice::step`] (in [`super`]) chooses it or the physical column and filters the
+    /// phases and `dt` first.
+    pub(crate) fn step_thesis(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
         let mut report = StepReport::default();
-        if matches!(self.phase, Phase::Umbrella | Phase::Collapsed) || !(dt.is_finite() && dt > 0.0) {
-            return report;
-        }
-        if p.dynamics == Dynamics::Column {
-            return super::column::step(self, p, env, dt);
-        }
         let air = env.air.sample(env.vent_altitude + self.position.z);
         let (rho_a, t_a) = (air.density, air.temperature);
         let wind = (env.wind)(self.position.z);

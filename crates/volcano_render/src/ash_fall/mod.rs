@@ -26,7 +26,7 @@ use volcano_atmosphere::{AirLayer, Atmosphere, LayerFields};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
 
-use crate::clouds::{bounding_radius, density_factor, density_image, volume_transform};
+use crate::fog_volume::{VolcanoFogVolume, bounding_radius, density_factor, density_image, volume_transform};
 use volume::{AshVolumeSpec, ash_density_volume};
 
 /// How the layers' ash is drawn (a resource; edits rebuild the volumes).
@@ -111,6 +111,7 @@ pub struct AshFallVolume {
 /// Marks the fog volume entity of an atmosphere's ash.
 #[derive(Component, Debug, Clone, Copy, Reflect)]
 #[reflect(Component, Debug)]
+#[require(VolcanoFogVolume)]
 pub struct AshFallFog {
     /// The atmosphere it shows.
     pub atmosphere: Entity,

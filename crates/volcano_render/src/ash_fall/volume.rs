@@ -72,7 +72,7 @@ impl AshVolumeSpec {
 }
 
 /// Ash concentration (g/m³) of the voxels of `spec` over an atmosphere of grid `grid` (x
-/// fastest, then grid y, then altitude — the layout of `clouds::density_texels`): each voxel
+/// fastest, then grid y, then altitude — the layout of `fog_volume::density_texels`): each voxel
 /// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
 /// by [`layer_blend`] (a curtain sheared by the winds leans smoothly instead of in steps),
 /// times the streak factor of its column; 0 above the layers and under `ground` (terrain altitude at

@@ -12,10 +12,11 @@
 //! kilometres here), so the peak extinction is chosen from that radius
 //! ([`CloudRenderSettings::light_depth`]): dense cores stay grey, edges bright.
 
-mod image;
 mod rebuild;
 
-pub use image::{bounding_radius, density_factor, density_image, density_texels, texel, volume_transform};
+pub use crate::fog_volume::{
+    bounding_radius, density_factor, density_image, density_texels, texel, volume_transform,
+};
 pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 
 use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
@@ -117,6 +118,7 @@ pub struct CloudVolume {
 /// Marks the fog volume entity of an atmosphere's clouds.
 #[derive(Component, Debug, Clone, Copy, Reflect)]
 #[reflect(Component, Debug)]
+#[require(crate::fog_volume::VolcanoFogVolume)]
 pub struct CloudFog {
     /// The atmosphere it shows.
     pub atmosphere: Entity,
@@ -131,6 +133,7 @@ impl Plugin for CloudRenderPlugin {
         app.register_type::<CloudRenderSettings>()
             .register_type::<CloudVolume>()
             .register_type::<CloudFog>()
+            .register_type::<crate::fog_volume::VolcanoFogVolume>()
             .register_type::<CloudBuildStatus>()
             .init_resource::<CloudRenderSettings>()
             .init_resource::<CloudBuildStatus>()
@@ -201,7 +204,7 @@ pub fn cloud_fog(image: Handle<Image>, transform: &Transform, settings: &CloudRe
 }
 
 /// Fog volumes that need the cameras' volumetric fog: clouds and ash fall.
-type FogVolumes = Or<(With<CloudFog>, With<crate::ash_fall::AshFallFog>)>;
+type FogVolumes = With<crate::fog_volume::VolcanoFogVolume>;
 
 /// Adds [`VolumetricFog`] to [`VolcanoViewer`] cameras and [`VolumetricLight`] to suns while cloud
 /// or ash-fall volumes exist, and removes them when none is left.

@@ -8,8 +8,8 @@ use bevy::prelude::*;
 use volcano_core::{NodeRegion, Terrain, TerrainChanged};
 use volcano_plume::DepositMap;
 
+use super::deposit::{DepositTint, deposit_tint};
 use super::{MeshSamples, TerrainMesh};
-use crate::deposit::{DepositTint, deposit_tint};
 
 /// Rewrites, in a mesh built by [`terrain_mesh`](super::terrain_mesh) with `stride`, the vertices that depend on the
 /// nodes of `region` (positions, normals and colours; `tint` recolours a vertex from its node

@@ -9,7 +9,8 @@ use bevy::prelude::*;
 use volcano_core::Terrain;
 use volcano_plume::DepositMap;
 
-use crate::terrain::{MeshSamples, TerrainMesh, mix, smoothstep};
+use super::cover::{mix, smoothstep};
+use super::{MeshSamples, TerrainMesh};
 
 /// How the deposit tints the terrain.
 #[derive(Resource, Debug, Clone, Copy, PartialEq, Reflect)]

@@ -1,7 +1,8 @@
-//! Pure parts of the cloud renderer: the atmosphere's 3D density (condensed water, g/m³,
-//! x fastest, then grid y, then altitude) as an `R8Unorm` 3D [`Image`] laid out for
-//! [`bevy::light::FogVolume`] (u = world x, v = altitude, w = world z = grid y), and the fog
-//! volume's placement and coefficients.
+//! What the cloud and ash-fall renderers share: a 3D density (condensed water or ash, x
+//! fastest, then grid y, then altitude) as an `R8Unorm` 3D [`Image`] laid out for
+//! [`bevy::light::FogVolume`] (u = world x, v = altitude, w = world z = grid y), the fog
+//! volume's placement and coefficients, and [`VolcanoFogVolume`], the marker of every fog
+//! volume this crate spawns (the cameras get volumetric fog while one exists).
 
 use bevy::asset::RenderAssetUsages;
 use bevy::image::{ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
@@ -86,6 +87,12 @@ pub fn density_factor(sigma_max: f32, absorption: f32, scattering: f32) -> Resul
     in_range("fog scattering", scattering as f64, 1e-6, 1e3)?;
     Ok(sigma_max / (absorption + scattering))
 }
+
+/// Marks every fog volume this crate spawns (clouds, ash fall): while one exists, the
+/// [`crate::VolcanoViewer`] cameras get `VolumetricFog` ([`crate::CloudRenderPlugin`]).
+#[derive(Component, Debug, Default, Clone, Copy, Reflect)]
+#[reflect(Component, Default)]
+pub struct VolcanoFogVolume;
 
 #[cfg(test)]
 mod tests {
