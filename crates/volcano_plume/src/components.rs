@@ -7,10 +7,11 @@ use bevy::reflect::Reflect;
 use volcano_core::error::ConfigError;
 
 use crate::model::ambient::LayeredAmbient;
-use crate::model::params::PlumeParams;
+use crate::model::params::{PlumeParams, Preset};
 use crate::model::pyroclastic::PyroclasticParams;
 use crate::model::slice::Slice;
 use crate::model::spheres::{S1Sphere, SphereParams};
+use crate::model::timeline::EruptionTimeline;
 use crate::model::umbrella::UmbrellaSphere;
 
 /// An explosive eruption on a [`volcano_core::Volcano`]: emits a slice every `r₀ / (2 v₀)`
@@ -101,6 +102,31 @@ impl Eruption {
     /// ≈255 m. Until the pyroclastic model lands, collapsed slices are removed.
     pub fn pyroclastic() -> Self {
         Self { params: crate::Preset::PyroclasticShowcase.params(), ..Self::thesis() }
+    }
+}
+
+/// Drives the [`Eruption`] beside it from an [`EruptionTimeline`] (the vent's v₀, r₀ or mass
+/// rate, the preset, whether it emits), evaluated at the start of every plume step from the
+/// script's own clock, so the story is the same at any frame rate. A preset key replaces the
+/// eruption's parameters once, when reached, but keeps its environment (wind profile,
+/// atmosphere, humidity, vent altitude); the numeric channels then apply. `volcano` loads
+/// timelines as assets (`*.timeline.ron`).
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component, Debug)]
+pub struct EruptionScript {
+    /// The keys.
+    pub timeline: EruptionTimeline,
+    /// Seconds of plume time since the script started.
+    pub elapsed_s: f64,
+    /// The preset the script applied last.
+    pub applied_preset: Option<Preset>,
+}
+
+impl EruptionScript {
+    /// A script from its first key, with a validated timeline.
+    pub fn new(timeline: EruptionTimeline) -> Result<Self, ConfigError> {
+        timeline.validate()?;
+        Ok(Self { timeline, elapsed_s: 0.0, applied_preset: None })
     }
 }
 

@@ -15,13 +15,15 @@ pub mod view;
 
 pub use caps::{PlumeCapReport, PlumeCaps};
 pub use components::{
-    AshReleased, EmissionState, Eruption, NeutralBuoyancyReached, PlumeAmbient, PlumeAshBudget,
-    PlumeCollapsed, PlumeSlice, S1, SecondaryColumnRising, SliceCollapsed, Umbrella, UmbrellaSpreading,
+    AshReleased, EmissionState, Eruption, EruptionScript, NeutralBuoyancyReached, PlumeAmbient,
+    PlumeAshBudget, PlumeCollapsed, PlumeSlice, S1, SecondaryColumnRising, SliceCollapsed, Umbrella,
+    UmbrellaSpreading,
 };
 pub use model::ambient::{AmbientLevel, LayeredAmbient};
 pub use model::params::{Dynamics, PlumeParams, Preset};
 pub use model::pyroclastic::PyroclasticParams;
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
+pub use model::timeline::{EruptionTimeline, TimelineKey, TimelineState};
 pub use model::wind::WindProfile;
 pub use plugin::{PlumePlugin, PlumeStep};
 pub use pyroclastic::{

@@ -8,7 +8,7 @@ use bevy::prelude::*;
 use volcano_core::prelude::*;
 
 use crate::components::*;
-use crate::model::params::Dynamics;
+use crate::model::params::{Dynamics, PlumeParams, Preset};
 use crate::model::slice::{Phase, Slice, SliceEnv};
 use crate::model::spheres::{SphereParams, s1_ring};
 use crate::model::umbrella::{Spread, UmbrellaSphere, buoyancy_frequency, gravity_current_coefficient};
@@ -38,6 +38,7 @@ impl Plugin for PlumePlugin {
             .register_type::<crate::caps::PlumeCaps>()
             .register_type::<crate::caps::PlumeCapReport>()
             .register_type::<Eruption>()
+            .register_type::<EruptionScript>()
             .register_type::<PlumeAshBudget>()
             .register_type::<PlumeAmbient>()
             .register_type::<PlumeSlice>()
@@ -46,6 +47,7 @@ impl Plugin for PlumePlugin {
             .add_systems(
                 PlumeStep,
                 (
+                    follow_scripts,
                     emit_slices,
                     crate::caps::cap_live_slices,
                     step_slices,
@@ -61,6 +63,41 @@ impl Plugin for PlumePlugin {
                 adopt_secondary_columns.after(crate::pyroclastic::PyroclasticSystems::LiftOff),
             )
             .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
+    }
+}
+
+/// Applies each [`EruptionScript`]'s timeline at the script's time, then advances its clock.
+/// A change the eruption would reject is not applied (reported once).
+fn follow_scripts(time: Res<Time>, mut scripts: Query<(&mut EruptionScript, &mut Eruption)>) {
+    let dt = time.delta_secs_f64();
+    for (mut script, mut eruption) in &mut scripts {
+        let state = script.timeline.sample(script.elapsed_s);
+        if state.preset.is_some() && state.preset != script.applied_preset {
+            let old = &eruption.params;
+            let fresh = PlumeParams {
+                atmosphere: old.atmosphere,
+                vent_altitude: old.vent_altitude,
+                wind: old.wind.clone(),
+                relative_humidity: old.relative_humidity,
+                ..state.preset.map(Preset::params).unwrap_or_default()
+            };
+            eruption.params = fresh;
+            script.applied_preset = state.preset;
+        }
+        let mut params = eruption.params.clone();
+        match state.apply(&mut params) {
+            Ok(()) if params != eruption.params => eruption.params = params,
+            Ok(()) => {}
+            Err(e) => {
+                warn_once!("EruptionScript at {:.1} s: {e}; the eruption keeps its vent", script.elapsed_s)
+            }
+        }
+        if let Some(active) = state.active
+            && eruption.active != active
+        {
+            eruption.active = active;
+        }
+        script.elapsed_s += dt;
     }
 }
 
