@@ -9,8 +9,12 @@
 //! reached the house) plus the ash in the air at the player, in a system ordered after the
 //! volcano's base tick (`SimSystems::End`). The HUD is the game's own egui window.
 //!
-//! Not yet as the embeddable issue asks: the terrain is procedural rather than a heightmap
-//! asset (heightmaps are read from paths, not through the asset server, so far).
+//! Assets: the terrain is a 16-bit heightmap loaded through the asset server
+//! (`HeightmapSource`, here the bundled `embedded://volcano/terrain/stratovolcano.height.png`;
+//! a game points it at its own `assets/…height.png`), and the eruption follows a timeline asset
+//! (`EruptionTimelineSource`: a Plinian minute, a 30 s weakening, a collapse into pyroclastic
+//! flows, the end at 5 minutes). What needs the ground (the volcano, its air, the lava) is
+//! spawned when the terrain arrives.
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
@@ -41,6 +45,7 @@ fn main() -> AppExit {
         .add_plugins(VolcanoPlugins)
         .init_resource::<GameLog>()
         .add_systems(Startup, setup)
+        .add_systems(Update, on_terrain_loaded)
         // Gameplay reads the volcano after its base tick, in the same fixed step.
         .add_systems(FixedUpdate, watch_the_volcano.after(SimSystems::End))
         .add_systems(EguiPrimaryContextPass, hud);
@@ -52,15 +57,12 @@ fn main() -> AppExit {
     app.run()
 }
 
-fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
-    // The game's world: its terrain, sun, ambient light and camera.
-    let terrain = match StratovolcanoParams::default().generate() {
-        Ok(t) => t,
-        Err(e) => {
-            log.lines.push(format!("no terrain: {e}"));
-            return;
-        }
-    };
+fn setup(mut commands: Commands, assets: Res<AssetServer>) {
+    // The game's world: its terrain (a heightmap asset), sun, ambient light and camera.
+    commands.spawn((
+        Name::new("Island"),
+        HeightmapSource(assets.load("embedded://volcano/terrain/stratovolcano.height.png")),
+    ));
     commands.spawn((
         DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: true, ..default() },
         Transform::from_xyz(0.0, 1.0, 0.0).looking_at(Vec3::new(-0.6, -0.5, 0.4), Vec3::Y),
@@ -75,17 +77,36 @@ fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
         VolcanoViewer,
         Transform::from_xyz(16_000.0, 4_000.0, 22_000.0).looking_at(Vec3::new(0.0, 5_000.0, 0.0), Vec3::Y),
     ));
-    // The volcano: its vent snaps to the terrain under the entity's x/z.
+}
+
+/// Once the heightmap has loaded: the volcano, the air over it and a lava patch on its flank.
+fn on_terrain_loaded(
+    mut commands: Commands,
+    assets: Res<AssetServer>,
+    terrains: Query<&Terrain, Added<Terrain>>,
+    mut log: ResMut<GameLog>,
+) {
+    let Some(terrain) = terrains.iter().next() else { return };
+    // The volcano: its vent snaps to the terrain under the entity's x/z; its story is a
+    // timeline asset.
     match Volcano::new(100.0, 42) {
         Ok(v) => {
-            commands.spawn((Name::new("Volcano"), v, Eruption::plinian(), Transform::default()));
+            commands.spawn((
+                Name::new("Volcano"),
+                v,
+                Eruption::plinian(),
+                EruptionTimelineSource(
+                    assets.load("embedded://volcano/timelines/plinian_to_collapse.timeline.ron"),
+                ),
+                Transform::default(),
+            ));
         }
         Err(e) => log.lines.push(format!("no volcano: {e}")),
     }
     // Air over it: the built-in five-layer scenario of the `eruption` scene, over this terrain.
     match Scenario::builtin("eruption") {
         Ok(scenario) => {
-            if let Err(e) = spawn_scenario_with(&mut commands, &scenario, None, Some(&terrain), 0) {
+            if let Err(e) = spawn_scenario_with(&mut commands, &scenario, None, Some(terrain), 0) {
                 log.lines.push(format!("no atmosphere: {e}"));
             }
         }
@@ -102,7 +123,6 @@ fn setup(mut commands: Commands, mut log: ResMut<GameLog>) {
         Ok(None) => {}
         Err(e) => log.lines.push(format!("no lava: {e}")),
     }
-    commands.spawn(terrain);
 }
 
 /// Gameplay: messages from the volcano and the ash in the air at the player.

@@ -30,6 +30,7 @@
 //! [`volcano_coupling`] (plume ↔ atmosphere, ash), [`volcano_lava`] (pahoehoe lava),
 //! `volcano_render` (feature `render`, default) and `volcano_egui` (feature `debug`).
 
+pub mod assets;
 pub mod lava_scene;
 pub mod quality;
 pub mod scenes;
@@ -74,8 +75,11 @@ pub struct VolcanoPlugins;
 
 impl PluginGroup for VolcanoPlugins {
     fn build(self) -> PluginGroupBuilder {
+        // The asset types need Bevy's `AssetPlugin` (in `DefaultPlugins`); without it the
+        // plugin warns and does nothing.
         #[allow(unused_mut)]
-        let mut group = PluginGroupBuilder::start::<Self>().add_group(VolcanoSimPlugins);
+        let mut group =
+            PluginGroupBuilder::start::<Self>().add_group(VolcanoSimPlugins).add(assets::VolcanoAssetPlugin);
         #[cfg(feature = "render")]
         {
             group = group.add_group(volcano_render::VolcanoRenderPlugins);
@@ -86,13 +90,14 @@ impl PluginGroup for VolcanoPlugins {
 
 /// What a game usually imports.
 pub mod prelude {
+    pub use crate::assets::{EruptionTimelineSource, HeightmapSource, PlumePresetSource, VolcanoAssetPlugin};
     pub use crate::quality::VolcanoQuality;
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_core::prelude::*;
     pub use volcano_coupling::{CouplingBudget, CouplingSettings, CouplingSystems};
     pub use volcano_plume::{
-        Eruption, NeutralBuoyancyReached, PlumeCapReport, PlumeCaps, PlumeCollapsed, PlumeParams, PlumeSlice,
-        UmbrellaSpreading, WindProfile,
+        Eruption, EruptionScript, EruptionTimeline, NeutralBuoyancyReached, PlumeCapReport, PlumeCaps,
+        PlumeCollapsed, PlumeParams, PlumeSlice, Preset, UmbrellaSpreading, WindProfile,
     };
 }

@@ -12,7 +12,7 @@ mod atmosphere;
 pub use atmosphere::SceneAtmosphere;
 
 /// Built-in scenes: (name, RON text).
-const BUILTIN: &[(&str, &str)] = &[
+pub(crate) const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("eruption_collapse", include_str!("../assets/scenes/eruption_collapse.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),

@@ -1,0 +1,233 @@
+//! Bevy assets (issue 14, item 3): bad files give errors naming the field, a reloaded preset
+//! changes the next slices, a timeline asset drives an eruption, the built-ins load from
+//! `embedded://`, and the bundled heightmap is the default stratovolcano.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use bevy::asset::{AssetPlugin, LoadState};
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano::assets::*;
+use volcano::prelude::*;
+
+/// A fresh asset folder for one test.
+fn folder(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("volcano_assets_{name}_{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn app(assets: &Path) -> App {
+    let mut app = App::new();
+    app.add_plugins((
+        MinimalPlugins,
+        AssetPlugin { file_path: assets.display().to_string(), ..default() },
+        VolcanoSimPlugins,
+        VolcanoAssetPlugin,
+    ))
+    .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
+    .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+    app
+}
+
+/// Updates until `done` or 10 s of wall time (loads run on the IO pool).
+fn pump(app: &mut App, mut done: impl FnMut(&mut App) -> bool) {
+    let start = std::time::Instant::now();
+    while !done(app) {
+        assert!(start.elapsed() < Duration::from_secs(10), "timed out waiting for the asset server");
+        app.update();
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+/// The load error of `path` as type `A`, as the asset server reports it.
+fn load_error<A: Asset>(app: &mut App, path: &str) -> String {
+    let handle: Handle<A> = app.world().resource::<AssetServer>().load(path.to_string());
+    let mut message = String::new();
+    pump(app, |app| match app.world().resource::<AssetServer>().load_state(&handle) {
+        LoadState::Failed(e) => {
+            message = e.to_string();
+            true
+        }
+        LoadState::Loaded => panic!("{path} loaded"),
+        _ => false,
+    });
+    message
+}
+
+#[test]
+fn a_bad_field_is_named_in_the_load_error() {
+    let dir = folder("bad");
+    let scenario = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/volcano_atmosphere/scenarios/convection.ron"),
+    )
+    .unwrap()
+    .replace("grid: 128,", "gird: 128,");
+    let cases: [(&str, &str, &str); 6] = [
+        ("typo.plume.ron", "(vee0: 200.0)", "vee0"),
+        ("slow.plume.ron", "(v0: -5.0)", "v0"),
+        ("order.timeline.ron", "(keys: [(at_s: 5), (at_s: 2)])", "keys[1].at_s"),
+        ("probe.scene.ron", "(scene_name_probe: 1)", "scene_name_probe"),
+        ("typo.atmosphere.ron", &scenario, "gird"),
+        ("text.height.png", "not a png", "image"),
+    ];
+    for (file, body, _) in &cases {
+        std::fs::write(dir.join(file), body).unwrap();
+    }
+    let mut app = app(&dir);
+    let errors = [
+        load_error::<PlumePresetAsset>(&mut app, cases[0].0),
+        load_error::<PlumePresetAsset>(&mut app, cases[1].0),
+        load_error::<EruptionTimelineAsset>(&mut app, cases[2].0),
+        load_error::<SceneAsset>(&mut app, cases[3].0),
+        load_error::<AtmosphereScenarioAsset>(&mut app, cases[4].0),
+        load_error::<HeightmapAsset>(&mut app, cases[5].0),
+    ];
+    for ((file, _, field), error) in cases.iter().zip(&errors) {
+        assert!(error.contains(field), "{file}: `{error}` does not name `{field}`");
+        assert!(error.contains(file), "{file}: `{error}` does not name the file");
+    }
+}
+
+#[test]
+fn a_reloaded_preset_changes_the_next_slices() {
+    let dir = folder("reload");
+    let write = |v0: f64| {
+        let text = Preset::PlinianShowcase.ron().replace("v0: 200.0", &format!("v0: {v0:.1}"));
+        assert!(text.contains(&format!("v0: {v0:.1}")), "the preset file changed its v0 line");
+        std::fs::write(dir.join("vent.plume.ron"), text).unwrap();
+    };
+    write(200.0);
+    let mut app = app(&dir);
+    app.world_mut().spawn(Terrain::flat(33, 10.0, 0.0).unwrap());
+    let handle = app.world().resource::<AssetServer>().load("vent.plume.ron");
+    let volcano = app
+        .world_mut()
+        .spawn((
+            Volcano::new(100.0, 3).unwrap(),
+            Eruption::thesis(),
+            PlumePresetSource(handle),
+            Transform::default(),
+        ))
+        .id();
+    let v0 = |app: &App| app.world().get::<Eruption>(volcano).unwrap().params.v0;
+    pump(&mut app, |app| v0(app) == 200.0);
+    assert_eq!(app.world().get::<Eruption>(volcano).unwrap().params, Preset::PlinianShowcase.params());
+    for _ in 0..50 {
+        app.update();
+    }
+    let newest = |app: &mut App| {
+        let world = app.world_mut();
+        world
+            .query::<&PlumeSlice>()
+            .iter(world)
+            .filter(|s| !s.secondary)
+            .max_by_key(|s| s.index)
+            .cloned()
+            .unwrap()
+    };
+    let before = newest(&mut app);
+    assert!((before.state.velocity.length() - 200.0).abs() < 20.0, "{:?}", before.state.velocity);
+
+    write(120.0);
+    app.world().resource::<AssetServer>().reload("vent.plume.ron");
+    pump(&mut app, |app| v0(app) == 120.0);
+    let at_reload = newest(&mut app).index;
+    pump(&mut app, |app| newest(app).index > at_reload);
+    let after = newest(&mut app);
+    let speed = after.state.velocity.length();
+    assert!((speed - 120.0).abs() < 12.0, "a slice emitted after the reload leaves at {speed} m/s");
+}
+
+#[test]
+fn the_built_ins_load_from_embedded() {
+    let dir = folder("embedded");
+    let mut app = app(&dir);
+    let server = app.world().resource::<AssetServer>().clone();
+    let preset: Handle<PlumePresetAsset> =
+        server.load("embedded://volcano/presets/pyroclastic_showcase.plume.ron");
+    let timeline: Handle<EruptionTimelineAsset> =
+        server.load("embedded://volcano/timelines/plinian_to_collapse.timeline.ron");
+    let scene: Handle<SceneAsset> = server.load("embedded://volcano/scenes/eruption.scene.ron");
+    let scenario: Handle<AtmosphereScenarioAsset> =
+        server.load("embedded://volcano/scenarios/sea-breeze.atmosphere.ron");
+    let ids = [preset.id().untyped(), timeline.id().untyped(), scene.id().untyped(), scenario.id().untyped()];
+    pump(&mut app, |app| {
+        ids.iter()
+            .all(|id| matches!(app.world().resource::<AssetServer>().load_state(*id), LoadState::Loaded))
+    });
+    let world = app.world();
+    assert_eq!(
+        world.resource::<Assets<PlumePresetAsset>>().get(&preset).unwrap().0,
+        Preset::PyroclasticShowcase.params()
+    );
+    assert_eq!(
+        world.resource::<Assets<SceneAsset>>().get(&scene).unwrap().0,
+        volcano::scenes::by_name("eruption").unwrap()
+    );
+    assert_eq!(
+        world.resource::<Assets<AtmosphereScenarioAsset>>().get(&scenario).unwrap().0,
+        volcano::atmosphere::Scenario::builtin("sea-breeze").unwrap()
+    );
+    let story = &world.resource::<Assets<EruptionTimelineAsset>>().get(&timeline).unwrap().0;
+    assert_eq!(story.sample(75.0).v0, Some(135.0), "halfway down the 60–90 s ramp");
+}
+
+#[test]
+fn a_timeline_asset_scripts_the_eruption_and_a_heightmap_asset_is_its_terrain() {
+    let dir = folder("script");
+    let mut app = app(&dir);
+    let server = app.world().resource::<AssetServer>().clone();
+    let terrain = app
+        .world_mut()
+        .spawn(HeightmapSource(server.load("embedded://volcano/terrain/stratovolcano.height.png")))
+        .id();
+    let volcano = app
+        .world_mut()
+        .spawn((
+            Volcano::new(100.0, 3).unwrap(),
+            Eruption::thesis(),
+            EruptionTimelineSource(
+                server.load("embedded://volcano/timelines/plinian_to_collapse.timeline.ron"),
+            ),
+            Transform::default(),
+        ))
+        .id();
+    pump(&mut app, |app| {
+        app.world().get::<Terrain>(terrain).is_some() && app.world().get::<EruptionScript>(volcano).is_some()
+    });
+    for _ in 0..10 {
+        app.update();
+    }
+    // The first key switched the thesis eruption to the Plinian showcase.
+    assert_eq!(app.world().get::<Eruption>(volcano).unwrap().params.v0, 200.0);
+    let t = app.world().get::<Terrain>(terrain).unwrap();
+    assert_eq!((t.heights().nx(), t.heights().ny()), (257, 257));
+}
+
+/// The bundled heightmap is the default stratovolcano on 257 × 257 samples of 80 m, to the
+/// 0.1 m of a 16-bit unit. `VOLCANO_WRITE_ASSETS=1 cargo test --test assets bundled` rewrites it.
+#[test]
+fn the_bundled_heightmap_is_the_default_stratovolcano() {
+    let generated =
+        StratovolcanoParams { resolution: 257, cell: 80.0, ..Default::default() }.generate().unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/terrain/stratovolcano.height.png");
+    let defaults = HeightmapSettings::default();
+    if std::env::var_os("VOLCANO_WRITE_ASSETS").is_some() {
+        std::fs::write(&path, generated.to_png16(defaults.metres_per_unit, defaults.base_altitude).unwrap())
+            .unwrap();
+    }
+    let scale = volcano::core::terrain::png_io::HeightmapScale {
+        metres_per_unit: defaults.metres_per_unit,
+        base_altitude: defaults.base_altitude,
+        cell: defaults.cell,
+        sea_level: defaults.sea_level,
+    };
+    let bundled = Terrain::from_png_bytes(&std::fs::read(&path).unwrap(), scale).unwrap();
+    let (a, b) = (bundled.heights(), generated.heights());
+    assert_eq!((a.nx(), a.ny(), a.cell(), a.origin()), (b.nx(), b.ny(), b.cell(), b.origin()));
+    let worst = a.data().iter().zip(b.data()).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
+    assert!(worst <= 0.051, "bundled heightmap differs from the generator by up to {worst} m");
+}
