@@ -308,13 +308,14 @@ impl VolcanoScenePlugin {
 
 /// The scene being shown (for panels and tools).
 #[derive(Resource, Debug, Clone, Reflect)]
+#[reflect(Resource)]
 pub struct ActiveScene(pub SceneSpec);
 
 impl Plugin for VolcanoScenePlugin {
     fn build(&self, app: &mut App) {
         let spec = self.spec.clone();
         let terrain = self.terrain.clone();
-        app.insert_resource(ActiveScene(spec.clone()));
+        app.insert_resource(ActiveScene(spec.clone())).register_type::<ActiveScene>();
         // Harmless if the game adds it too, before or after.
         #[cfg(feature = "render")]
         if !self.headless {

@@ -249,7 +249,8 @@ fn summarise(app: &mut App, which: EruptionScenario, seconds: f64, r0: f64, dir:
     }
     let umbrella_bearing = if count > 0.0 { bearing(ue / count, un / count) } else { f64::NAN };
     // Deposit centroid on the terrain.
-    let deposit = world.resource::<DepositMap>();
+    // The scenario's one terrain.
+    let deposit = world.query::<&DepositMap>().iter(world).next().cloned().unwrap_or_default();
     let (mut de, mut dn, mut dm) = (0.0, 0.0, 0.0);
     if let Some(g) = &deposit.mass {
         for j in 0..g.ny() {

@@ -9,7 +9,7 @@ use std::process::ExitCode;
 use bevy::prelude::*;
 use serde::Serialize;
 use volcano::plume::pyroclastic::airborne_mass;
-use volcano::plume::{DepositMap, Eruption, PlumeParams, PyroParticle, PyroclasticBudget};
+use volcano::plume::{DepositMap, Eruption, PlumeParams, PyroParticle};
 use volcano::prelude::*;
 
 /// What `summary.json` holds.
@@ -99,8 +99,9 @@ pub fn run(params: &PlumeParams, seconds: f64, dir: &Path) -> ExitCode {
     let world = app.world_mut();
     let airborne = airborne_mass(world);
     let alive = world.query::<&PyroParticle>().iter(world).count();
-    let b = *world.resource::<PyroclasticBudget>();
-    let deposit = world.resource::<DepositMap>().clone();
+    let b = volcano::plume::ground::all_budgets(world);
+    // The scenario's one terrain.
+    let deposit = world.query::<&DepositMap>().iter(world).next().cloned().unwrap_or_default();
     let tracks = world.remove_resource::<Tracks>().unwrap_or_default();
     let accounted = airborne + b.deposited + b.lifted + b.lost;
     let max_deposit = deposit.mass.as_ref().map_or(0.0, |g| {

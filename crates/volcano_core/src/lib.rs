@@ -25,13 +25,14 @@ pub use grid::{Boundary, Grid2};
 pub use plugin::VolcanoCorePlugin;
 pub use rng::{VolcanoRng, derive_stream};
 pub use terrain::{LandCover, NodeRegion, StratovolcanoParams, Terrain, TerrainChanged};
-pub use volcano::{VentPosition, Volcano, VolcanoSpec};
+pub use volcano::{OnTerrain, TerrainVolcanoes, VentPosition, Volcano, VolcanoSpec};
 
 /// Everything a game usually needs from this crate.
 pub mod prelude {
     pub use crate::{
         AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2, LandCover,
-        SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams, Terrain, TerrainChanged,
-        ThesisIsa, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng, VolcanoSpec,
+        OnTerrain, SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams, Terrain,
+        TerrainChanged, TerrainVolcanoes, ThesisIsa, UsStandard1976, VentPosition, Volcano,
+        VolcanoCorePlugin, VolcanoRng, VolcanoSpec,
     };
 }

@@ -24,9 +24,13 @@ impl Plugin for VolcanoCorePlugin {
             .register_type::<SimTick>()
             .register_type::<crate::Volcano>()
             .register_type::<crate::VentPosition>()
+            .register_type::<crate::OnTerrain>()
+            .register_type::<crate::TerrainVolcanoes>()
             .register_type::<crate::VolcanoSpec>()
             .register_type::<crate::Cadence>()
             .register_type::<crate::LandCover>()
+            .register_type::<crate::Terrain>()
+            .register_type::<crate::VolcanoRng>()
             .configure_sets(FixedUpdate, (begin, plume, pyro, before, weather, after, lava, end).chain())
             .configure_sets(
                 FixedUpdate,

@@ -2,6 +2,7 @@
 //! or purpose, so adding a consumer never shifts another consumer's numbers.
 
 use bevy::ecs::component::Component;
+use bevy::ecs::reflect::ReflectComponent;
 use bevy::reflect::Reflect;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -30,6 +31,7 @@ pub fn stream_id(purpose: &str, index: u64) -> u64 {
 /// [`VolcanoRng::stream`] for per-entity sub-streams.
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(opaque)]
+#[reflect(Component)]
 pub struct VolcanoRng {
     seed: u64,
     rng: ChaCha8Rng,

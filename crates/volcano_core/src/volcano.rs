@@ -1,11 +1,13 @@
 //! The [`Volcano`] entity: a vent on the terrain with a radius and a seed. Its world position is
 //! the entity's `Transform` (x, z); the y coordinate is snapped to the terrain under it and the
-//! resulting vent point is published as [`VentPosition`].
+//! resulting vent point is published as [`VentPosition`], and the terrain it stands on as the
+//! relationship [`OnTerrain`] (the terrain lists its volcanoes in [`TerrainVolcanoes`]): what a
+//! volcano leaves on the ground (deposits) goes to that terrain.
 
 use bevy::ecs::component::Component;
 use bevy::ecs::entity::Entity;
 use bevy::math::Vec3;
-use bevy::prelude::{Commands, DetectChanges, Query, Ref};
+use bevy::prelude::{Commands, DetectChanges, Query, Ref, ReflectComponent, ReflectDefault};
 use bevy::reflect::Reflect;
 use bevy::transform::components::Transform;
 use serde::{Deserialize, Serialize};
@@ -18,6 +20,7 @@ use crate::terrain::Terrain;
 /// terrain. Build it with [`Volcano::new`] or from a RON [`VolcanoSpec`], which validate.
 #[derive(Component, Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
 #[require(Transform)]
+#[reflect(Component)]
 pub struct Volcano {
     vent_radius: f32,
     seed: u64,
@@ -112,20 +115,47 @@ impl VolcanoSpec {
 
 /// World position of a volcano's vent on the terrain (written by the core plugin).
 #[derive(Component, Debug, Clone, Copy, PartialEq, Default, Reflect)]
+#[reflect(Component)]
 pub struct VentPosition(pub Vec3);
 
-type VolcanoQueryData<'a> =
-    (Entity, Ref<'a, Volcano>, &'a mut Transform, Option<&'a VentPosition>, Option<&'a VolcanoRng>);
+/// The terrain a volcano stands on (the first, in query order, whose footprint holds its vent;
+/// kept by the core plugin). Its deposits go to that terrain.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Eq, Reflect)]
+#[reflect(Component, Debug, PartialEq)]
+#[relationship(relationship_target = TerrainVolcanoes)]
+pub struct OnTerrain(#[entities] pub Entity);
 
-/// Snaps vents to the terrain under them, creates the volcano's RNG and keeps it in step with
-/// the seed.
+/// The volcanoes standing on this terrain (the other side of [`OnTerrain`]).
+#[derive(Component, Debug, Default, PartialEq, Eq, Reflect)]
+#[reflect(Component, Debug, Default)]
+#[relationship_target(relationship = OnTerrain)]
+pub struct TerrainVolcanoes(Vec<Entity>);
+
+impl TerrainVolcanoes {
+    /// The volcanoes, in the order they joined.
+    pub fn volcanoes(&self) -> &[Entity] {
+        &self.0
+    }
+}
+
+type VolcanoQueryData<'a> = (
+    Entity,
+    Ref<'a, Volcano>,
+    &'a mut Transform,
+    Option<&'a VentPosition>,
+    Option<&'a VolcanoRng>,
+    Option<&'a OnTerrain>,
+);
+
+/// Snaps vents to the terrain under them, links each volcano to that terrain ([`OnTerrain`]),
+/// creates the volcano's RNG and keeps it in step with the seed.
 pub(crate) fn snap_vents(
     mut commands: Commands,
-    terrains: Query<Ref<Terrain>>,
+    terrains: Query<(Entity, Ref<Terrain>)>,
     mut volcanoes: Query<VolcanoQueryData>,
 ) {
-    let terrain_changed = terrains.iter().any(|t| t.is_changed());
-    for (entity, volcano, mut transform, vent, rng) in &mut volcanoes {
+    let terrain_changed = terrains.iter().any(|(_, t)| t.is_changed());
+    for (entity, volcano, mut transform, vent, rng, on) in &mut volcanoes {
         if rng.is_none_or(|r| r.seed() != volcano.seed()) {
             commands.entity(entity).insert(VolcanoRng::new(volcano.seed()));
         }
@@ -133,7 +163,18 @@ pub(crate) fn snap_vents(
             continue;
         }
         let p = transform.translation;
-        let ground = terrains.iter().find(|t| t.contains(p.x, p.z)).map(|t| t.height_at(p.x, p.z));
+        let under = terrains.iter().find(|(_, t)| t.contains(p.x, p.z));
+        match (under.map(|(e, _)| e), on.map(|o| o.0)) {
+            (Some(t), Some(o)) if t == o => {}
+            (Some(t), _) => {
+                commands.entity(entity).insert(OnTerrain(t));
+            }
+            (None, Some(_)) => {
+                commands.entity(entity).remove::<OnTerrain>();
+            }
+            (None, None) => {}
+        }
+        let ground = under.map(|(_, t)| t.height_at(p.x, p.z));
         let y = ground.unwrap_or(p.y);
         if transform.translation.y != y {
             transform.translation.y = y;

@@ -69,7 +69,9 @@ pub struct CouplingBudget {
 }
 
 /// Ash released by expiring umbrella spheres since the last weather step, in message order.
-#[derive(Resource, Debug, Clone, Default)]
+#[derive(Resource, Debug, Clone, Default, Reflect)]
+#[reflect(opaque)]
+#[reflect(Resource, Default)]
 pub struct AshInbox(pub Vec<AshReleased>);
 
 /// The coupling: add after the plume and atmosphere plugins (as `VolcanoSimPlugins` does).
@@ -81,6 +83,7 @@ impl Plugin for CouplingPlugin {
         app.init_resource::<AshInbox>()
             .register_type::<CouplingSettings>()
             .register_type::<CouplingBudget>()
+            .register_type::<AshInbox>()
             .register_required_components::<Atmosphere, CouplingBudget>()
             .configure_sets(
                 FixedUpdate,
@@ -267,8 +270,7 @@ fn air_to_plume(
     mut layer_query: Query<&mut AirLayer>,
     volcanoes: Query<(Entity, &VentPosition, &Eruption, Option<&CouplingSettings>, Has<PlumeAmbient>)>,
     slices: Query<(Entity, &PlumeSlice)>,
-    terrains: Query<&Terrain>,
-    mut deposit: ResMut<DepositMap>,
+    mut grounds: Query<(&Terrain, &mut DepositMap)>,
 ) {
     let steps = clock.map_or(0, |c| c.context().steps_run());
     let stepped_now = steps != *seen_steps;
@@ -301,7 +303,6 @@ fn air_to_plume(
     }
     by_atmo.sort();
     let all: Vec<(Entity, &PlumeSlice)> = slices.iter().collect();
-    let terrain = terrains.iter().next();
     let bulk = volcanoes.iter().next().map_or(1_000.0, |(_, _, e, ..)| e.pyroclastic.deposit_density);
     for (atmo, grid) in grids.iter().copied() {
         let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
@@ -314,8 +315,12 @@ fn air_to_plume(
                     *a = 0.0;
                     budget.ash_deposited_kg += kg;
                     let (x, z) = grid.centre(k);
-                    let on =
-                        terrain.is_some_and(|t| deposit.add_on(t, Vec2::new(x as f32, z as f32), kg, bulk));
+                    // Onto the deposit of the terrain under the cell (the first that holds it).
+                    let (x, z) = (x as f32, z as f32);
+                    let on = grounds
+                        .iter_mut()
+                        .find(|(t, _)| t.contains(x, z))
+                        .is_some_and(|(t, mut deposit)| deposit.add_on(t, Vec2::new(x, z), kg, bulk));
                     if !on {
                         budget.ash_off_terrain_kg += kg;
                     }

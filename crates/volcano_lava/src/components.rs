@@ -1,6 +1,7 @@
 //! Components, messages and the gameplay query of the lava plugin.
 
 use bevy::ecs::entity::Entity;
+use bevy::ecs::reflect::ReflectComponent;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::{Component, Message, Query, Vec2, Vec3};
 use bevy::reflect::Reflect;
@@ -21,6 +22,7 @@ use crate::model::thermal::surface_temperature;
 /// none contains it), and writes the lava that freezes back into that terrain. Parameter
 /// edits apply live (re-validated each step; an invalid edit freezes the field until fixed).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct LavaField {
     /// Grid placement and size.
     pub placement: Placement,
@@ -45,8 +47,11 @@ impl LavaField {
     }
 }
 
-/// Built state of a [`LavaField`] (flow and surface layers). Not reflected (large grids).
-#[derive(Component, Debug, Clone)]
+/// Built state of a [`LavaField`] (flow and surface layers). Reflected as one opaque value
+/// (large grids of model types).
+#[derive(Component, Debug, Clone, Reflect)]
+#[reflect(opaque)]
+#[reflect(Component)]
 pub struct LavaState {
     /// Flow layer.
     pub flow: FlowField,
@@ -79,6 +84,7 @@ pub struct TerrainLink {
 
 /// Why a field could not be built, or `Ok`.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub enum LavaFieldStatus {
     /// Built and stepping.
     Ok,
@@ -90,6 +96,7 @@ pub enum LavaFieldStatus {
 /// cells within `radius` m. Add and remove it live. A source whose position is on no lava
 /// field, or whose values were edited out of range, gets [`LavaSourceStatus::Rejected`].
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct LavaSource {
     /// World position (only x and z are used).
     pub position: Vec3,
@@ -127,6 +134,7 @@ impl LavaSource {
 
 /// Whether a [`LavaSource`] is feeding a field.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub enum LavaSourceStatus {
     /// Feeding this field entity.
     Active(Entity),
@@ -137,6 +145,7 @@ pub enum LavaSourceStatus {
 /// A marked area: when lava (thicker than the field's `min_thickness`) covers any cell within
 /// `radius` of `centre` (world x, z), a [`LavaReached`] message is written once.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct LavaZone {
     /// World (x, z) centre.
     pub centre: Vec2,

@@ -34,6 +34,8 @@ impl Plugin for LavaPlugin {
             .register_type::<LavaSource>()
             .register_type::<LavaSourceStatus>()
             .register_type::<LavaZone>()
+            .register_type::<LavaState>()
+            .register_type::<BuiltFor>()
             .add_systems(LavaStep, (build_fields, step_fields, check_zones, imprint_terrain).chain());
         #[cfg(debug_assertions)]
         app.add_systems(PostUpdate, assert_finite_fields);
@@ -42,7 +44,9 @@ impl Plugin for LavaPlugin {
 
 /// Grid placement a [`LavaState`] was built for and the terrain under it; a change (or a
 /// terrain appearing under a field built on flat ground) rebuilds the field (its lava is lost).
-#[derive(Component, Debug, Clone, PartialEq)]
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(opaque)]
+#[reflect(Component)]
 struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges, Option<Entity>);
 
 /// The terrain a field at `placement` belongs on: the one it was built on while that still

@@ -15,12 +15,12 @@
 //!   (an [`AshReleased`] message, [`PlumeAshBudget::released_kg`] and `capped_kg`).
 //! - Pyroclastic particles ([`PlumeCaps::max_particles`], all flows): beyond it the oldest
 //!   (lowest id, i.e. from the earliest collapse) settle where they are: their mass is
-//!   deposited on the ground below them ([`PyroclasticBudget::deposited`], or `lost` off the
-//!   map) and counted in [`PyroclasticBudget::capped`].
+//!   deposited on the ground below them ([`crate::PyroclasticBudget::deposited`], or `lost` off the
+//!   map) and counted in [`crate::PyroclasticBudget::capped`].
 //! - Secondary columns ([`PlumeCaps::max_secondary_per_step`], per eruption and pyroclastic
 //!   step): the heaviest clusters become columns; the lighter ones lift off all the same (their
-//!   particles are removed and their mass booked in [`PyroclasticBudget::lifted`] and
-//!   [`PyroclasticBudget::capped`]) but no column is simulated for them. A secondary column
+//!   particles are removed and their mass booked in [`crate::PyroclasticBudget::lifted`] and
+//!   [`crate::PyroclasticBudget::capped`]) but no column is simulated for them. A secondary column
 //!   carries no ash account (`model::pyroclastic::secondary_column`), so only the light
 //!   column's own rise and its heat and moisture for a coupled atmosphere are not simulated.
 //!   (Holding them back as particles for a later step was tried first: after the eruption

@@ -17,7 +17,8 @@ use crate::model::umbrella::UmbrellaSphere;
 /// An explosive eruption on a [`volcano_core::Volcano`]: emits a slice every `r₀ / (2 v₀)`
 /// seconds while `active`. Edits to the parameters apply to new slices.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
-#[require(EmissionState, PlumeAshBudget)]
+#[require(EmissionState, PlumeAshBudget, crate::ground::PyroclasticBudget)]
+#[reflect(Component)]
 pub struct Eruption {
     /// Slice model parameters (validated on construction; re-checked before each emission).
     pub params: PlumeParams,
@@ -132,6 +133,7 @@ impl EruptionScript {
 
 /// Emission bookkeeping of an [`Eruption`].
 #[derive(Component, Debug, Clone, Default, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct EmissionState {
     /// Seconds since the last slice.
     pub since_last: f64,
@@ -175,6 +177,7 @@ pub struct PlumeAmbient(pub LayeredAmbient);
 /// A live column slice. Its model state is in the plume frame (z up above the vent, x/y
 /// horizontal); the entity's `Transform` is kept in world space (y up).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct PlumeSlice {
     /// The volcano entity that emitted it.
     pub volcano: Entity,
@@ -196,6 +199,7 @@ pub struct PlumeSlice {
 
 /// An s1 sphere riding on a slice's vortex ring.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct S1 {
     /// The slice entity.
     pub slice: Entity,
@@ -210,6 +214,7 @@ pub struct S1 {
 
 /// An s1 sphere detached into the umbrella.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct Umbrella {
     /// The volcano whose eruption it belongs to (its wind drifts the umbrella).
     pub volcano: Entity,

@@ -8,6 +8,7 @@
 
 pub mod caps;
 pub mod components;
+pub mod ground;
 pub mod model;
 pub mod plugin;
 pub mod pyroclastic;
@@ -19,6 +20,7 @@ pub use components::{
     PlumeAshBudget, PlumeCollapsed, PlumeSlice, S1, SecondaryColumnRising, SliceCollapsed, Umbrella,
     UmbrellaSpreading,
 };
+pub use ground::{DepositMap, PyroclasticBudget};
 pub use model::ambient::{AmbientLevel, LayeredAmbient};
 pub use model::params::{Dynamics, PlumeParams, Preset};
 pub use model::pyroclastic::PyroclasticParams;
@@ -27,8 +29,8 @@ pub use model::timeline::{EruptionTimeline, TimelineKey, TimelineState};
 pub use model::wind::WindProfile;
 pub use plugin::{PlumePlugin, PlumeStep};
 pub use pyroclastic::{
-    DepositMap, PyroParticle, PyroclasticBudget, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery,
-    PyroclasticStep, PyroclasticSystems, SecondaryColumnFormed,
+    PyroParticle, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery, PyroclasticStep,
+    PyroclasticSystems, SecondaryColumnFormed,
 };
 pub use view::{
     AshInstance, AshLightSettings, AshParent, AshParents, PlumeInstances, PlumeParents, PlumeViewPlugin,

@@ -38,6 +38,7 @@ impl Plugin for PlumePlugin {
             .register_type::<crate::caps::PlumeCaps>()
             .register_type::<crate::caps::PlumeCapReport>()
             .register_type::<Eruption>()
+            .register_type::<EmissionState>()
             .register_type::<EruptionScript>()
             .register_type::<PlumeAshBudget>()
             .register_type::<PlumeAmbient>()

@@ -9,6 +9,7 @@ use bevy::prelude::*;
 use volcano_core::prelude::*;
 
 use crate::components::*;
+use crate::ground::{DepositMap, PyroclasticBudget};
 use crate::model::deposit;
 use crate::model::pyroclastic::{Particle, collapse, find_clusters, secondary_column, step_particle};
 use crate::model::slice::SliceEnv;
@@ -32,6 +33,7 @@ pub enum PyroclasticSystems {
 
 /// One pyroclastic sphere. Its `Transform` is kept in world space (scale = radius).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Component)]
 pub struct PyroParticle {
     /// Volcano whose collapse produced it.
     pub volcano: Entity,
@@ -71,105 +73,6 @@ pub struct SecondaryColumnFormed {
     pub particles: usize,
 }
 
-/// Ash deposited on the ground, per terrain node (kg, f64), over the first [`Terrain`]'s grid.
-/// Particles run over `surface` (terrain + deposit), and the deposit relaxes to its angle of
-/// repose once per second ([`crate::model::deposit`]).
-#[derive(Resource, Debug, Clone, Default)]
-pub struct DepositMap {
-    /// Deposited mass per node (kg); `None` until a terrain exists.
-    pub mass: Option<Grid2<f64>>,
-    /// Terrain height plus deposit thickness (m), what particles collide with.
-    pub surface: Option<Grid2<f32>>,
-    /// Bulk density used for thickness (kg/m³).
-    pub bulk_density: f64,
-    /// Bumped whenever the deposit changes (renderers redraw when it moves).
-    pub revision: u64,
-    scratch: Vec<f64>,
-}
-
-impl DepositMap {
-    /// Deposit thickness (m) at world `(x, z)`; 0 off the map.
-    pub fn thickness_at(&self, x: f32, z: f32) -> f64 {
-        let Some(g) = &self.mass else { return 0.0 };
-        let p = Vec2::new(x, z);
-        if !g.contains(p) || self.bulk_density <= 0.0 {
-            return 0.0;
-        }
-        deposit::thickness(g.nearest(p, Boundary::Clamp), g.cell(), self.bulk_density)
-    }
-    /// Deposit thickness (m) at node `(i, j)` of the terrain grid; 0 outside.
-    pub fn thickness_at_node(&self, i: usize, j: usize) -> f64 {
-        match &self.mass {
-            Some(g) if i < g.nx() && j < g.ny() => {
-                deposit::thickness(g.get(i, j), g.cell(), self.bulk_density)
-            }
-            _ => 0.0,
-        }
-    }
-    /// Total deposited mass (kg).
-    pub fn total(&self) -> f64 {
-        self.mass.as_ref().map_or(0.0, |g| g.data().iter().sum())
-    }
-    /// Creates the grids over `terrain` if they do not exist yet.
-    fn ensure(&mut self, terrain: &Terrain) {
-        if self.mass.is_none() {
-            let h = terrain.heights();
-            self.mass = Grid2::new(h.nx(), h.ny(), h.cell(), h.origin(), 0.0).ok();
-            self.surface = Some(h.clone());
-        }
-    }
-    /// Adds `mass` kg at world `(x, z)` = `p` on `terrain`'s deposit (creating the map over it
-    /// if needed; `bulk_density` kg/m³ is used if the map has none yet). Returns false, adding
-    /// nothing, where `p` is off the terrain. Used for ash fall from the coupled atmosphere.
-    pub fn add_on(&mut self, terrain: &Terrain, p: Vec2, mass: f64, bulk_density: f64) -> bool {
-        if mass.is_nan() || mass <= 0.0 || !terrain.contains(p.x, p.y) {
-            return false;
-        }
-        self.ensure(terrain);
-        if self.bulk_density <= 0.0 {
-            self.bulk_density = bulk_density;
-        }
-        self.add(p, mass);
-        true
-    }
-    /// Adds mass to the nearest node and raises the surface there.
-    pub(crate) fn add(&mut self, p: Vec2, mass: f64) {
-        let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return };
-        let (fx, fy) = g.to_grid(p);
-        let i = (fx.round().max(0.0) as usize).min(g.nx() - 1);
-        let j = (fy.round().max(0.0) as usize).min(g.ny() - 1);
-        g.set(i, j, g.get(i, j) + mass);
-        let rise = deposit::thickness(mass, g.cell(), self.bulk_density) as f32;
-        s.set(i, j, s.get(i, j) + rise);
-        self.revision += 1;
-    }
-}
-
-/// Mass accounting of all pyroclastic flows (kg): `collapsed = airborne + deposited + lifted +
-/// lost`, with airborne the mass of live particles.
-#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Reflect)]
-#[reflect(Resource)]
-pub struct PyroclasticBudget {
-    /// Mass of slices handed over to particles.
-    pub collapsed: f64,
-    /// Mass deposited on the terrain.
-    pub deposited: f64,
-    /// Mass lifted into secondary columns.
-    pub lifted: f64,
-    /// Mass of particles that left the terrain (or a map-less world).
-    pub lost: f64,
-    /// Particles spawned so far.
-    pub spawned: u64,
-    /// Secondary columns formed so far.
-    pub secondary_columns: u64,
-    /// Of `deposited`, `lost` and `lifted`, the mass the caps removed (particles settled by
-    /// [`crate::caps::PlumeCaps::max_particles`], clusters lifted without a column by
-    /// [`crate::caps::PlumeCaps::max_secondary_per_step`]).
-    pub capped: f64,
-    /// Particles settled by that cap.
-    pub capped_particles: u64,
-}
-
 /// Pyroclastic particles, deposit and secondary columns.
 #[derive(Debug, Default, Clone)]
 pub struct PyroclasticPlugin;
@@ -181,9 +84,10 @@ impl Plugin for PyroclasticPlugin {
             .add_message::<SecondaryColumnFormed>()
             .add_message::<SliceCollapsed>()
             .add_message::<SecondaryColumnRising>()
-            .init_resource::<DepositMap>()
-            .init_resource::<PyroclasticBudget>()
+            // Every terrain keeps the deposit of the volcanoes standing on it.
+            .register_required_components::<Terrain, DepositMap>()
             .register_type::<PyroParticle>()
+            .register_type::<DepositMap>()
             .register_type::<PyroclasticBudget>()
             .add_systems(
                 PyroclasticStep,
@@ -205,12 +109,11 @@ pub const MAX_PARTICLES_PER_SLICE: usize = 2_000;
 fn hand_over(
     mut commands: Commands,
     mut collapsed: MessageReader<SliceCollapsed>,
-    eruptions: Query<&VolcanoRng>,
-    mut budget: ResMut<PyroclasticBudget>,
+    mut eruptions: Query<(&VolcanoRng, &mut PyroclasticBudget)>,
     mut started: MessageWriter<PyroclasticFlowStarted>,
 ) {
     for SliceCollapsed(slice) in collapsed.read() {
-        let Ok(rng) = eruptions.get(slice.volcano) else { continue };
+        let Ok((rng, mut budget)) = eruptions.get_mut(slice.volcano) else { continue };
         // s2 radius: s1 spheres have radius r/2, their children ÷5.
         let r_s2 = 0.5 * slice.state.r * SphereParams::CHILD_RATIO;
         let mut stream = rng.stream("collapse", slice.index);
@@ -242,58 +145,78 @@ fn hand_over(
     }
 }
 
-/// One step of every particle, in parallel over fixed chunks; deposits, budget and despawns
-/// are then applied in query order, so the result does not depend on the thread count.
+/// One step of every particle, in parallel over fixed chunks; deposits, budgets and despawns
+/// are then applied in query order, so the result does not depend on the thread count. A
+/// particle runs over the deposit surface of its volcano's terrain ([`OnTerrain`]) and
+/// deposits there; off that terrain it is lost.
 fn step_particles(
     time: Res<Time>,
     mut commands: Commands,
-    eruptions: Query<&Eruption>,
-    terrains: Query<&Terrain>,
-    mut deposit: ResMut<DepositMap>,
-    mut budget: ResMut<PyroclasticBudget>,
+    eruptions: Query<(&Eruption, Option<&OnTerrain>)>,
+    mut budgets: Query<&mut PyroclasticBudget>,
+    mut grounds: Query<(&Terrain, &mut DepositMap)>,
     mut particles: Query<(Entity, &mut PyroParticle, &mut Transform)>,
 ) {
     let dt = time.delta_secs_f64();
-    let terrain = terrains.iter().next();
-    if let Some(t) = terrain {
-        deposit.ensure(t);
+    if particles.is_empty() {
+        return;
+    }
+    // The maps of the terrains volcanoes stand on (read without flagging a change).
+    for (_, on) in &eruptions {
+        if let Some(OnTerrain(t)) = on
+            && let Ok((terrain, mut deposit)) = grounds.get_mut(*t)
+            && !deposit.fits(terrain)
+        {
+            deposit.ensure(terrain);
+        }
     }
     let mut items: Vec<_> = particles.iter_mut().collect();
     let outcomes = {
-        let surface = deposit.surface.as_ref();
+        let grounds = &grounds;
         par_map_ordered(&mut items, |(_, pp, transform)| {
-            let eruption = eruptions.get(pp.volcano).ok()?;
+            let (eruption, on) = eruptions.get(pp.volcano).ok()?;
+            let terrain = on.map(|o| o.0);
+            let ground = terrain.and_then(|t| grounds.get(t).ok());
+            let surface = ground.and_then(|(_, d)| d.surface.as_ref());
             let p = &eruption.params;
             let wind = |z: f64| p.wind.at(z);
             let vent = pp.vent;
             let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent.y as f64, wind: &wind };
-            let ground = |x: f64, y: f64| ground_below(surface, vent, x, y);
-            let report = step_particle(&mut pp.particle, &eruption.pyroclastic, &env, &ground, dt);
+            let below = |x: f64, y: f64| ground_below(surface, vent, x, y);
+            let report = step_particle(&mut pp.particle, &eruption.pyroclastic, &env, &below, dt);
             pp.buoyant = report.buoyant;
             let world = vent + plume_to_world(pp.particle.position);
             transform.translation = world;
             transform.scale = Vec3::splat(pp.particle.radius as f32);
-            let on_map = terrain.is_some_and(|t| t.contains(world.x, world.z));
-            Some((report, on_map, eruption.pyroclastic.deposit_density))
+            let on_map = ground.is_some_and(|(t, _)| t.contains(world.x, world.z));
+            let py = &eruption.pyroclastic;
+            Some((report, on_map.then_some(terrain).flatten(), (py.deposit_density, py.repose_angle_deg)))
         })
     };
     for ((entity, pp, _), outcome) in items.iter().zip(outcomes) {
-        let Some((report, on_map, density)) = outcome else {
+        let Ok(mut budget) = budgets.get_mut(pp.volcano) else {
+            // Its volcano is gone (or has no eruption): nothing books it.
+            commands.entity(*entity).despawn();
+            continue;
+        };
+        let Some((report, terrain, (density, repose))) = outcome else {
             budget.lost += pp.particle.mass;
             commands.entity(*entity).despawn();
             continue;
         };
-        deposit.bulk_density = density;
         if report.deposited > 0.0 {
-            if on_map && deposit.mass.is_some() {
-                let at = pp.vent + plume_to_world(report.deposit_at.extend(0.0));
-                deposit.add(Vec2::new(at.x, at.z), report.deposited);
-                budget.deposited += report.deposited;
-            } else {
-                budget.lost += report.deposited;
+            match terrain.and_then(|t| grounds.get_mut(t).ok()) {
+                Some((_, mut deposit)) if deposit.mass.is_some() => {
+                    deposit.bulk_density = density;
+                    deposit.repose_angle_deg = repose;
+                    let at = pp.vent + plume_to_world(report.deposit_at.extend(0.0));
+                    deposit.add(Vec2::new(at.x, at.z), report.deposited);
+                    budget.deposited += report.deposited;
+                }
+                _ => budget.lost += report.deposited,
             }
         }
-        if report.settled || !on_map || !finite(&pp.particle) {
+        if report.settled || terrain.is_none() || !finite(&pp.particle) {
             if !report.settled && pp.particle.mass.is_finite() {
                 budget.lost += pp.particle.mass;
             }
@@ -339,46 +262,44 @@ fn finite(p: &Particle) -> bool {
 }
 
 /// Once per simulated second of the pyroclastic clock (every 50 steps at 50 Hz, 64 at 64 Hz)
-/// the deposit relaxes to its angle of repose (a few Jacobi passes) and the collision surface
-/// follows.
-fn relax_deposit(
-    time: Res<Time>,
-    eruptions: Query<&Eruption>,
-    terrains: Query<&Terrain>,
-    mut map: ResMut<DepositMap>,
-) {
+/// every terrain's deposit relaxes to its angle of repose (a few Jacobi passes) and the
+/// collision surface follows.
+fn relax_deposit(time: Res<Time>, mut grounds: Query<(&Terrain, &mut DepositMap)>) {
     const PASSES: usize = 4;
-    let map = &mut *map;
     if !volcano_core::clock::crossed_period(time.elapsed(), time.delta(), std::time::Duration::from_secs(1)) {
         return;
     }
-    let (Some(terrain), Some(mass), Some(surface)) =
-        (terrains.iter().next(), map.mass.as_mut(), map.surface.as_mut())
-    else {
-        return;
-    };
-    let angle = eruptions.iter().next().map_or(34.0, |e| e.pyroclastic.repose_angle_deg);
-    let tan = angle.to_radians().tan();
-    let h = terrain.heights();
-    if h.nx() != mass.nx() || h.ny() != mass.ny() {
-        return;
-    }
-    let (dims, cell) = ((mass.nx(), mass.ny()), mass.cell());
-    let mut moved = 0.0;
-    for _ in 0..PASSES {
-        moved += deposit::relax_to_repose(
-            h.data(),
-            mass.data_mut(),
-            dims,
-            cell,
-            map.bulk_density,
-            tan,
-            &mut map.scratch,
-        );
-    }
-    if moved > 0.0 {
-        deposit::deposit_surface(h.data(), mass.data(), cell, map.bulk_density, surface.data_mut());
-        map.revision += 1;
+    for (terrain, mut map) in &mut grounds {
+        let h = terrain.heights();
+        if map.mass.as_ref().is_none_or(|m| h.nx() != m.nx() || h.ny() != m.ny()) {
+            continue;
+        }
+        let map = &mut *map;
+        let (Some(mass), Some(surface)) = (map.mass.as_mut(), map.surface.as_mut()) else { continue };
+        // A map that only received ash fall has no eruption's angle yet.
+        let angle = if map.repose_angle_deg > 0.0 {
+            map.repose_angle_deg
+        } else {
+            crate::PyroclasticParams::default().repose_angle_deg
+        };
+        let tan = angle.to_radians().tan();
+        let (dims, cell) = ((mass.nx(), mass.ny()), mass.cell());
+        let mut moved = 0.0;
+        for _ in 0..PASSES {
+            moved += deposit::relax_to_repose(
+                h.data(),
+                mass.data_mut(),
+                dims,
+                cell,
+                map.bulk_density,
+                tan,
+                &mut map.scratch,
+            );
+        }
+        if moved > 0.0 {
+            deposit::deposit_surface(h.data(), mass.data(), cell, map.bulk_density, surface.data_mut());
+            map.revision += 1;
+        }
     }
 }
 
@@ -391,14 +312,13 @@ fn lift_secondary_columns(
     caps: Res<crate::caps::PlumeCaps>,
     mut report: ResMut<crate::caps::PlumeCapReport>,
     mut commands: Commands,
-    mut eruptions: Query<(Entity, &Eruption, &mut EmissionState)>,
+    mut eruptions: Query<(Entity, &Eruption, &mut EmissionState, &mut PyroclasticBudget, Option<&OnTerrain>)>,
     particles: Query<(Entity, &PyroParticle)>,
-    deposit: Res<DepositMap>,
-    mut budget: ResMut<PyroclasticBudget>,
+    grounds: Query<&DepositMap>,
     mut formed: MessageWriter<SecondaryColumnFormed>,
     mut rising: MessageWriter<SecondaryColumnRising>,
 ) {
-    for (volcano, eruption, mut emission) in &mut eruptions {
+    for (volcano, eruption, mut emission, mut budget, on) in &mut eruptions {
         // Candidates in a fixed order (spawn order) for determinism.
         let mut mine: Vec<(Entity, &PyroParticle)> =
             particles.iter().filter(|(_, p)| p.buoyant && p.volcano == volcano).collect();
@@ -418,7 +338,7 @@ fn lift_secondary_columns(
         for &i in groups.iter().flatten() {
             taken[i] = true;
         }
-        let surface = deposit.surface.as_ref();
+        let surface = on.and_then(|o| grounds.get(o.0).ok()).and_then(|d| d.surface.as_ref());
         let aloft: Vec<bool> = mine
             .iter()
             .zip(&taken)
@@ -486,9 +406,9 @@ fn lift_secondary_columns(
 fn cap_particles(
     caps: Res<crate::caps::PlumeCaps>,
     mut commands: Commands,
-    terrains: Query<&Terrain>,
-    mut deposit: ResMut<DepositMap>,
-    mut budget: ResMut<PyroclasticBudget>,
+    volcanoes: Query<Option<&OnTerrain>>,
+    mut budgets: Query<&mut PyroclasticBudget>,
+    mut grounds: Query<(&Terrain, &mut DepositMap)>,
     particles: Query<(Entity, &PyroParticle)>,
     mut report: ResMut<crate::caps::PlumeCapReport>,
 ) {
@@ -503,24 +423,28 @@ fn cap_particles(
     );
     let mut all: Vec<(Entity, &PyroParticle)> = particles.iter().collect();
     all.sort_by_key(|(_, p)| p.id);
-    let terrain = terrains.iter().next();
     for &(entity, pp) in &all[..n - max] {
+        commands.entity(entity).despawn();
+        let Ok(mut budget) = budgets.get_mut(pp.volcano) else { continue };
         let m = pp.particle.mass;
         let at = pp.vent + plume_to_world(pp.particle.position);
-        let on_map = terrain.is_some_and(|t| t.contains(at.x, at.z)) && deposit.mass.is_some();
+        let terrain = volcanoes.get(pp.volcano).ok().flatten().map(|o| o.0);
+        let ground = terrain
+            .and_then(|t| grounds.get_mut(t).ok())
+            .filter(|(t, d)| t.contains(at.x, at.z) && d.mass.is_some());
         if m.is_finite() && m > 0.0 {
-            if on_map {
-                deposit.add(Vec2::new(at.x, at.z), m);
-                budget.deposited += m;
-            } else {
-                budget.lost += m;
+            match ground {
+                Some((_, mut deposit)) => {
+                    deposit.add(Vec2::new(at.x, at.z), m);
+                    budget.deposited += m;
+                }
+                None => budget.lost += m,
             }
             budget.capped += m;
             report.particle_kg += m;
         }
         budget.capped_particles += 1;
         report.particles_settled += 1;
-        commands.entity(entity).despawn();
     }
     report.capped_steps += 1;
 }
@@ -530,7 +454,7 @@ fn cap_particles(
 /// frame.
 #[derive(SystemParam)]
 pub struct PyroclasticQuery<'w, 's> {
-    deposit: Res<'w, DepositMap>,
+    grounds: Query<'w, 's, (&'static Terrain, &'static DepositMap)>,
     particles: Query<'w, 's, &'static Transform, With<PyroParticle>>,
 }
 
@@ -539,9 +463,9 @@ impl PyroclasticQuery<'_, '_> {
     pub fn in_flow(&self, p: Vec3, margin: f32) -> bool {
         self.particles.iter().any(|t| t.translation.distance(p) <= t.scale.x + margin)
     }
-    /// Deposit thickness (m) at world `(x, z)`.
+    /// Deposit thickness (m) at world `(x, z)`, on the first terrain whose footprint holds it.
     pub fn deposit_thickness(&self, x: f32, z: f32) -> f64 {
-        self.deposit.thickness_at(x, z)
+        self.grounds.iter().find(|(t, _)| t.contains(x, z)).map_or(0.0, |(_, d)| d.thickness_at(x, z))
     }
     /// Live particles.
     pub fn particle_count(&self) -> usize {

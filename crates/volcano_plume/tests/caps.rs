@@ -172,12 +172,12 @@ fn the_particle_cap_settles_the_oldest_and_the_flow_budget_closes() {
     let report = *world.resource::<PlumeCapReport>();
     assert!(n <= 150, "{n} particles under a cap of 150");
     assert!(report.particles_settled > 0, "{report:?}");
-    let b = *world.resource::<PyroclasticBudget>();
+    let b = volcano_plume::ground::all_budgets(world);
     let airborne = airborne_mass(world);
     let total = airborne + b.deposited + b.lifted + b.lost;
     assert!(b.capped > 0.0 && b.capped_particles == report.particles_settled, "{b:?} {report:?}");
     assert!((total - b.collapsed).abs() <= 1e-9 * b.collapsed, "budget: {b:?}, airborne {airborne}");
-    let map_total = world.resource::<DepositMap>().total();
+    let map_total = volcano_plume::ground::all_deposits(world);
     assert!((map_total - b.deposited).abs() <= 1e-9 * b.deposited, "{map_total} vs {}", b.deposited);
 }
 
@@ -221,7 +221,7 @@ fn at_most_the_capped_number_of_secondary_columns_forms_per_step() {
     let world = app.world_mut();
     let seen = world.resource::<Seen>().most_secondary_per_tick;
     let report = *world.resource::<PlumeCapReport>();
-    let b = *world.resource::<PyroclasticBudget>();
+    let b = volcano_plume::ground::all_budgets(world);
     let left = world.query::<&PyroParticle>().iter(world).count();
     assert!(seen <= 1, "{seen} secondary columns in one step under a cap of 1");
     assert_eq!(report.secondary_retired, 5, "the cap did not act: {report:?} {b:?}");

@@ -60,7 +60,7 @@ fn thesis_preset_collapses_and_emits_at_the_thesis_rate() {
     assert!(seen.collapsed > 0, "{seen:?}");
     // Secondary columns (buoyant from the start) rise from the flows and spread; no slice from
     // the vent does.
-    let secondary = app.world().resource::<PyroclasticBudget>().secondary_columns;
+    let secondary = volcano_plume::ground::all_budgets(app.world_mut()).secondary_columns;
     assert!(seen.umbrella as u64 <= secondary && seen.neutral as u64 <= secondary, "{seen:?}, {secondary}");
     // One slice every r0 / (2 v0) = 1/3 s from the vent: 135 in 45 s (secondary columns are
     // numbered after them).
@@ -249,7 +249,7 @@ fn the_vent_emits_mass_at_the_rate_of_its_emission_law() {
         run(&mut app, (50.0 * seconds) as u64);
         let world = app.world_mut();
         let ash = world.query::<&PlumeAshBudget>().single(world).unwrap().emitted_kg;
-        let secondary = world.resource::<PyroclasticBudget>().secondary_columns;
+        let secondary = volcano_plume::ground::all_budgets(world).secondary_columns;
         assert_eq!(secondary, 0, "{:?}: no secondary column may add to the vent's emission", p.dynamics);
         let rate = flux_factor
             * p.vent_density()

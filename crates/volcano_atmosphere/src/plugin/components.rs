@@ -26,6 +26,7 @@ pub enum WeatherSystems {
 
 /// The atmosphere over one terrain: grid, coefficients, clock and budgets.
 #[derive(Component, Debug, Clone, Reflect)]
+#[reflect(Component)]
 pub struct Atmosphere {
     /// Cells per side.
     pub n: usize,
@@ -66,6 +67,7 @@ impl Atmosphere {
 /// One air layer's fields (thesis Table 4.2), on its own entity.
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(opaque)]
+#[reflect(Component)]
 pub struct AirLayer {
     /// The [`Atmosphere`] entity it belongs to.
     pub atmosphere: Entity,
@@ -88,11 +90,13 @@ pub fn air_ash_at<'a>(layers: impl IntoIterator<Item = &'a AirLayer>, atmosphere
 /// The ground under an atmosphere (terrain heights, cover, temperature, water).
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(opaque)]
+#[reflect(Component)]
 pub struct AtmosphereGround(pub Ground);
 
 /// Timeline events still to fire (sorted by time), from a scenario.
 #[derive(Component, Debug, Clone, Default, Reflect)]
 #[reflect(opaque)]
+#[reflect(Component)]
 pub struct AtmosphereTimeline(pub Vec<Event>);
 
 /// Sent when the result of a weather step is applied to an atmosphere's components.

@@ -9,7 +9,7 @@ use std::path::Path;
 
 use bevy::prelude::*;
 use serde::Serialize;
-use volcano::plume::{PlumeCapReport, PlumeSlice, PyroParticle, PyroclasticBudget, Umbrella};
+use volcano::plume::{PlumeCapReport, PlumeSlice, PyroParticle, Umbrella};
 
 /// One row of the soak report.
 #[derive(Debug, Clone, Serialize)]
@@ -128,7 +128,7 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
     let umbrella = world.query::<&Umbrella>().iter(world).count();
     let particles = world.query::<&PyroParticle>().iter(world).count();
     let caps = world.get_resource::<PlumeCapReport>().copied().unwrap_or_default();
-    let flows = world.get_resource::<PyroclasticBudget>().copied().unwrap_or_default();
+    let flows = volcano::plume::ground::all_budgets(world);
     SoakRow {
         sim_s: tick as f64 / crate::TICK_HZ,
         wall_s,

@@ -22,6 +22,7 @@ pub(crate) mod driver;
 use std::marker::PhantomData;
 use std::time::Duration;
 
+use bevy::ecs::reflect::ReflectResource;
 use bevy::ecs::resource::Resource;
 use bevy::ecs::schedule::SystemSet;
 use bevy::reflect::Reflect;
@@ -241,6 +242,7 @@ impl SimSystems {
 /// Global simulation control: pause all domains, single-step base ticks, simulation speed.
 /// Acts on the volcano's clocks only, never on the game's `Time<Virtual>` or `Time<Fixed>`.
 #[derive(Resource, Debug, Clone, Reflect)]
+#[reflect(Resource)]
 pub struct SimControl {
     /// While true no base tick runs (except requested single steps).
     pub paused: bool,
@@ -300,4 +302,5 @@ impl SimControl {
 /// deterministic time. Same seed + same `SimTick` (at the same fixed rate and speed) = same
 /// state.
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
+#[reflect(Resource)]
 pub struct SimTick(pub u64);

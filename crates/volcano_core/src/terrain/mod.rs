@@ -19,6 +19,7 @@ use std::ops::{Deref, DerefMut};
 use bevy::ecs::component::Component;
 use bevy::ecs::entity::Entity;
 use bevy::ecs::message::Message;
+use bevy::ecs::reflect::ReflectComponent;
 use bevy::math::{Vec2, Vec3};
 use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
@@ -52,6 +53,7 @@ pub enum LandCover {
 /// balance exactly although an `f32` height at 2.5 km moves in steps of 2.4e-4 m.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(opaque)]
+#[reflect(Component)]
 pub struct Terrain {
     /// `base + added`, rounded to f32.
     heights: Grid2<f32>,

@@ -4,6 +4,7 @@
 //! [`DepositTint::every_frames`] frames.
 
 use bevy::color::{ColorToComponents, LinearRgba, Srgba};
+use bevy::ecs::entity::EntityHashMap;
 use bevy::mesh::{Mesh, Mesh3d, VertexAttributeValues};
 use bevy::prelude::*;
 use volcano_core::Terrain;
@@ -48,39 +49,43 @@ pub fn deposit_tint(base: LinearRgba, ash: LinearRgba, thickness: f64) -> Linear
     mix(base, ash, deposit_cover(thickness))
 }
 
-/// Recolours terrain meshes from the deposit.
+/// Recolours terrain meshes from their deposit.
 #[derive(Debug, Default, Clone)]
 pub struct DepositRenderPlugin;
 
 impl Plugin for DepositRenderPlugin {
     fn build(&self, app: &mut App) {
-        app.init_resource::<DepositTint>()
-            .init_resource::<DepositMap>()
-            .register_type::<DepositTint>()
-            .add_systems(Update, tint_terrain);
+        app.init_resource::<DepositTint>().register_type::<DepositTint>().add_systems(Update, tint_terrain);
     }
 }
 
+/// What a terrain's mesh colours last showed: the deposit revision, and whether the tint was on.
+type Shown = EntityHashMap<(u64, bool)>;
+
 fn tint_terrain(
     tint: Res<DepositTint>,
-    deposit: Res<DepositMap>,
-    terrains: Query<(&Terrain, &Children)>,
+    terrains: Query<(Entity, &Terrain, &Children, Option<&DepositMap>)>,
     mesh_children: Query<(&Mesh3d, &TerrainMesh)>,
     mut meshes: ResMut<Assets<Mesh>>,
-    mut last: Local<(u64, u32, bool)>,
+    mut frames: Local<u32>,
+    mut shown: Local<Shown>,
 ) {
-    let (revision, frames, shown) = &mut *last;
     *frames = frames.saturating_add(1);
-    let wanted = tint.enabled && deposit.revision > 0;
-    let changed = (wanted && deposit.revision != *revision) || wanted != *shown || tint.is_changed();
-    if !changed || *frames < tint.every_frames.max(1) {
+    if *frames < tint.every_frames.max(1) {
         return;
     }
-    *frames = 0;
-    *revision = deposit.revision;
-    *shown = wanted;
     let ash = LinearRgba::from(tint.ash);
-    for (terrain, children) in &terrains {
+    let mut redrew = false;
+    for (entity, terrain, children, deposit) in &terrains {
+        let deposit = deposit.filter(|d| d.revision > 0);
+        let wanted = tint.enabled && deposit.is_some();
+        let revision = deposit.map_or(0, |d| d.revision);
+        let last = shown.get(&entity).copied().unwrap_or((0, false));
+        if last == (revision, wanted) && !tint.is_changed() {
+            continue;
+        }
+        shown.insert(entity, (revision, wanted));
+        redrew = true;
         for child in children.iter() {
             let Ok((handle, marker)) = mesh_children.get(child) else { continue };
             let Some(mut mesh) = meshes.get_mut(&handle.0) else { continue };
@@ -93,7 +98,10 @@ fn tint_terrain(
                 .flat_map(|b| (0..xs.len()).map(move |a| (a, b)))
                 .map(|(a, b)| {
                     let base = LinearRgba::from_f32_array(samples.vertex(a, b).2);
-                    let t = if wanted { deposit.thickness_at_node(xs[a], ys[b]) } else { 0.0 };
+                    let t = match (wanted, deposit) {
+                        (true, Some(d)) => d.thickness_at_node(xs[a], ys[b]),
+                        _ => 0.0,
+                    };
                     deposit_tint(base, ash, t).to_f32_array()
                 })
                 .collect();
@@ -103,6 +111,9 @@ fn tint_terrain(
                 *c = colors;
             }
         }
+    }
+    if redrew {
+        *frames = 0;
     }
 }
 
@@ -126,7 +137,7 @@ mod tests {
         let terrain =
             StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap();
         let h = terrain.heights().clone();
-        app.world_mut().spawn(terrain);
+        let id = app.world_mut().spawn(terrain).id();
         for _ in 0..3 {
             app.update();
         }
@@ -148,12 +159,11 @@ mod tests {
                 mass.set(i, j, 2.0 * 1000.0 * h.cell() * h.cell());
             }
         }
-        {
-            let mut map = app.world_mut().resource_mut::<DepositMap>();
-            map.mass = Some(mass);
-            map.bulk_density = 1000.0;
-            map.revision = 1;
-        }
+        let mut map = DepositMap::default();
+        map.mass = Some(mass);
+        map.bulk_density = 1000.0;
+        map.revision = 1;
+        app.world_mut().entity_mut(id).insert(map);
         for _ in 0..12 {
             app.update();
         }

@@ -110,16 +110,15 @@ impl<'a> MeshSurface<'a> {
 /// the ash deposit tint when it is shown.
 pub(super) fn update_changed_regions(
     mut changes: MessageReader<TerrainChanged>,
-    terrains: Query<(&Terrain, &Children)>,
+    terrains: Query<(&Terrain, &Children, Option<&DepositMap>)>,
     mesh_children: Query<(&Mesh3d, &TerrainMesh)>,
     mut meshes: ResMut<Assets<Mesh>>,
-    deposit: Option<Res<DepositMap>>,
     tint: Option<Res<DepositTint>>,
 ) {
     for change in changes.read() {
-        let Ok((terrain, children)) = terrains.get(change.terrain) else { continue };
+        let Ok((terrain, children, deposit)) = terrains.get(change.terrain) else { continue };
         let ash = tint.as_deref().filter(|t| t.enabled).map(|t| LinearRgba::from(t.ash));
-        let deposit = deposit.as_deref().filter(|d| d.revision > 0);
+        let deposit = deposit.filter(|d| d.revision > 0);
         let recolour = |i: usize, j: usize, c: [f32; 4]| match (ash, deposit) {
             (Some(ash), Some(d)) => {
                 deposit_tint(LinearRgba::from_f32_array(c), ash, d.thickness_at_node(i, j)).to_f32_array()
