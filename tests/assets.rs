@@ -205,6 +205,14 @@ fn a_timeline_asset_scripts_the_eruption_and_a_heightmap_asset_is_its_terrain() 
     assert_eq!(app.world().get::<Eruption>(volcano).unwrap().params.v0, 200.0);
     let t = app.world().get::<Terrain>(terrain).unwrap();
     assert_eq!((t.heights().nx(), t.heights().ny()), (257, 257));
+    // Land cover from the relief: snow on the summit, bare steep flanks, vegetation below.
+    let count = |c: LandCover| t.cover().data().iter().filter(|&&x| x == c).count();
+    let (snow, ground, green) =
+        (count(LandCover::Snow), count(LandCover::Ground), count(LandCover::Vegetation));
+    assert!(
+        snow > 0 && ground > 0 && green > snow + ground,
+        "snow {snow}, ground {ground}, vegetation {green}"
+    );
 }
 
 /// The bundled heightmap is the default stratovolcano on 257 × 257 samples of 80 m, to the

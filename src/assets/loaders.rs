@@ -136,13 +136,24 @@ pub struct HeightmapSettings {
     pub cell: f64,
     /// Sea level (m): cells below it are water.
     pub sea_level: f32,
+    /// Altitude (m) above which the ground is snow.
+    pub snow_line: f32,
+    /// Slope (degrees) above which the ground is bare rock; gentler land is vegetation.
+    pub bare_slope_deg: f32,
 }
 
 impl Default for HeightmapSettings {
     /// The scale of the heightmaps this crate writes (`volcano` CLI and the bundled
     /// `terrain/stratovolcano.height.png`): 0.1 m per unit from 0 m, 80 m cells.
     fn default() -> Self {
-        Self { metres_per_unit: 0.1, base_altitude: 0.0, cell: 80.0, sea_level: 0.0 }
+        Self {
+            metres_per_unit: 0.1,
+            base_altitude: 0.0,
+            cell: 80.0,
+            sea_level: 0.0,
+            snow_line: 2_300.0,
+            bare_slope_deg: 28.0,
+        }
     }
 }
 
@@ -174,7 +185,8 @@ impl AssetLoader for HeightmapLoader {
     ) -> Result<HeightmapAsset, VolcanoAssetError> {
         let mut bytes = Vec::new();
         reader.read_to_end(&mut bytes).await?;
-        Ok(HeightmapAsset(Terrain::from_png_bytes(&bytes, settings.scale())?))
+        let terrain = Terrain::from_png_bytes(&bytes, settings.scale())?;
+        Ok(HeightmapAsset(terrain.with_relief_cover(settings.snow_line, settings.bare_slope_deg)?))
     }
 
     fn extensions(&self) -> &[&str] {

@@ -15,7 +15,9 @@
 //! `embedded://volcano/scenes/NAME.scene.ron` (the scenes of [`crate::scenes`]),
 //! `embedded://volcano/scenarios/NAME.atmosphere.ron` (the atmosphere's scenarios) and
 //! `embedded://volcano/terrain/stratovolcano.height.png` (the default stratovolcano, 257 × 257
-//! samples of 80 m, 0.1 m per unit: [`HeightmapSettings::default`]).
+//! samples of 80 m, 0.1 m per unit: [`HeightmapSettings::default`]). A heightmap carries heights
+//! only: its land cover (water, snow, bare rock, vegetation) comes from its relief
+//! (`HeightmapSettings::snow_line`, `bare_slope_deg`).
 //!
 //! [`VolcanoAssetPlugin`] is in [`crate::VolcanoPlugins`]; it needs Bevy's `AssetPlugin`
 //! (in `DefaultPlugins`) and does nothing, with a warning, without it.

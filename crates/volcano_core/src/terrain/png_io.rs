@@ -35,6 +35,37 @@ fn img_err(e: impl std::fmt::Display) -> ConfigError {
     ConfigError::Image(e.to_string())
 }
 
+/// Land cover from heights alone (the stratovolcano generator's rules without its cone): water
+/// below `sea_level`, snow above `snow_line`, bare ground where the slope is steeper than
+/// `bare_slope_deg`, vegetation elsewhere.
+pub fn cover_from_relief(
+    heights: &Grid2<f32>,
+    sea_level: f32,
+    snow_line: f32,
+    bare_slope_deg: f32,
+) -> Result<Grid2<LandCover>, ConfigError> {
+    finite("snow_line", snow_line as f64)?;
+    crate::error::in_range("bare_slope_deg", bare_slope_deg as f64, 0.0, 90.0)?;
+    let max_tan = (bare_slope_deg as f64).to_radians().tan();
+    let data = (0..heights.ny())
+        .flat_map(|j| (0..heights.nx()).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let h = heights.get(i, j);
+            let slope = heights.gradient(i, j, crate::Boundary::Clamp).length() as f64;
+            if h < sea_level {
+                LandCover::Water
+            } else if h > snow_line {
+                LandCover::Snow
+            } else if slope > max_tan {
+                LandCover::Ground
+            } else {
+                LandCover::Vegetation
+            }
+        })
+        .collect();
+    Grid2::from_vec(heights.nx(), heights.ny(), heights.cell(), heights.origin(), data)
+}
+
 impl Terrain {
     /// Decodes a greyscale PNG (16- or 8-bit) into a terrain centred on the origin. Land
     /// cover is water below sea level, ground elsewhere.
@@ -80,6 +111,14 @@ impl Terrain {
             .collect();
         let cover = Grid2::from_vec(w, h, scale.cell, origin, cover_data)?;
         Terrain::new(heights, cover, scale.sea_level)
+    }
+
+    /// This terrain with its land cover recomputed from its relief
+    /// ([`cover_from_relief`]): what a heightmap, which carries heights only, needs to render
+    /// as rock, vegetation and snow.
+    pub fn with_relief_cover(self, snow_line: f32, bare_slope_deg: f32) -> Result<Terrain, ConfigError> {
+        let cover = cover_from_relief(self.heights(), self.sea_level(), snow_line, bare_slope_deg)?;
+        Terrain::new(self.heights().clone(), cover, self.sea_level())
     }
 
     /// Reads a greyscale PNG heightmap from a file.
