@@ -181,3 +181,57 @@ fn frozen_lava_is_written_back_into_the_terrain() {
     assert!(peak > 0.5 * solid_max && peak <= solid_max + 1e-4, "peak rise {peak}, layer up to {solid_max}");
     assert!(rise.iter().all(|&r| r >= -1e-6), "the terrain only rises");
 }
+
+/// Issue 14's despawn rule for lava: despawning a patch removes its lava (state, supply,
+/// probes) and leaves what froze in the terrain; a patch built later over the same nodes starts
+/// on that raised ground.
+#[test]
+fn despawning_a_patch_removes_its_lava_and_keeps_what_froze_in_the_terrain() {
+    let mut app = app();
+    let placement = Placement { centre: Vec2::ZERO, nx: 64, ny: 64, cell: 0.5 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    let source =
+        app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.1, 1473.0).unwrap()).id();
+    run(&mut app, 1);
+    let ground_before: Vec<f64> = app.world().get::<LavaState>(field).unwrap().flow.ground().data().to_vec();
+    // 3 m³ just above the solidus beside the live source: it freezes within seconds.
+    let mut state = app.world_mut().get_mut::<LavaState>(field).unwrap();
+    state.flow.place_volume(Vec2::new(0.0, 4.0), 3.0, 3.0, 1273.2).unwrap();
+    // To tick 250: the last one writes back (once every 50).
+    run(&mut app, 249);
+    let terrain = |app: &mut App| {
+        let w = app.world_mut();
+        let t = w.query::<&Terrain>().single(w).unwrap();
+        (t.added_volume(), t.heights().data().to_vec())
+    };
+    let (added, heights) = terrain(&mut app);
+    assert!(added > 2.5, "only {added} m³ written back");
+    assert!(app.world().resource::<Probe>().0.is_some(), "lava under the probe before the despawn");
+
+    app.world_mut().entity_mut(field).despawn();
+    // Past two more write-back ticks (300, 350).
+    run(&mut app, 120);
+    let w = app.world_mut();
+    assert_eq!(w.query::<&LavaState>().iter(w).count(), 0, "no lava state survives its patch");
+    assert!(w.resource::<Probe>().0.is_none(), "the query sees no lava");
+    assert!(
+        matches!(w.get::<LavaSourceStatus>(source), Some(LavaSourceStatus::Rejected(_))),
+        "the source feeds nothing: {:?}",
+        w.get::<LavaSourceStatus>(source)
+    );
+    let (added_after, heights_after) = terrain(&mut app);
+    assert_eq!(added_after, added, "the frozen lava stays in the terrain's record");
+    assert_eq!(heights_after, heights, "and in its heights");
+
+    // A new patch over the same nodes stands on the frozen lava.
+    let again = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    app.world_mut().entity_mut(source).despawn();
+    run(&mut app, 1);
+    let ground_after: Vec<f64> = app.world().get::<LavaState>(again).unwrap().flow.ground().data().to_vec();
+    let raised: f64 = ground_after.iter().zip(&ground_before).map(|(a, b)| a - b).sum::<f64>() * 0.25;
+    assert!(
+        (raised - added).abs() < 0.05 * added,
+        "the new patch's ground holds {raised} m³ more, the terrain {added} m³"
+    );
+    assert!(ground_after.iter().zip(&ground_before).all(|(a, b)| a >= &(b - 1e-4)));
+}
