@@ -208,11 +208,20 @@ pub fn transfer(layers: &mut [LayerFields], dt: f64) {
         let (ex_a, ex_b) = (exner(a.pi), exner(b.pi));
         let (ha, hb) = (a.thickness, b.thickness);
         let (d, sa, sb) = (a.d.data(), a.sigma.data(), b.sigma.data());
-        // Air sinking out of an entraining column's cell carries the air around the column
-        // (LayerFields::entraining): the column's own air only rises.
-        let mut held = b.entraining.clone();
-        held.sort_unstable_by_key(|c| c.0);
-        let outside = |k: usize| held.binary_search_by_key(&(k as u32), |c| c.0).ok().map(|i| held[i].1);
+        // Air leaving an entraining column's cell (LayerFields::entraining), up or down, carries
+        // the temperature of the air around the column: the column's heat rises in its slices,
+        // which impose it wherever they are, so the layers must not move it a second time (down
+        // beside the column, or up above its top, where no slice holds the cells). Its water
+        // does move: the cap cloud (docs/ARCHITECTURE.md §1.4).
+        let sorted = |cells: &[(u32, f32)]| {
+            let mut v = cells.to_vec();
+            v.sort_unstable_by_key(|c| c.0);
+            v
+        };
+        let (held_a, held_b) = (sorted(&a.entraining), sorted(&b.entraining));
+        let outside = |held: &[(u32, f32)], k: usize| {
+            held.binary_search_by_key(&(k as u32), |c| c.0).ok().map(|i| held[i].1)
+        };
         (
             a.t.data_mut().par_chunks_mut(n),
             a.h.data_mut().par_chunks_mut(n),
@@ -248,9 +257,9 @@ pub fn transfer(layers: &mut [LayerFields], dt: f64) {
                     carry(&mut aw[x], &mut bw[x]);
                     carry(&mut aa[x], &mut ba[x]);
                     let (ts, td) = if up {
-                        (at[x], &mut bt[x])
+                        (outside(&held_a, k).unwrap_or(at[x]), &mut bt[x])
                     } else {
-                        (if held.is_empty() { bt[x] } else { outside(k).unwrap_or(bt[x]) }, &mut at[x])
+                        (outside(&held_b, k).unwrap_or(bt[x]), &mut at[x])
                     };
                     let th_s = ts as f64 / exs;
                     let th_d = *td as f64 / exd;
