@@ -148,7 +148,11 @@ pub fn run(which: EruptionScenario, seconds: f64, grid: usize, preset: Preset, d
     let built = volcano::scenes::by_name("eruption").map_err(|e| e.to_string()).and_then(|scene| {
         let terrain = scene.terrain.build().map_err(|e| e.to_string())?;
         let volcano = scene.volcano.build().map_err(|e| e.to_string())?;
-        Ok((terrain, volcano, which.scenario(grid)?))
+        let scenario = which.scenario(grid)?;
+        // Checked here, not only when the startup system spawns it: a rejected grid (not a
+        // power of two, say) would otherwise leave the column uncoupled and the summary empty.
+        scenario.build_with_terrain(None, &terrain).map_err(|e| format!("--grid {grid}: {e}"))?;
+        Ok((terrain, volcano, scenario))
     });
     let (terrain, (volcano, transform), scenario) = match built {
         Ok(b) => b,

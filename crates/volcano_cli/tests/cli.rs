@@ -33,6 +33,24 @@ fn bad_arguments_are_errors() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown scene"));
     let o = volcano().args(["render", "--width", "0", "--out", "/tmp/x.png"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
+    // A grid the atmosphere rejects is an error, not a silently uncoupled run with an empty
+    // summary (exit 0 before).
+    let o = volcano()
+        .args([
+            "eruption",
+            "--scenario",
+            "cloud-cap",
+            "--seconds",
+            "1",
+            "--grid",
+            "96",
+            "--out",
+            "/tmp/volcano-grid96",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(2), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("power of two"));
 }
 
 #[test]
