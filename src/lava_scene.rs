@@ -88,15 +88,17 @@ impl LavaSceneSpec {
         Ok(())
     }
 
-    /// Spawns the field and its sources.
-    pub fn spawn(&self, commands: &mut Commands) {
+    /// Spawns the field and its sources; returns their entities.
+    pub fn spawn(&self, commands: &mut Commands) -> Vec<Entity> {
+        let mut spawned = Vec::new();
         // Validated when the scene was loaded.
         if let Ok(field) = self.field() {
-            commands.spawn((Name::new("Lava field"), field));
+            spawned.push(commands.spawn((Name::new("Lava field"), field)).id());
         }
         for src in self.source_components().unwrap_or_default() {
-            commands.spawn((Name::new("Lava source"), src));
+            spawned.push(commands.spawn((Name::new("Lava source"), src)).id());
         }
+        spawned
     }
 }
 

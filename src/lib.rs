@@ -90,7 +90,9 @@ impl PluginGroup for VolcanoPlugins {
 
 /// What a game usually imports.
 pub mod prelude {
-    pub use crate::assets::{EruptionTimelineSource, HeightmapSource, PlumePresetSource, VolcanoAssetPlugin};
+    pub use crate::assets::{
+        EruptionTimelineSource, HeightmapSource, PlumePresetSource, VolcanoAssetPlugin, VolcanoSceneSource,
+    };
     pub use crate::quality::VolcanoQuality;
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};

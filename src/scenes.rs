@@ -10,6 +10,7 @@ use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
 
 mod atmosphere;
 pub use atmosphere::SceneAtmosphere;
+pub(crate) use atmosphere::spawn as spawn_atmosphere;
 
 /// Built-in scenes: (name, RON text).
 pub(crate) const BUILTIN: &[(&str, &str)] = &[
@@ -326,29 +327,43 @@ impl Plugin for VolcanoScenePlugin {
             atmosphere::build(app, a, &terrain);
         }
         app.add_systems(Startup, move |mut commands: Commands| {
-            let mut ground = commands.spawn((Name::new("Terrain"), terrain.clone()));
-            #[cfg(feature = "render")]
-            if let Some(h) = spec.horizon.filter(|_| !headless) {
-                ground.insert(h.component());
-            }
-            let _ = &mut ground;
-            // `build` cannot fail here: the spec was validated in `new`.
-            if let Ok((volcano, transform)) = spec.volcano.build() {
-                let mut e = commands.spawn((Name::new("Volcano"), volcano, transform));
-                if let Some(preset) = spec.eruption {
-                    e.insert(preset.eruption());
-                }
-            }
-            if let Some(lava) = &spec.lava {
-                lava.spawn(&mut commands);
-            }
+            spawn_simulation(&mut commands, &spec, terrain.clone(), !headless);
             #[cfg(feature = "render")]
             if !headless {
                 spawn_view(&mut commands, &spec);
             }
-            let _ = headless;
         });
     }
+}
+
+/// Spawns a scene's simulation: its terrain (with its far ring if `horizon` and the `render`
+/// feature), its volcano with its eruption, and its lava field with its sources, not its
+/// atmosphere, camera or sun. Returns the entities. The spec must have been validated.
+pub(crate) fn spawn_simulation(
+    commands: &mut Commands,
+    spec: &SceneSpec,
+    terrain: Terrain,
+    horizon: bool,
+) -> Vec<Entity> {
+    let ground = commands.spawn((Name::new("Terrain"), terrain)).id();
+    #[cfg(feature = "render")]
+    if let Some(h) = spec.horizon.filter(|_| horizon) {
+        commands.entity(ground).insert(h.component());
+    }
+    let _ = horizon;
+    let mut spawned = vec![ground];
+    // `build` cannot fail here: the spec was validated.
+    if let Ok((volcano, transform)) = spec.volcano.build() {
+        let mut e = commands.spawn((Name::new("Volcano"), volcano, transform));
+        if let Some(preset) = spec.eruption {
+            e.insert(preset.eruption());
+        }
+        spawned.push(e.id());
+    }
+    if let Some(lava) = &spec.lava {
+        spawned.extend(lava.spawn(commands));
+    }
+    spawned
 }
 
 /// Runs built-in scene `name` in a window with `VolcanoPlugins`, the scene's sky and `extra`

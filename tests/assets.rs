@@ -1,6 +1,7 @@
 //! Bevy assets (issue 14, item 3): bad files give errors naming the field, a reloaded preset
 //! changes the next slices, a timeline asset drives an eruption, the built-ins load from
-//! `embedded://`, and the bundled heightmap is the default stratovolcano.
+//! `embedded://`, the bundled heightmap is the default stratovolcano, and a scene asset spawns
+//! its simulation and respawns it when reloaded.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -238,4 +239,89 @@ fn the_bundled_heightmap_is_the_default_stratovolcano() {
     assert_eq!((a.nx(), a.ny(), a.cell(), a.origin()), (b.nx(), b.ny(), b.cell(), b.origin()));
     let worst = a.data().iter().zip(b.data()).map(|(x, y)| (x - y).abs()).fold(0.0f32, f32::max);
     assert!(worst <= 0.051, "bundled heightmap differs from the generator by up to {worst} m");
+}
+
+/// A small scene file: a 6.4 km stratovolcano, a Plinian eruption, a lava patch with one
+/// source, and a coarse atmosphere (16² cells).
+fn small_scene(eruption: &str, vent_x: f64) -> String {
+    format!(
+        r#"(
+    name: "small",
+    description: "test",
+    terrain: Stratovolcano((resolution: 64, cell: 100.0, base_altitude: 200.0, summit_height: 1500.0,
+        cone_radius: 2500.0, flank_exponent: 1.6, crater_radius: 150.0, crater_depth: 50.0,
+        ridge_amplitude: 20.0, hills_amplitude: 30.0, sea_level: 0.0, snow_line: 2300.0,
+        bare_slope_deg: 28.0, seed: 3)),
+    volcano: (vent: ({vent_x}, 0.0), vent_radius: 100.0, seed: 3),
+    eruption: {eruption},
+    camera: (focus: (0.0, 0.0, 0.0), yaw_deg: 0.0, pitch_deg: 10.0, distance: 9000.0),
+    sun: (azimuth_deg: 140.0, elevation_deg: 30.0, illuminance_lux: 100000.0),
+    atmosphere: Some((scenario: "eruption", grid: Some(16), time_scale: 1.0)),
+    lava: Some((centre: (1200.0, 0.0), cells: (32, 32), cell: 1.0,
+        sources: [(position: (1200.0, 0.0), rate: 1.0, radius: 2.0)], seed: 3)),
+)"#
+    )
+}
+
+#[test]
+fn a_scene_asset_spawns_its_simulation_and_respawns_it_on_reload() {
+    let dir = folder("scene");
+    std::fs::write(dir.join("small.scene.ron"), small_scene("Some(Plinian)", 0.0)).unwrap();
+    let mut app = app(&dir);
+    let handle = app.world().resource::<AssetServer>().load("small.scene.ron");
+    let source = app.world_mut().spawn(VolcanoSceneSource(handle)).id();
+    let spawned = |app: &App| app.world().get::<SpawnedScene>(source).unwrap().0.clone();
+    pump(&mut app, |app| !spawned(app).is_empty());
+    let count = |app: &mut App| {
+        let w = app.world_mut();
+        (
+            w.query::<&Terrain>().iter(w).count(),
+            w.query::<&Volcano>().iter(w).count(),
+            w.query::<&volcano::lava::LavaField>().iter(w).count(),
+            w.query::<&volcano::lava::LavaSource>().iter(w).count(),
+            w.query::<&volcano::atmosphere::Atmosphere>().iter(w).count(),
+            w.query::<&volcano::atmosphere::AirLayer>().iter(w).count(),
+        )
+    };
+    // Terrain, volcano, field, source and atmosphere (its five layers are its children).
+    assert_eq!(spawned(&app).len(), 5);
+    assert_eq!(count(&mut app), (1, 1, 1, 1, 1, 5));
+    let first = spawned(&app);
+    let eruption = |app: &mut App| {
+        let w = app.world_mut();
+        w.query::<(&Volcano, Option<&Eruption>)>().single(w).map(|(_, e)| e.is_some()).unwrap()
+    };
+    assert!(eruption(&mut app));
+    // It runs: slices rise from the vent and the lava flows.
+    for _ in 0..50 {
+        app.update();
+    }
+    let w = app.world_mut();
+    assert!(w.query::<&PlumeSlice>().iter(w).count() > 0, "no slice after 50 ticks");
+
+    // The file changes (no eruption, the vent 500 m east) and is reloaded: the old entities
+    // go, the new file's come, nothing is doubled.
+    std::fs::write(dir.join("small.scene.ron"), small_scene("None", 500.0)).unwrap();
+    app.world().resource::<AssetServer>().reload("small.scene.ron");
+    pump(&mut app, |app| spawned(app) != first);
+    app.update();
+    assert_eq!(count(&mut app), (1, 1, 1, 1, 1, 5));
+    assert!(
+        first.iter().all(|&e| app.world().get_entity(e).is_err()),
+        "an entity of the first file survived"
+    );
+    assert!(!eruption(&mut app), "the reloaded scene has no eruption");
+    let w = app.world_mut();
+    let vent = w
+        .query::<&Transform>()
+        .iter(w)
+        .filter(|t| t.translation.x > 400.0 && t.translation.x < 600.0)
+        .count();
+    assert!(vent > 0, "the volcano stands at the new vent");
+    let w = app.world_mut();
+    assert_eq!(
+        w.query::<&PlumeSlice>().iter(w).count(),
+        0,
+        "the old eruption's slices went with its volcano"
+    );
 }

@@ -1,6 +1,6 @@
 //! Bevy assets (issue 14, item 3): plume presets, eruption timelines, scenes and atmosphere
 //! scenarios as RON asset types, heightmaps as PNG assets, each with its loader; the built-in
-//! files embedded under `embedded://volcano/…`; and three components that put a loaded asset
+//! files embedded under `embedded://volcano/…`; and four components that put a loaded asset
 //! to work on an entity, again whenever it is reloaded (with Bevy's `file_watcher` feature a
 //! saved file reloads by itself; `AssetServer::reload` does it by hand):
 //!
@@ -9,6 +9,7 @@
 //! | [`PlumePresetSource`] | [`PlumePresetAsset`] (`*.plume.ron`) | sets the [`Eruption`]'s parameters (new slices use them) |
 //! | [`EruptionTimelineSource`] | [`EruptionTimelineAsset`] (`*.timeline.ron`) | drives the eruption ([`EruptionScript`]); a reload keeps the script's clock |
 //! | [`HeightmapSource`] | [`HeightmapAsset`] (`*.height.png`) | inserts the [`Terrain`] |
+//! | [`VolcanoSceneSource`] | [`SceneAsset`] (`*.scene.ron`) | spawns the scene's terrain, volcano, lava and atmosphere (respawned on reload; [`SpawnedScene`] lists them) |
 //!
 //! Built-ins: `embedded://volcano/presets/{thesis, plinian_showcase, pyroclastic_showcase,
 //! physical}.plume.ron`, `embedded://volcano/timelines/plinian_to_collapse.timeline.ron`,
@@ -23,6 +24,7 @@
 //! (in `DefaultPlugins`) and does nothing, with a warning, without it.
 
 mod loaders;
+mod scene_source;
 
 use std::path::{Path, PathBuf};
 
@@ -36,6 +38,7 @@ pub use loaders::{
     AtmosphereScenarioAsset, EruptionTimelineAsset, HeightmapAsset, HeightmapLoader, HeightmapSettings,
     PlumePresetAsset, RonAsset, RonAssetLoader, SceneAsset, VolcanoAssetError,
 };
+pub use scene_source::{SpawnedScene, VolcanoSceneSource, apply_scene_sources};
 
 /// The built-in timeline: a Plinian column that weakens after a minute and collapses into
 /// pyroclastic flows, then stops.
@@ -86,9 +89,11 @@ impl Plugin for VolcanoAssetPlugin {
             .register_type::<PlumePresetSource>()
             .register_type::<EruptionTimelineSource>()
             .register_type::<HeightmapSource>()
+            .register_type::<VolcanoSceneSource>()
+            .register_type::<SpawnedScene>()
             // Before the simulation's tick, so a preset or a terrain loaded this frame is used by
             // this frame's steps.
-            .add_systems(PreUpdate, (apply_presets, apply_timelines, apply_heightmaps));
+            .add_systems(PreUpdate, (apply_presets, apply_timelines, apply_heightmaps, apply_scene_sources));
         embed_builtins(app.world().resource::<EmbeddedAssetRegistry>());
     }
 }

@@ -53,22 +53,33 @@ pub(crate) fn build(app: &mut App, spec: &SceneAtmosphere, terrain: &Terrain) {
         move |mut commands: Commands,
               clock: Option<ResMut<Time<DomainClock<WeatherStep>>>>,
               quality: Option<Res<crate::quality::VolcanoQuality>>| {
-            if let Some(mut clock) = clock
-                && let Err(e) = clock.context_mut().set_time_scale(spec.time_scale)
+            if let Err(e) =
+                spawn(&mut commands, &spec, &terrain, quality.as_deref(), clock.map(|c| c.into_inner()))
             {
-                error!("scene atmosphere: {e}");
-            }
-            let spawned = Scenario::builtin(&spec.scenario).and_then(|s| {
-                // A quality level scales the scene's grid (read here only: a restart applies it).
-                let grid = match quality {
-                    Some(q) => Some(q.atmosphere_cells(spec.grid.unwrap_or(s.grid))),
-                    None => spec.grid,
-                };
-                spawn_scenario_with(&mut commands, &s, grid, Some(&terrain), spec.prespin_steps)
-            });
-            if let Err(e) = spawned {
                 error!("scene atmosphere `{}` not spawned: {e}", spec.scenario);
             }
         },
     );
+}
+
+/// Spawns the atmosphere of `spec` over `terrain` (its grid scaled by `quality`, if any) and
+/// sets the weather clock's time scale (a scene's choice). Returns the atmosphere entity (its
+/// air layers are its children).
+pub(crate) fn spawn(
+    commands: &mut Commands,
+    spec: &SceneAtmosphere,
+    terrain: &Terrain,
+    quality: Option<&crate::quality::VolcanoQuality>,
+    clock: Option<&mut Time<DomainClock<WeatherStep>>>,
+) -> Result<Entity, ConfigError> {
+    if let Some(clock) = clock {
+        clock.context_mut().set_time_scale(spec.time_scale)?;
+    }
+    let s = Scenario::builtin(&spec.scenario)?;
+    // A quality level scales the scene's grid (read here only: a restart applies it).
+    let grid = match quality {
+        Some(q) => Some(q.atmosphere_cells(spec.grid.unwrap_or(s.grid))),
+        None => spec.grid,
+    };
+    spawn_scenario_with(commands, &s, grid, Some(terrain), spec.prespin_steps)
 }
