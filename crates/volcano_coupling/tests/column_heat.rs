@@ -129,7 +129,7 @@ fn near_axis(state: &AtmosphereState, l: usize, radius: f64) -> (f64, f64) {
     let (mut t, mut water, mut count) = (0.0, 0.0, 0.0);
     for_cells_within(state.grid, DVec2::ZERO, radius, |k, _| {
         t += f.t.data()[k] as f64;
-        water += (f.h.data()[k] + f.w.data()[k]) as f64;
+        water += f.h.data()[k] + f.w.data()[k];
         count += 1.0;
     });
     (t / count, water / count)
