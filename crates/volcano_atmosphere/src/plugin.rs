@@ -46,6 +46,10 @@ impl Plugin for AtmospherePlugin {
             .register_type::<AtmosphereTimeline>()
             .register_type::<WeatherPipelineSettings>()
             .register_type::<WeatherPipelineStatus>()
+            // An atmosphere written from a saved world has neither (one is a task, the other a
+            // report): start them empty.
+            .register_required_components::<Atmosphere, AtmosphereWork>()
+            .register_required_components::<Atmosphere, WeatherPipelineStatus>()
             .configure_sets(FixedUpdate, WeatherSystems::Apply.in_set(SimSystems::BeforeWeather))
             .add_systems(
                 FixedUpdate,

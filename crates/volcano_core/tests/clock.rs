@@ -9,9 +9,9 @@ use bevy::time::TimeUpdateStrategy;
 use rand::RngExt;
 use volcano_core::prelude::*;
 
-#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, bevy::reflect::TypePath)]
 struct FastStep;
-#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, bevy::reflect::TypePath)]
 struct SlowStep;
 
 /// (domain, tick, delta, elapsed) for every domain step, in execution order.

@@ -74,6 +74,12 @@ pub struct CouplingBudget {
 #[reflect(Resource, Default)]
 pub struct AshInbox(pub Vec<AshReleased>);
 
+/// Weather steps the air → plume transfer has seen, so it acts once per weather step. A
+/// resource rather than a system's `Local`, so a saved and reloaded world continues the same.
+#[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
+#[reflect(Resource, Default)]
+pub struct WeatherStepsSeen(pub u64);
+
 /// The coupling: add after the plume and atmosphere plugins (as `VolcanoSimPlugins` does).
 #[derive(Debug, Default, Clone)]
 pub struct CouplingPlugin;
@@ -81,6 +87,8 @@ pub struct CouplingPlugin;
 impl Plugin for CouplingPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<AshInbox>()
+            .init_resource::<WeatherStepsSeen>()
+            .register_type::<WeatherStepsSeen>()
             .register_type::<CouplingSettings>()
             .register_type::<CouplingBudget>()
             .register_type::<AshInbox>()
@@ -264,7 +272,7 @@ fn plume_to_air(
 fn air_to_plume(
     mut commands: Commands,
     clock: Option<Res<Time<DomainClock<WeatherStep>>>>,
-    mut seen_steps: Local<u64>,
+    mut seen_steps: ResMut<WeatherStepsSeen>,
     mut stepped: MessageReader<WeatherStepped>,
     mut atmospheres: Query<(Entity, &Atmosphere, &mut AtmosphereGround, &mut CouplingBudget)>,
     mut layer_query: Query<&mut AirLayer>,
@@ -273,8 +281,8 @@ fn air_to_plume(
     mut grounds: Query<(&Terrain, &mut DepositMap)>,
 ) {
     let steps = clock.map_or(0, |c| c.context().steps_run());
-    let stepped_now = steps != *seen_steps;
-    *seen_steps = steps;
+    let stepped_now = steps != seen_steps.0;
+    seen_steps.0 = steps;
     for m in stepped.read() {
         if let Ok((.., mut budget)) = atmospheres.get_mut(m.atmosphere) {
             budget.ash_outflow_kg += m.report.ash.outflow * 1e-3;

@@ -1,6 +1,6 @@
 //! Components, messages and the gameplay query of the lava plugin.
 
-use bevy::ecs::entity::Entity;
+use bevy::ecs::entity::{Entity, MapEntities};
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::{Component, Message, Query, Vec2, Vec3};
@@ -67,13 +67,15 @@ pub struct LavaState {
     pub mobility_capped: bool,
     /// The terrain the field was built on, into which frozen lava is written back (none when
     /// the field was built on flat ground without a `Terrain`).
+    #[entities]
     pub imprint: Option<TerrainLink>,
 }
 
 /// The terrain entity under a field and what the field wrote into it.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, MapEntities)]
 pub struct TerrainLink {
     /// The `Terrain` entity.
+    #[entities]
     pub terrain: Entity,
     /// Nodes covered and frozen volume written so far.
     pub imprint: crate::model::imprint::TerrainImprint,

@@ -15,7 +15,7 @@ use crate::model::surface::SurfaceState;
 use crate::model::{DomainReport, LayersMut, step_layers};
 
 /// Schedule of the lava domain.
-#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, TypePath)]
 pub struct LavaStep;
 
 /// Pahoehoe lava fields, sources, marked zones and messages.
@@ -47,7 +47,7 @@ impl Plugin for LavaPlugin {
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(opaque)]
 #[reflect(Component)]
-struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges, Option<Entity>);
+struct BuiltFor(crate::model::field::Placement, crate::model::field::Edges, #[entities] Option<Entity>);
 
 /// The terrain a field at `placement` belongs on: the one it was built on while that still
 /// contains it, else the finest terrain (smallest cell, then lowest entity index) whose grid

@@ -180,6 +180,7 @@ pub struct PlumeAmbient(pub LayeredAmbient);
 #[reflect(Component)]
 pub struct PlumeSlice {
     /// The volcano entity that emitted it.
+    #[entities]
     pub volcano: Entity,
     /// Emission index (also the id of its random stream).
     pub index: u64,
@@ -202,6 +203,7 @@ pub struct PlumeSlice {
 #[reflect(Component)]
 pub struct S1 {
     /// The slice entity.
+    #[entities]
     pub slice: Entity,
     /// Position on the ring, size factor.
     pub sphere: S1Sphere,
@@ -217,6 +219,7 @@ pub struct S1 {
 #[reflect(Component)]
 pub struct Umbrella {
     /// The volcano whose eruption it belongs to (its wind drifts the umbrella).
+    #[entities]
     pub volcano: Entity,
     /// Kinematics.
     pub sphere: UmbrellaSphere,

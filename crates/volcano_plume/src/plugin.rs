@@ -14,7 +14,7 @@ use crate::model::spheres::{SphereParams, s1_ring};
 use crate::model::umbrella::{Spread, UmbrellaSphere, buoyancy_frequency, gravity_current_coefficient};
 
 /// Schedule of the plume domain.
-#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, TypePath)]
 pub struct PlumeStep;
 
 /// Explosive plumes: slices, s1 spheres, umbrella, messages.

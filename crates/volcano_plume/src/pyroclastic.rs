@@ -16,7 +16,7 @@ use crate::model::slice::SliceEnv;
 use crate::model::spheres::SphereParams;
 
 /// Schedule of the pyroclastic domain.
-#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, TypePath)]
 pub struct PyroclasticStep;
 
 /// The pyroclastic domain's step, in order, inside [`PyroclasticStep`]: games and the plume
@@ -36,6 +36,7 @@ pub enum PyroclasticSystems {
 #[reflect(Component)]
 pub struct PyroParticle {
     /// Volcano whose collapse produced it.
+    #[entities]
     pub volcano: Entity,
     /// Model state in the vent's plume frame.
     pub particle: Particle,

@@ -11,7 +11,7 @@ use crate::model::step::StepReport;
 use volcano_core::error::ConfigError;
 
 /// Schedule of the weather domain: it *starts* a step (docs/ARCHITECTURE.md §3.3).
-#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default)]
+#[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, TypePath)]
 pub struct WeatherStep;
 
 /// Systems of the atmosphere outside its domain schedule, so other plugins can order against
@@ -70,6 +70,7 @@ impl Atmosphere {
 #[reflect(Component)]
 pub struct AirLayer {
     /// The [`Atmosphere`] entity it belongs to.
+    #[entities]
     pub atmosphere: Entity,
     /// Position in the stack (0 = lowest).
     pub index: usize,

@@ -96,8 +96,10 @@ impl InFlight {
 }
 
 /// An atmosphere's weather pipeline: the step in flight and the buffers reused between steps
-/// (not reflected: it holds a task; see [`WeatherPipelineStatus`]).
-#[derive(Component)]
+/// (not reflected: it holds a task; see [`WeatherPipelineStatus`]). A required component of
+/// `Atmosphere` (registered by the plugin): an atmosphere loaded from a saved world gets an
+/// empty one, whose buffers are built at its first step.
+#[derive(Component, Default)]
 pub struct AtmosphereWork {
     work: Option<Workspace>,
     spare: Option<AtmosphereState>,
@@ -282,9 +284,15 @@ pub(crate) fn start_weather(
         if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != template.grid.n) {
             continue;
         }
-        let Some(scratch) = work.work.take() else { continue };
         let fields: Vec<&LayerFields> = mine.iter().map(|l| &l.fields).collect();
         let mut state = snapshot(work.spare.take(), &fields, &ground.0, template);
+        let scratch = match work.work.take().map_or_else(|| Workspace::new(&state), Ok) {
+            Ok(scratch) => scratch,
+            Err(e) => {
+                warn_once!("atmosphere {entity} not stepped: {e}");
+                continue;
+            }
+        };
         if let Some(mut timeline) = timeline {
             let due = timeline.0.iter().take_while(|e| e.at_s <= state.time_s).count();
             if due > 0 {

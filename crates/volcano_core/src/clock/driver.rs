@@ -4,6 +4,7 @@ use bevy::app::{App, FixedUpdate};
 use bevy::ecs::schedule::{IntoScheduleConfigs, LogLevel, ScheduleBuildSettings, ScheduleLabel};
 use bevy::ecs::world::World;
 use bevy::prelude::{Res, ResMut};
+use bevy::reflect::TypePath;
 use bevy::time::{Fixed, Time};
 
 use super::{Cadence, DomainClock, SimControl, SimSystems, SimTick};
@@ -14,8 +15,9 @@ pub trait SimDomainAppExt {
     /// Creates the schedule (with ambiguity detection as an error, so systems added to a
     /// domain must be ordered and the domain stays deterministic), the clock
     /// `Time<DomainClock<D>>`, and the driver system. Panics only on a zero cadence, which is
-    /// a programming error in plugin code, not user input.
-    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(
+    /// a programming error in plugin code, not user input. The clock is registered for
+    /// reflection (a saved world keeps each domain's phase).
+    fn add_sim_domain<D: ScheduleLabel + Default + Clone + TypePath>(
         &mut self,
         set: SimSystems,
         cadence: Cadence,
@@ -23,13 +25,13 @@ pub trait SimDomainAppExt {
 }
 
 impl SimDomainAppExt for App {
-    fn add_sim_domain<D: ScheduleLabel + Default + Clone>(
+    fn add_sim_domain<D: ScheduleLabel + Default + Clone + TypePath>(
         &mut self,
         set: SimSystems,
         cadence: Cadence,
     ) -> &mut Self {
         let clock = DomainClock::<D>::new(cadence).expect("plugin registered a domain with a zero cadence");
-        self.insert_resource(Time::new_with(clock));
+        self.insert_resource(Time::new_with(clock)).register_type::<Time<DomainClock<D>>>();
         self.init_schedule(D::default());
         self.edit_schedule(D::default(), |s| {
             s.set_build_settings(ScheduleBuildSettings {

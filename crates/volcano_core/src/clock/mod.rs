@@ -25,7 +25,7 @@ use std::time::Duration;
 use bevy::ecs::reflect::ReflectResource;
 use bevy::ecs::resource::Resource;
 use bevy::ecs::schedule::SystemSet;
-use bevy::reflect::Reflect;
+use bevy::reflect::{Reflect, std_traits::ReflectDefault};
 use serde::{Deserialize, Serialize};
 
 use crate::error::ConfigError;
@@ -98,7 +98,10 @@ impl Cadence {
 }
 
 /// Context of `Time<DomainClock<D>>`: the clock of simulation domain `D` (its schedule label).
-#[derive(Debug)]
+/// Reflected, and `Time<DomainClock<D>>` registered as a resource by
+/// [`SimDomainAppExt::add_sim_domain`], so a saved world keeps each domain's phase.
+#[derive(Debug, Reflect)]
+#[reflect(Clone, Default)]
 pub struct DomainClock<D> {
     cadence: Cadence,
     time_scale: f64,
@@ -106,6 +109,7 @@ pub struct DomainClock<D> {
     pending_steps: u32,
     ticks_seen: u64,
     steps_run: u64,
+    #[reflect(ignore)]
     _domain: PhantomData<fn() -> D>,
 }
 
