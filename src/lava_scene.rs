@@ -116,7 +116,7 @@ pub fn table_terrain(
     in_range("cells", cells as f64, 8.0, 4096.0)?;
     in_range("cell", cell, 0.01, 100.0)?;
     in_range("slope_deg", slope_deg, 0.0, 45.0)?;
-    volcano_lava::scenario::terrains::scenario_terrain(kind, cells as usize, cell, slope_deg, margin as usize)
+    volcano_lava::scenario_terrain(kind, cells as usize, cell, slope_deg, margin as usize)
 }
 
 #[cfg(test)]

@@ -110,7 +110,7 @@ fn embed_builtins(registry: &EmbeddedAssetRegistry) {
     for (name, body) in crate::scenes::BUILTIN {
         text("scenes", name, "scene.ron", body);
     }
-    for (name, body) in volcano_atmosphere::model::scenario::BUILTIN {
+    for (name, body) in volcano_atmosphere::BUILTIN_SCENARIOS {
         text("scenarios", name, "atmosphere.ron", body);
     }
     text("timelines", "plinian_to_collapse", "timeline.ron", PLINIAN_TO_COLLAPSE);

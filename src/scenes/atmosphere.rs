@@ -5,8 +5,7 @@
 
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
-use volcano_atmosphere::model::fields::GridSpec;
-use volcano_atmosphere::{Scenario, WeatherStep, spawn_scenario_with};
+use volcano_atmosphere::{GridSpec, Scenario, WeatherStep, spawn_scenario_with};
 use volcano_core::error::{ConfigError, in_range};
 use volcano_core::{DomainClock, Terrain};
 

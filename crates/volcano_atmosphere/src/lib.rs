@@ -4,15 +4,18 @@
 //! multigrid pressure solve; phase changes with latent heat; convection and uplift between
 //! layers; terrain damping, sun, radiation and ground exchange.
 //!
-//! [`model`] holds plain data and functions; [`plugin`] is the thin Bevy layer.
+//! [`model`] holds plain data and functions; [`plugin`] is the thin Bevy layer; [`view`] is
+//! what renderers and panels read.
 
 pub mod model;
 pub mod plugin;
+pub mod view;
 
 pub use model::fields::{AtmosphereState, GridSpec, LayerFields};
+pub use model::paint::{Brush, PaintField, PaintMode, paint};
 pub use model::params::AtmosphereParams;
 pub use model::run::{AtmosphereSummary, run_scenario};
-pub use model::scenario::Scenario;
+pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, Scenario};
 pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherPipelineSettings,

@@ -3,17 +3,17 @@
 //! (the per-layer views of Fig 4.6), and paint into the state fields (T, H, W, ash, wind) of
 //! any layer with the pointer on the map while the weather is paused.
 //!
-//! Strokes go through `volcano_atmosphere::model::paint`, which rejects non-finite values,
+//! Strokes go through `volcano_atmosphere::paint`, which rejects non-finite values,
 //! `Set` values outside a field's limits and brushes outside the domain (shown in red, the
 //! state untouched) and clamps additions; amounts never go negative or into terrain.
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
-use volcano_atmosphere::model::fields::GridSpec;
-use volcano_atmosphere::model::maps::{MapField, field_values};
-use volcano_atmosphere::model::paint::{Brush, PaintField, PaintMode, paint};
-use volcano_atmosphere::model::scenario::BUILTIN;
-use volcano_atmosphere::{AirLayer, Atmosphere, Scenario, WeatherStep, spawn_scenario_with};
+use volcano_atmosphere::view::{GridSpec, MapField, field_values};
+use volcano_atmosphere::{
+    AirLayer, Atmosphere, BUILTIN_SCENARIOS, Brush, PaintField, PaintMode, Scenario, WeatherStep, paint,
+    spawn_scenario_with,
+};
 use volcano_core::{ConfigError, DomainClock, Terrain};
 
 /// Window state: what is shown and the brush.
@@ -204,7 +204,7 @@ fn atmosphere_window(
         .show(ctx, |ui| {
             ui.horizontal_wrapped(|ui| {
                 ui.label("scenario");
-                for (name, _) in BUILTIN {
+                for (name, _) in BUILTIN_SCENARIOS {
                     if ui.button(name).clicked() {
                         switch_to = Some(name);
                     }

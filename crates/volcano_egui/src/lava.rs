@@ -13,10 +13,9 @@ use bevy::prelude::*;
 use bevy::window::PrimaryWindow;
 use bevy_egui::{EguiContexts, egui};
 use volcano_core::Terrain;
-use volcano_lava::scenario::terrains::scenario_terrain;
 use volcano_lava::{
     FoldParams, LavaField, LavaFieldStatus, LavaParams, LavaSource, LavaState, Placement, ScenarioKind,
-    ViscosityModel,
+    ViscosityModel, scenario_terrain,
 };
 use volcano_render::{LavaRenderMode, LavaRenderSettings, OrbitCamera, PointerCaptured, VolcanoViewer};
 

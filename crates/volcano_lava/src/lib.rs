@@ -4,11 +4,13 @@
 //!
 //! [`model`] holds plain data and functions, testable without ECS; [`plugin`] runs them in
 //! the `LavaStep` domain: spawn a [`LavaField`] (a grid placed on the terrain) and
-//! [`LavaSource`]s; query the lava with [`LavaQuery`]; [`scenario`] runs headless test cases.
+//! [`LavaSource`]s; query the lava with [`LavaQuery`]; [`scenario`] runs headless test cases;
+//! [`view`] is what renderers and panels read.
 
 pub mod components;
 pub mod model;
 pub mod plugin;
+pub mod view;
 
 pub use model::budget::VolumeBudget;
 pub use model::field::{CellProbe, Edge, Edges, FlowField, Placement, Source};
@@ -23,4 +25,5 @@ pub use components::{
 pub use model::folds::{FoldParams, FoldSystem};
 pub use model::surface::SurfaceState;
 pub use plugin::{LavaPlugin, LavaStep};
+pub use scenario::terrains::scenario_terrain;
 pub use scenario::{LavaSummary, Scenario, ScenarioConfig, ScenarioKind, run_scenario};

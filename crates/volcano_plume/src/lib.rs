@@ -32,7 +32,4 @@ pub use pyroclastic::{
     PyroParticle, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery, PyroclasticStep,
     PyroclasticSystems, SecondaryColumnFormed,
 };
-pub use view::{
-    AshInstance, AshLightSettings, AshParent, AshParents, PlumeInstances, PlumeParents, PlumeViewPlugin,
-    PlumeViewSettings, PlumeViewpoint,
-};
+pub use view::{AshInstance, AshLightSettings, PlumeInstances, PlumeViewSettings, PlumeViewpoint};

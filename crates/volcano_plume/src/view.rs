@@ -1,6 +1,8 @@
-//! What rendering and export see of a column: every sphere of every scale, enumerated in a
-//! fixed order from the ECS state (s1 spheres on slices, umbrella spheres, and their
-//! procedural s2/s3 children), and the per-frame instance list the renderer uploads.
+//! What rendering and export see of a column (docs/ARCHITECTURE.md §2.3): every sphere of
+//! every scale, enumerated in a fixed order from the ECS state (s1 spheres on slices, umbrella
+//! spheres, and their procedural s2/s3 children), what each parent draws, and the light
+//! reaching it. Plain data and functions, no GPU layout: the renderer's records, their packing
+//! into 32-bit words and the system that uploads them are `volcano_render::plume::layout`.
 //!
 //! [`gather_parents`] reads the world once (sorted by sphere id, so the order does not depend
 //! on archetype layout); [`for_each_sphere`] walks parents and children; [`build_instances`]
@@ -8,16 +10,21 @@
 //! spheres (their texture turned by the spin projected on the screen, §3.7.1) and sphere
 //! impostors for the detail spheres, shaded by density (lighter and thinner aloft).
 //!
-//! The renderer does not upload that list: [`PlumeViewPlugin`] packs only the parents
-//! ([`build_parents`], module `gpu`) and the vertex shader expands the children with the same
-//! 32-bit enumeration. [`build_instances`] stays as the CPU reference (tests, benchmark).
+//! The renderer does not draw that list: it takes only the parents ([`plan_parents`], the same
+//! plan) and its vertex shader expands the children with the same 32-bit enumeration
+//! (re-exported here from the model). [`build_instances`] stays as the CPU reference (tests,
+//! benchmark).
 
-mod gpu;
 mod light;
+mod parents;
 
 pub use light::{AshLightError, AshLightSettings, ParentLight, light_parents};
+pub use parents::{DrawnParent, plan_parents};
 
-pub use gpu::{AshParent, AshParents, PlumeParents, build_parents, expand_instance, update_parents};
+pub use crate::model::spheres::{
+    DetailSphere, SphereParams, detail_spheres, direction_index, hash32, lattice_direction, parent_key,
+    s2_key, s3_key,
+};
 
 use std::sync::Arc;
 
@@ -27,7 +34,6 @@ use bevy::prelude::*;
 use volcano_core::VolcanoRng;
 
 use crate::components::{Eruption, PlumeSlice, S1, Umbrella};
-use crate::model::spheres::{SphereParams, detail_spheres};
 use crate::pyroclastic::PyroParticle;
 
 /// A first-scale sphere (on a slice, or spreading in the umbrella) as the views see it.
@@ -166,9 +172,9 @@ pub fn for_each_sphere(
     }
 }
 
-/// One instance of the ash renderer (32 bytes, laid out for a GPU vertex buffer).
-#[repr(C)]
-#[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
+/// One instance the ash renderer draws, as the CPU reference computes it (the shader's
+/// `Expanded` in `volcano_render`'s `ash.wgsl` holds the same eight values).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct AshInstance {
     /// Centre (world, m).
     pub center: [f32; 3],
@@ -404,27 +410,10 @@ fn mix32(key: u64) -> u32 {
     h ^ (h >> 16)
 }
 
-/// Produces [`PlumeParents`] every frame (after transforms are final), the parents the
-/// renderer expands on the GPU. Added by the renderer; a headless game does not need it.
-#[derive(Debug, Default, Clone)]
-pub struct PlumeViewPlugin;
-
-impl Plugin for PlumeViewPlugin {
-    fn build(&self, app: &mut App) {
-        app.init_resource::<PlumeViewSettings>()
-            .init_resource::<PlumeViewpoint>()
-            .init_resource::<PlumeParents>()
-            .init_resource::<AshLightSettings>()
-            .register_type::<AshLightSettings>()
-            .register_type::<PlumeViewSettings>()
-            .register_type::<PlumeViewpoint>()
-            .add_systems(PostUpdate, update_parents);
-    }
-}
-
 /// Gathers the spheres and rebuilds [`PlumeInstances`] on the CPU (reusing the previous
-/// allocation when nothing else holds it): the reference path, not scheduled by the plugin
-/// (the renderer expands [`PlumeParents`] on the GPU); the benchmark compares the two.
+/// allocation when nothing else holds it): the reference path, scheduled by nobody (the
+/// renderer expands the parents of [`plan_parents`] on the GPU); the benchmark compares the
+/// two.
 pub fn update_instances(world: &mut World) {
     let (eruptions, parents) = gather_parents(world);
     let settings = world.get_resource_or_init::<PlumeViewSettings>().clone();

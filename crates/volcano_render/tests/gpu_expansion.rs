@@ -15,10 +15,11 @@ use bevy::app::PluginsState;
 use bevy::prelude::*;
 use bevy::render::render_resource::*;
 use bevy::render::renderer::{RenderDevice, RenderQueue};
-use volcano_plume::model::spheres::{SphereParams, hash32};
-use volcano_plume::view::{AshParents, EruptionView, ParentSphere, build_instances, build_parents};
-use volcano_plume::{AshInstance, PlumeViewSettings};
+use volcano_plume::view::{
+    AshInstance, EruptionView, ParentSphere, PlumeViewSettings, SphereParams, build_instances, hash32,
+};
 use volcano_render::headless_default_plugins;
+use volcano_render::plume::layout::{AshParents, build_parents};
 
 const COMPUTE: &str = r#"
 @group(0) @binding(2) var<storage, read_write> expanded: array<Expanded>;
@@ -60,6 +61,16 @@ fn shader_source() -> String {
     format!("{}\n{COMPUTE}", wgsl[begin..end].replace("@group(3)", "@group(0)"))
 }
 
+/// The shader's `Expanded` (two `vec4<f32>`: centre and radius; angle, shade, coverage, kind),
+/// read back as an [`AshInstance`] (plain data, same eight values in the same order).
+fn instance(words: [f32; 8]) -> AshInstance {
+    let [x, y, z, radius, angle, shade, coverage, kind] = words;
+    AshInstance { center: [x, y, z], radius, angle, shade, coverage, kind }
+}
+
+/// Size of one `Expanded` in the readback.
+const EXPANDED_BYTES: usize = size_of::<[f32; 8]>();
+
 /// Runs the expansion of `list` on the GPU: every instance, and `hash32` of `HASHES` words.
 fn expand_on_gpu(list: &AshParents) -> (Vec<AshInstance>, Vec<u32>) {
     let (device, queue) = render_device();
@@ -83,7 +94,7 @@ fn expand_on_gpu(list: &AshParents) -> (Vec<AshInstance>, Vec<u32>) {
         })
     };
     let total = list.total();
-    let out_bytes = total as u64 * size_of::<AshInstance>() as u64;
+    let out_bytes = total as u64 * EXPANDED_BYTES as u64;
     let hash_bytes = HASHES as u64 * 4;
     let parents = storage("parents", bytemuck::cast_slice(&list.parents), BufferUsages::empty());
     let starts = storage("starts", bytemuck::cast_slice(&list.starts), BufferUsages::empty());
@@ -121,7 +132,7 @@ fn expand_on_gpu(list: &AshParents) -> (Vec<AshInstance>, Vec<u32>) {
     let bytes = staging.slice(..).get_mapped_range().to_vec();
     let (inst, hash) = bytes.split_at(out_bytes as usize);
     (
-        inst.chunks_exact(size_of::<AshInstance>()).map(bytemuck::pod_read_unaligned).collect(),
+        inst.chunks_exact(EXPANDED_BYTES).map(|c| instance(bytemuck::pod_read_unaligned(c))).collect(),
         hash.chunks_exact(4).map(bytemuck::pod_read_unaligned).collect(),
     )
 }

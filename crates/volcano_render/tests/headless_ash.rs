@@ -8,8 +8,8 @@ use std::sync::Arc;
 
 use bevy::prelude::*;
 use volcano_core::VolcanoCorePlugin;
-use volcano_plume::model::spheres::parent_key;
-use volcano_plume::{AshParent, AshParents, PlumeParents};
+use volcano_plume::view::parent_key;
+use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
 use volcano_render::{
     HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
     headless_default_plugins, read_png_rgb, rgb_region_mean,
@@ -72,7 +72,7 @@ fn instanced_ash_covers_the_sky() {
             capture_after_updates: 8,
         })
         .add_systems(Startup, scene)
-        .add_systems(PostUpdate, wall.after(volcano_plume::view::update_parents))
+        .add_systems(PostUpdate, wall.after(update_parents))
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");

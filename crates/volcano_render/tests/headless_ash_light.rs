@@ -14,7 +14,8 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use volcano_core::VolcanoCorePlugin;
 use volcano_plume::view::{AshLightSettings, ParentSphere, light_parents};
-use volcano_plume::{AshParent, AshParents, PlumeParents};
+use volcano_render::plume::layout::pack_light;
+use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
 use volcano_render::{
     HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
     headless_default_plugins, read_png_rgb, rgb_region_mean,
@@ -83,7 +84,7 @@ fn puff(
         key: 11,
         flags: AshParent::BILLBOARD,
         billboard_radius: RADIUS,
-        light: light[0].pack(),
+        light: pack_light(light[0]),
     };
     list.0 = Arc::new(AshParents { parents: vec![parent], starts: vec![0, 1] });
 }
@@ -104,7 +105,7 @@ fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
         })
         .insert_resource(Occluded(occluded))
         .add_systems(Startup, scene)
-        .add_systems(PostUpdate, puff.after(volcano_plume::view::update_parents))
+        .add_systems(PostUpdate, puff.after(update_parents))
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");

@@ -7,18 +7,7 @@ use volcano_core::ConfigError;
 use crate::model::field::FlowField;
 use crate::model::folds::FoldSystem;
 use crate::model::surface::SurfaceState;
-
-/// Crust debug colour (thesis Figs 5.11–5.13): red below 8 mm, green 8 mm–2 cm, blue above
-/// 2 cm; dark grey where there is no lava, light grey for frozen lava.
-pub fn crust_colour(crust: f64) -> [u8; 3] {
-    if crust < 0.008 {
-        [220, 40, 30]
-    } else if crust <= 0.02 {
-        [40, 190, 60]
-    } else {
-        [40, 80, 220]
-    }
-}
+use crate::view::crust_colour;
 
 fn ramp(x: f64) -> [u8; 3] {
     // black → red → yellow → white
@@ -40,7 +29,9 @@ fn write_rgb(path: &Path, nx: usize, ny: usize, rgb: &[u8]) -> Result<(), Config
 }
 
 /// Writes `thickness.png`, `crust.png`, `velocity.png` into `dir` (created if missing), one
-/// pixel per cell, +y (downslope) toward the bottom of the image. Returns the paths.
+/// pixel per cell, +y (downslope) toward the bottom of the image; lava in [`crust_colour`] on
+/// the crust map, dark grey where there is no lava, light grey for frozen lava. Returns the
+/// paths.
 pub fn write_maps(
     field: &FlowField,
     surface: &SurfaceState,

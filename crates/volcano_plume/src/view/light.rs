@@ -1,6 +1,8 @@
 //! How much sun and sky reach each parent sphere: the ash between a parent and the light, from
 //! a coarse density grid splatted from the parents every frame (docs/ARCHITECTURE.md, "How ash
-//! is lit"). Engine-free: plain functions over [`ParentSphere`]s.
+//! is lit"). Engine-free: plain functions over [`ParentSphere`]s, tested with plain `#[test]`s
+//! and measured by the plume benchmark with the rest of a frame's plain data; only packing the
+//! result into the shader's 32-bit word is the renderer's (`volcano_render::plume::layout`).
 //!
 //! The grid is aligned with the light (its third axis points at it), so the optical depth from
 //! every cell toward the light is one running sum per grid column, `O(cells)`. A parent reads
@@ -75,12 +77,6 @@ pub struct ParentLight {
 impl ParentLight {
     /// Nothing in the way.
     pub const CLEAR: Self = Self { sun: 1.0, sky: 1.0 };
-
-    /// Packed as the shader reads it (`unpack4x8unorm`: x = sun, y = sky).
-    pub fn pack(self) -> u32 {
-        let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u32;
-        q(self.sun) | (q(self.sky) << 8)
-    }
 }
 
 /// Sun and sky transmittance of every parent (same order as `parents`), Beer–Lambert
@@ -339,12 +335,5 @@ mod tests {
         let parents = [sphere(0, Vec3::ZERO, 10.0, 5.0), sphere(1, Vec3::NAN, f32::NAN, f32::NAN)];
         let l = light_parents(&parents, &AshLightSettings::default());
         assert!(l.iter().all(|l| l.sun.is_finite() && l.sky.is_finite()), "{l:?}");
-    }
-
-    #[test]
-    fn packing_is_what_the_shader_unpacks() {
-        assert_eq!(ParentLight { sun: 1.0, sky: 0.0 }.pack(), 0xff);
-        assert_eq!(ParentLight { sun: 0.0, sky: 1.0 }.pack(), 0xff00);
-        assert_eq!(ParentLight { sun: f32::NAN, sky: 2.0 }.pack() >> 8, 0xff);
     }
 }

@@ -20,8 +20,8 @@ pub mod volume;
 
 use bevy::light::FogVolume;
 use bevy::prelude::*;
-use volcano_atmosphere::model::fields::GridSpec;
 use volcano_atmosphere::plugin::AtmosphereGround;
+use volcano_atmosphere::view::GridSpec;
 use volcano_atmosphere::{AirLayer, Atmosphere, LayerFields};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;

@@ -2,7 +2,7 @@
 //! voxel grid for a fog volume, with fall streaks.
 //!
 //! The atmosphere holds ash per layer (`LayerFields::ash`, g/m³; the coupling feeds it from the
-//! column and the umbrella, `volcano_atmosphere::model::ash` advects and settles it). Ash
+//! column and the umbrella, the atmosphere's weather step advects and settles it). Ash
 //! settling through a layer *is* that layer's ash, so drawing each layer's field over the
 //! layer's whole slab draws the fall: a curtain under the umbrella, bent by the winds of the
 //! layers it crosses, dense where the field is dense. The field is piecewise constant in
@@ -12,8 +12,7 @@
 
 use bevy::math::Vec2;
 use noise::{NoiseFn, Perlin};
-use volcano_atmosphere::model::ash::{ash_blended, layer_blend};
-use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
+use volcano_atmosphere::view::{GridSpec, LayerFields, ash_blended, layer_blend};
 use volcano_core::error::in_range;
 use volcano_core::grid::Boundary;
 use volcano_core::{ConfigError, Grid2};

@@ -1,6 +1,6 @@
 //! Volumetric clouds of the layered atmosphere (thesis §4.2.6) with Bevy's volumetric fog:
 //! each [`Atmosphere`] gets one [`FogVolume`] over its footprint whose 3D density image is the
-//! crate's cloud density volume (`volcano_atmosphere::model::volume`: Table 4.3 forms,
+//! crate's cloud density volume (`volcano_atmosphere::view::cloud_density`: Table 4.3 forms,
 //! k-means++ coherence, type-keyed noise), rebuilt when the weather steps or a layer is
 //! edited, not every frame, on the async compute task pool from a snapshot of the layers
 //! (module `rebuild`: same content as a main-thread build, only when it appears varies). [`VolcanoViewer`] cameras get [`VolumetricFog`] and [`Sun`]s
@@ -21,8 +21,7 @@ pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 
 use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
 use bevy::prelude::*;
-use volcano_atmosphere::model::fields::AtmosphereState;
-use volcano_atmosphere::model::volume::{ClusterMemory, VolumeSpec, coherent_forms_with, density_volume};
+use volcano_atmosphere::view::{AtmosphereState, ClusterMemory, VolumeSpec, cloud_density};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
@@ -175,9 +174,8 @@ pub fn build_cloud_image(
 ) -> Result<(Image, Transform, f32), ConfigError> {
     settings.validate()?;
     let spec = volume_spec(state, settings);
-    let forms =
-        coherent_forms_with(state, cloud_threshold, settings.clusters, settings.fragmentation, 0, memory);
-    let density = density_volume(state, &forms, &spec);
+    let density =
+        cloud_density(state, cloud_threshold, settings.clusters, settings.fragmentation, memory, &spec);
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image
         .data

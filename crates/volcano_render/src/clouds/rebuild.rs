@@ -17,8 +17,7 @@ use bevy::light::FogVolume;
 use bevy::prelude::*;
 use bevy::tasks::futures::check_ready;
 use bevy::tasks::{AsyncComputeTaskPool, Task};
-use volcano_atmosphere::model::fields::AtmosphereState;
-use volcano_atmosphere::model::volume::ClusterMemory;
+use volcano_atmosphere::view::{AtmosphereState, ClusterMemory};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 

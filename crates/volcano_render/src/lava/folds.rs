@@ -5,7 +5,7 @@
 use bevy::light::NotShadowCaster;
 use bevy::prelude::*;
 use volcano_core::Boundary;
-use volcano_lava::model::folds::FoldParticle;
+use volcano_lava::view::FoldParticle;
 use volcano_lava::{FlowField, LavaField, LavaState};
 
 use super::surface::LIFT;

@@ -6,8 +6,7 @@ use bevy::asset::RenderAssetUsages;
 use bevy::color::{ColorToComponents, ColorToPacked, LinearRgba, Mix, Srgba};
 use bevy::math::Vec3;
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
-use volcano_lava::model::thermal::surface_temperature;
-use volcano_lava::scenario::maps::crust_colour;
+use volcano_lava::view::{crust_colour, surface_temperature};
 use volcano_lava::{FlowField, LavaParams};
 
 use super::LavaRenderMode;

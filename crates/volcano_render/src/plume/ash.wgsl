@@ -13,17 +13,17 @@
 // has a sun side and a shadow side. The shadow side keeps a multiple-scattering floor and the
 // sky's ambient (occluded by the ash above); dense ash near the vent glows.
 //
-// Only the parents are uploaded (volcano_plume::view::AshParent, with the prefix sum of their
-// instance counts); the vertex shader expands instance i into the parent's billboard or one of
-// its s2/s3 children, with the CPU enumeration's 32-bit arithmetic
-// (volcano_plume::model::spheres::detail_spheres).
+// Only the parents are uploaded (volcano_render::plume::layout::AshParent, with the prefix sum
+// of their instance counts); the vertex shader expands instance i into the parent's billboard or
+// one of its s2/s3 children, with the CPU enumeration's 32-bit arithmetic
+// (volcano_plume::view::detail_spheres).
 
 #import bevy_pbr::mesh_view_bindings::{view, lights}
 
 // BEGIN expansion: compiled on its own (group 3 renamed) by tests/gpu_expansion.rs, which
 // compares it with the CPU enumeration. Keep it free of Bevy imports.
 
-// Mirrors volcano_plume::view::AshParent (64 bytes).
+// Mirrors volcano_render::plume::layout::AshParent (64 bytes).
 struct AshParent {
     center_radius: vec4<f32>,
     rotation: vec4<f32>,  // unit quaternion x, y, z, w
@@ -71,7 +71,7 @@ fn rotate(q: vec4<f32>, v: vec3<f32>) -> vec3<f32> {
     return v + q.w * t + cross(q.xyz, t);
 }
 
-// One instance as the fragment stage needs it (same order as volcano_plume::AshInstance).
+// One instance as the fragment stage needs it (same order as volcano_plume::view::AshInstance).
 struct Expanded {
     center_radius: vec4<f32>,
     params: vec4<f32>, // angle, shade, coverage, kind

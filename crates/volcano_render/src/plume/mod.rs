@@ -6,19 +6,23 @@
 //!   lit sphere impostors; pyroclastic particles flattened dark puffs. All are coloured by
 //!   density (dark brown-grey near the vent, light grey aloft), lit by the sun through the ash
 //!   toward it and by the sky through the ash above (`volcano_plume::view::light_parents`), with
-//!   soft blended edges and an incandescent glow at the vent. [`volcano_plume::PlumeViewPlugin`] packs the parents and their instance
-//!   counts; the vertex shader expands the detail spheres (see `pipeline`).
+//!   soft blended edges and an incandescent glow at the vent. [`update_parents`] packs the
+//!   parents and their instance counts ([`layout`]: what each draws comes from
+//!   `volcano_plume::view::plan_parents`); the vertex shader expands the detail spheres (see
+//!   `pipeline`).
 //! - **Debug views**: s1/umbrella spheres as mesh spheres and slices as gizmo circles.
 
 mod debug;
+pub mod layout;
 mod pipeline;
 
 use bevy::asset::embedded_asset;
 use bevy::camera::visibility::NoFrustumCulling;
 use bevy::prelude::*;
-use volcano_plume::{AshLightSettings, PlumeViewPlugin, PlumeViewSettings, PlumeViewpoint};
+use volcano_plume::{AshLightSettings, PlumeViewSettings, PlumeViewpoint};
 
 pub use debug::PlumeVisuals;
+pub use layout::{AshParent, AshParents, PlumeParents, update_parents};
 pub use pipeline::AshCloud;
 
 use crate::camera::VolcanoViewer;
@@ -60,17 +64,12 @@ pub struct PlumeRenderPlugin;
 impl Plugin for PlumeRenderPlugin {
     fn build(&self, app: &mut App) {
         embedded_asset!(app, "ash.wgsl");
-        if !app.is_plugin_added::<PlumeViewPlugin>() {
-            app.add_plugins(PlumeViewPlugin);
-        }
+        layout::build(app);
         app.init_resource::<PlumeRenderMode>()
             .register_type::<PlumeRenderMode>()
             .register_type::<AshCloud>()
             .add_systems(Startup, spawn_ash_cloud)
-            .add_systems(
-                PostUpdate,
-                (follow_camera, follow_sun, apply_mode).before(volcano_plume::view::update_parents),
-            );
+            .add_systems(PostUpdate, (follow_camera, follow_sun, apply_mode).before(update_parents));
         debug::build(app);
         pipeline::build(app);
     }

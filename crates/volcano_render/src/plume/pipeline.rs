@@ -15,6 +15,7 @@
 
 use std::sync::Arc;
 
+use super::layout::{AshParent, AshParents, PlumeParents};
 use bevy::core_pipeline::core_3d::{Transparent3d, TransparentSortingInfo3d};
 use bevy::ecs::system::{SystemParamItem, lifetimeless::*};
 use bevy::mesh::MeshVertexBufferLayoutRef;
@@ -38,7 +39,6 @@ use bevy::render::{
     sync_world::MainEntity,
     view::ExtractedView,
 };
-use volcano_plume::{AshParent, AshParents, PlumeParents};
 
 /// Asset path of the embedded shader.
 const SHADER: &str = "embedded://volcano_render/plume/ash.wgsl";

@@ -1,26 +1,26 @@
-//! The GPU-expanded path: per frame only the parents (s1, umbrella and pyroclastic spheres,
-//! ~6,000) are packed, with the prefix sum of their instance counts; the renderer draws
-//! `total` instances and its vertex shader maps an instance index to (parent, child) by binary
-//! search over the prefix sums and computes the child with the same 32-bit enumeration as
-//! [`detail_spheres`](crate::model::spheres::detail_spheres).
+//! The GPU layout of the ash renderer: per frame only the parents (s1, umbrella and pyroclastic
+//! spheres, ~6,000) are uploaded, as 64-byte [`AshParent`] records with the prefix sum of their
+//! instance counts; the renderer draws `total` instances and its vertex shader maps an
+//! instance index to (parent, child) by binary search over the prefix sums and computes the
+//! child with the same 32-bit enumeration as
+//! [`detail_spheres`](volcano_plume::view::detail_spheres).
 //!
-//! The counts (thinning by dilution and by `max_instances`) and the billboard look (shade,
-//! coverage, projected spin, texture variant) come from the same plan as the CPU
-//! [`build_instances`](super::build_instances), so both paths draw the same instances; the
-//! CPU path stays as the reference (PLY export, tests, the benchmark's comparison).
+//! What each parent draws (counts, thinning, look) is plain data of the plume crate
+//! ([`plan_parents`], the same plan as the CPU reference
+//! [`build_instances`](volcano_plume::view::build_instances)); this module only lays it out
+//! for the shader: the record, the flag bits, the light packed into one word.
 
 use std::sync::Arc;
 
 use bevy::prelude::*;
-
-use super::{
-    AshLightSettings, EruptionView, ParentLight, ParentSphere, PlumeViewSettings, PlumeViewpoint,
-    billboard_look, light_parents, plan_instances,
+use volcano_plume::view::{
+    AshInstance, AshLightSettings, EruptionView, ParentLight, ParentSphere, PlumeViewSettings,
+    PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction, light_parents,
+    plan_parents, s2_key, s3_key,
 };
-use crate::model::spheres::parent_key;
 
 /// One parent as the renderer's vertex shader reads it (64 bytes, a `std430` storage-buffer
-/// element; the WGSL struct `AshParent` in `volcano_render`'s `ash.wgsl` mirrors it).
+/// element; the WGSL struct `AshParent` in `ash.wgsl` mirrors it).
 #[repr(C)]
 #[derive(Debug, Clone, Copy, PartialEq, Default, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct AshParent {
@@ -38,14 +38,14 @@ pub struct AshParent {
     pub coverage: f32,
     /// Texture variant in [0, 1) (impostor `kind`; the billboard's is `1 + variant`).
     pub variant: f32,
-    /// 32-bit key of the children ([`parent_key`] of seed and parent id).
+    /// 32-bit key of the children (`parent_key` of seed and parent id).
     pub key: u32,
     /// Bit 0: the first instance is the billboard; bits 8–15: s3 children per s2 child.
     pub flags: u32,
     /// Billboard radius (m): `radius × billboard_scale`.
     pub billboard_radius: f32,
-    /// Light reaching the parent ([`ParentLight::pack`]: sun and sky transmittance, 8 bits
-    /// each); keeps the record 16-byte aligned.
+    /// Light reaching the parent ([`pack_light`]: sun and sky transmittance, 8 bits each);
+    /// keeps the record 16-byte aligned.
     pub light: u32,
 }
 
@@ -56,6 +56,12 @@ impl AshParent {
     pub const FLOW: u32 = 2;
     /// [`AshParent::flags`] shift of the s3-per-s2 count (8 bits, at most 100 by validation).
     pub const S3_SHIFT: u32 = 8;
+}
+
+/// The light of a parent as the shader reads it (`unpack4x8unorm`: x = sun, y = sky).
+pub fn pack_light(light: ParentLight) -> u32 {
+    let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u32;
+    q(light.sun) | (q(light.sky) << 8)
 }
 
 /// The frame's parents and the prefix sum of their instance counts.
@@ -79,11 +85,9 @@ impl AshParents {
 #[derive(Resource, Debug, Clone, Default)]
 pub struct PlumeParents(pub Arc<AshParents>);
 
-/// Packs the frame's parents for GPU expansion: the same plan (counts, thinning, shading) as
-/// [`build_instances`](super::build_instances), one [`AshParent`] per parent that draws
-/// anything, and the prefix sum of the counts. Parents without instances (nothing kept,
-/// invalid geometry, unknown eruption) are left out. `light` is per parent (from
-/// [`light_parents`](super::light_parents)); missing entries are fully lit. `out` is reused.
+/// Packs the frame's parents for GPU expansion: one [`AshParent`] per parent that draws
+/// anything ([`plan_parents`]) and the prefix sum of the counts. `light` is per parent (from
+/// [`light_parents`]); missing entries are fully lit. `out` is reused.
 pub fn build_parents(
     settings: &PlumeViewSettings,
     viewpoint: Option<Vec3>,
@@ -95,15 +99,8 @@ pub fn build_parents(
     out.parents.clear();
     out.starts.clear();
     out.starts.push(0);
-    if !settings.enabled {
-        return;
-    }
-    let plan = plan_instances(settings, eruptions, parents);
-    for (i, (p, plan)) in parents.iter().zip(&plan).enumerate() {
-        let count = plan.count();
-        let Some(e) = eruptions.get(p.eruption).filter(|_| count > 0) else { continue };
-        let (angle, variant) = billboard_look(p, viewpoint);
-        let n3 = e.spheres.s3_per_s2.min(255);
+    plan_parents(settings, viewpoint, eruptions, parents, |d| {
+        let p = &parents[d.index];
         // The shader's rotation formula wants a unit quaternion.
         let q = p.rotation;
         let rotation =
@@ -112,26 +109,26 @@ pub fn build_parents(
             center: p.center.to_array(),
             radius: p.radius,
             rotation: rotation.to_array(),
-            angle,
-            shade: plan.shade,
-            coverage: plan.coverage,
-            variant,
-            key: parent_key(e.seed, p.id),
-            flags: (plan.billboard as u32 * AshParent::BILLBOARD)
+            angle: d.angle,
+            shade: d.shade,
+            coverage: d.coverage,
+            variant: d.variant,
+            key: d.key,
+            flags: (d.billboard as u32 * AshParent::BILLBOARD)
                 | (p.flow as u32 * AshParent::FLOW)
-                | (n3 << AshParent::S3_SHIFT),
+                | (d.s3_per_s2.min(255) << AshParent::S3_SHIFT),
             billboard_radius: p.radius * settings.billboard_scale,
-            light: light.get(i).copied().unwrap_or(ParentLight::CLEAR).pack(),
+            light: pack_light(light.get(d.index).copied().unwrap_or(ParentLight::CLEAR)),
         });
-        // The plan never passes `max_instances` (a u32), so the running sum fits.
-        out.starts.push((plan.offset + count) as u32);
-    }
+        out.starts.push(d.end);
+    });
 }
 
 /// Gathers the spheres and repacks [`PlumeParents`] (reusing the previous allocation when the
-/// render world has let go of it). Scheduled by [`PlumeViewPlugin`](super::PlumeViewPlugin).
+/// render world has let go of it). Scheduled in `PostUpdate` by
+/// [`PlumeRenderPlugin`](super::PlumeRenderPlugin).
 pub fn update_parents(world: &mut World) {
-    let (eruptions, parents) = super::gather_parents(world);
+    let (eruptions, parents) = gather_parents(world);
     let settings = world.resource::<PlumeViewSettings>().clone();
     let viewpoint = world.resource::<PlumeViewpoint>().0;
     let light_settings = world.get_resource_or_init::<AshLightSettings>().clone();
@@ -151,13 +148,23 @@ pub fn update_parents(world: &mut World) {
     world.resource_mut::<PlumeParents>().0 = Arc::new(list);
 }
 
+/// Resources and the packing system (called by [`PlumeRenderPlugin`](super::PlumeRenderPlugin)).
+pub(super) fn build(app: &mut App) {
+    app.init_resource::<PlumeViewSettings>()
+        .init_resource::<PlumeViewpoint>()
+        .init_resource::<PlumeParents>()
+        .init_resource::<AshLightSettings>()
+        .register_type::<AshLightSettings>()
+        .register_type::<PlumeViewSettings>()
+        .register_type::<PlumeViewpoint>()
+        .add_systems(PostUpdate, update_parents);
+}
+
 /// The CPU reference of the shader's expansion: instance `index` of a packed list, as an
-/// [`AshInstance`](super::AshInstance) (binary search over `starts`, then the billboard or
-/// the child's level, centre and radius in f64 like
-/// [`detail_spheres`](crate::model::spheres::detail_spheres)). `None` past the end. For
-/// tests and tools; the renderer does this on the GPU.
-pub fn expand_instance(list: &AshParents, index: u32) -> Option<super::AshInstance> {
-    use crate::model::spheres::{SphereParams, direction_index, lattice_direction, s2_key, s3_key};
+/// [`AshInstance`] (binary search over `starts`, then the billboard or the child's level,
+/// centre and radius in f64 like [`detail_spheres`](volcano_plume::view::detail_spheres)).
+/// `None` past the end. For tests and tools; the renderer does this on the GPU.
+pub fn expand_instance(list: &AshParents, index: u32) -> Option<AshInstance> {
     if index >= list.total() {
         return None;
     }
@@ -167,7 +174,7 @@ pub fn expand_instance(list: &AshParents, index: u32) -> Option<super::AshInstan
     let local = index - list.starts[p];
     let billboard = a.flags & AshParent::BILLBOARD != 0;
     if billboard && local == 0 {
-        return Some(super::AshInstance {
+        return Some(AshInstance {
             center: a.center,
             radius: a.billboard_radius,
             angle: a.angle,
@@ -190,7 +197,7 @@ pub fn expand_instance(list: &AshParents, index: u32) -> Option<super::AshInstan
         r *= SphereParams::CHILD_RATIO;
     }
     let level = if j > 0 { 3.0 } else { 2.0 };
-    Some(super::AshInstance {
+    Some(AshInstance {
         center: center.as_vec3().to_array(),
         radius: r as f32,
         angle: 0.0,
@@ -202,9 +209,8 @@ pub fn expand_instance(list: &AshParents, index: u32) -> Option<super::AshInstan
 
 #[cfg(test)]
 mod tests {
-    use super::super::{AshInstance, build_instances};
     use super::*;
-    use crate::model::spheres::SphereParams;
+    use volcano_plume::view::build_instances;
 
     fn parents() -> Vec<ParentSphere> {
         (0..40u64)
@@ -266,7 +272,14 @@ mod tests {
 
     #[test]
     fn layout_is_64_bytes() {
-        // The WGSL struct in volcano_render's ash.wgsl has the same size (std430, 16-aligned).
+        // The WGSL struct in ash.wgsl has the same size (std430, 16-aligned).
         assert_eq!(size_of::<AshParent>(), 64);
+    }
+
+    #[test]
+    fn light_packing_is_what_the_shader_unpacks() {
+        assert_eq!(pack_light(ParentLight { sun: 1.0, sky: 0.0 }), 0xff);
+        assert_eq!(pack_light(ParentLight { sun: 0.0, sky: 1.0 }), 0xff00);
+        assert_eq!(pack_light(ParentLight { sun: f32::NAN, sky: 2.0 }) >> 8, 0xff);
     }
 }
