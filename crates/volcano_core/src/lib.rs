@@ -6,12 +6,14 @@
 //! The crate depends on Bevy without its render stack, so its tests build in about a minute.
 //! Modules follow the two-layer rule of docs/ARCHITECTURE.md §2: *model* modules are plain
 //! data and functions ([`atmosphere`], [`grid`], [`terrain`], [`rng`]); *plugin* modules hold
-//! the ECS glue ([`clock`], [`volcano`], [`plugin`]).
+//! the ECS glue ([`clock`], [`volcano`], [`plugin`]). [`parallel`] is the deterministic
+//! row-band helper every domain runs its loops with, on Bevy's compute task pool.
 
 pub mod atmosphere;
 pub mod clock;
 pub mod error;
 pub mod grid;
+pub mod parallel;
 pub mod plugin;
 pub mod rng;
 pub mod terrain;

@@ -6,6 +6,7 @@
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
+use volcano_core::parallel::Bands;
 use volcano_core::prelude::*;
 
 use crate::components::*;
@@ -226,23 +227,16 @@ fn step_particles(
     }
 }
 
-/// `f` over `items` on the compute task pool in fixed chunks of 512; results in item order.
+/// `f` over `items` on the compute task pool in fixed chunks of 512 ([`Bands`] of
+/// `volcano_core::parallel`); results in item order.
 /// Used for the particle step (and its bench) so the outcome is independent of the threads.
 pub fn par_map_ordered<T: Send, R: Send + 'static>(
     items: &mut [T],
     f: impl Fn(&mut T) -> R + Sync,
 ) -> Vec<R> {
     const CHUNK: usize = 512;
-    if items.len() <= CHUNK {
-        return items.iter_mut().map(&f).collect();
-    }
-    let pool = bevy::tasks::ComputeTaskPool::get_or_init(bevy::tasks::TaskPool::default);
-    let f = &f;
-    let chunks = pool.scope(|scope| {
-        for chunk in items.chunks_mut(CHUNK) {
-            scope.spawn(async move { chunk.iter_mut().map(f).collect::<Vec<R>>() });
-        }
-    });
+    // Bands of CHUNK one-item rows (volcano_core::parallel); one band runs inline.
+    let chunks = Bands::of(CHUNK).map(items, 1, |_, chunk| chunk.iter_mut().map(&f).collect::<Vec<R>>());
     chunks.into_iter().flatten().collect()
 }
 

@@ -8,7 +8,7 @@
 //!
 //! All grids are `n × n`, `n` a power of two, toroidal. Displacements are in cells.
 
-use rayon::prelude::*;
+use volcano_core::parallel;
 
 use super::params::AdvectionScheme;
 
@@ -83,7 +83,7 @@ pub fn advect_field(
     scheme: AdvectionScheme,
 ) {
     if scheme == AdvectionScheme::SemiLagrangian {
-        out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+        parallel::for_each_row(&mut *out, n, |j, row| {
             for (i, o) in row.iter_mut().enumerate() {
                 let (vx, vy) = velocity_at(u, v, n, i, j, s);
                 *o = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c).0;
@@ -97,18 +97,14 @@ pub fn advect_field(
     let hi = &mut hi[..n * n];
     // Predictor: backward semi-Lagrangian step (rows in parallel; each row reads only `f`),
     // keeping the corners' min and max of each backward sample for the limiter.
-    (pred.par_chunks_mut(n), lo.par_chunks_mut(n), hi.par_chunks_mut(n))
-        .into_par_iter()
-        .enumerate()
-        .with_min_len(8)
-        .for_each(|(j, (pr, lr, hr))| {
-            for i in 0..n {
-                let (vx, vy) = velocity_at(u, v, n, i, j, s);
-                (pr[i], lr[i], hr[i]) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
-            }
-        });
+    parallel::for_each_row((&mut *pred, &mut *lo, &mut *hi), n, |j, (pr, lr, hr)| {
+        for i in 0..n {
+            let (vx, vy) = velocity_at(u, v, n, i, j, s);
+            (pr[i], lr[i], hr[i]) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
+        }
+    });
     let (pred, lo, hi) = (&*pred, &*lo, &*hi);
-    out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+    parallel::for_each_row(&mut *out, n, |j, row| {
         for (i, o) in row.iter_mut().enumerate() {
             let (vx, vy) = velocity_at(u, v, n, i, j, s);
             // Corrector: advect the prediction forward, halve the round-trip error, and clamp
@@ -140,27 +136,30 @@ pub fn apertures(sigma: &[f32], n: usize, ax: &mut [f32], ay: &mut [f32]) {
 pub fn substeps(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: usize, c: f64) -> u32 {
     let mask = n - 1;
     // Max is order-independent: the parallel reduction is deterministic.
-    let worst = (0..n)
-        .into_par_iter()
-        .map(|j| {
-            let jp = (j + 1) & mask;
-            let mut worst = 0.0f64;
-            for i in 0..n {
-                let k = j * n + i;
-                if sigma[k] <= 0.0 {
-                    continue;
+    let worst = parallel::Bands::DEFAULT
+        .map_ranges(n, |rows| {
+            rows.map(|j| {
+                let jp = (j + 1) & mask;
+                let mut worst = 0.0f64;
+                for i in 0..n {
+                    let k = j * n + i;
+                    if sigma[k] <= 0.0 {
+                        continue;
+                    }
+                    let ip = j * n + ((i + 1) & mask);
+                    let kn = jp * n + i;
+                    let out = (-u[k]).max(0.0) * ax[k]
+                        + u[ip].max(0.0) * ax[ip]
+                        + (-v[k]).max(0.0) * ay[k]
+                        + v[kn].max(0.0) * ay[kn];
+                    worst = worst.max(out as f64 * c / sigma[k] as f64);
                 }
-                let ip = j * n + ((i + 1) & mask);
-                let kn = jp * n + i;
-                let out = (-u[k]).max(0.0) * ax[k]
-                    + u[ip].max(0.0) * ax[ip]
-                    + (-v[k]).max(0.0) * ay[k]
-                    + v[kn].max(0.0) * ay[kn];
-                worst = worst.max(out as f64 * c / sigma[k] as f64);
-            }
-            worst
+                worst
+            })
+            .fold(0.0, f64::max)
         })
-        .reduce(|| 0.0, f64::max);
+        .into_iter()
+        .fold(0.0, f64::max);
     ((worst / 0.9).ceil().min(1e6) as u32).max(1)
 }
 
@@ -193,26 +192,24 @@ pub fn flux_step(
     let (fy, limit) = rest.split_at_mut(n * n);
     {
         let q = &*q;
-        fx.par_chunks_mut(n).zip(fy.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(
-            |(j, (fxr, fyr))| {
-                let jm = (j + n - 1) & mask;
-                for i in 0..n {
-                    let k = j * n + i;
-                    let kw = j * n + ((i + n - 1) & mask);
-                    let ks = jm * n + i;
-                    let vx = (u[k] * ax[k]) as f64;
-                    let vy = (v[k] * ay[k]) as f64;
-                    fxr[i] = vx * if vx > 0.0 { q[kw] } else { q[k] };
-                    fyr[i] = vy * if vy > 0.0 { q[ks] } else { q[k] };
-                }
-            },
-        );
+        parallel::for_each_row((&mut *fx, &mut *fy), n, |j, (fxr, fyr)| {
+            let jm = (j + n - 1) & mask;
+            for i in 0..n {
+                let k = j * n + i;
+                let kw = j * n + ((i + n - 1) & mask);
+                let ks = jm * n + i;
+                let vx = (u[k] * ax[k]) as f64;
+                let vy = (v[k] * ay[k]) as f64;
+                fxr[i] = vx * if vx > 0.0 { q[kw] } else { q[k] };
+                fyr[i] = vy * if vy > 0.0 { q[ks] } else { q[k] };
+            }
+        });
     }
     let (fx, fy) = (&*fx, &*fy);
     // Within the CFL limit no cell can give more than it holds: no factors needed.
     if limited {
         let q = &*q;
-        limit.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+        parallel::for_each_row(&mut *limit, n, |j, row| {
             let jp = (j + 1) & mask;
             for (i, r) in row.iter_mut().enumerate() {
                 let k = j * n + i;
@@ -235,7 +232,7 @@ pub fn flux_step(
             f * limit[into]
         }
     };
-    q.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+    parallel::for_each_row(&mut *q, n, |j, row| {
         let jp = (j + 1) & mask;
         let jm = (j + n - 1) & mask;
         for (i, qk) in row.iter_mut().enumerate() {

@@ -15,8 +15,8 @@
 //! Hand-written: no maintained Rust crate offers a periodic geometric multigrid for a 2D
 //! Poisson problem (the sparse-solver crates are algebraic/Krylov and far slower here).
 
-use rayon::prelude::*;
 use volcano_core::ConfigError;
+use volcano_core::parallel;
 
 /// Face weights of one level: `ax` on the west face of each cell, `ay` on its south face.
 #[derive(Debug, Clone, PartialEq)]
@@ -367,7 +367,7 @@ fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rh
             }
         };
         if n >= PARALLEL_FROM {
-            (0..n).into_par_iter().with_min_len(8).for_each(row_pass);
+            parallel::for_each_index(n, row_pass);
         } else {
             (0..n).for_each(row_pass);
         }
@@ -394,7 +394,7 @@ fn residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64], 
         }
     };
     if n >= PARALLEL_FROM {
-        res.par_chunks_mut(n).enumerate().with_min_len(8).for_each(row_pass);
+        parallel::for_each_row(res, n, |j, row| row_pass((j, row)));
     } else {
         res.chunks_mut(n).enumerate().for_each(row_pass);
     }
@@ -425,7 +425,7 @@ fn restrict_residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs:
         }
     };
     if n >= PARALLEL_FROM {
-        coarse.par_chunks_mut(m).enumerate().with_min_len(8).for_each(row_pass);
+        parallel::for_each_row(coarse, m, |j, row| row_pass((j, row)));
     } else {
         coarse.chunks_mut(m).enumerate().for_each(row_pass);
     }
@@ -460,7 +460,7 @@ fn prolong_add(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64]
         }
     };
     if n >= PARALLEL_FROM {
-        fine.par_chunks_mut(n).enumerate().with_min_len(8).for_each(row_pass);
+        parallel::for_each_row(fine, n, |j, row| row_pass((j, row)));
     } else {
         fine.chunks_mut(n).enumerate().for_each(row_pass);
     }

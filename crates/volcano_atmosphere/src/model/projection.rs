@@ -13,7 +13,7 @@
 //! representable: the target's mean over each connected open region is removed (reported as
 //! `target_mean`); cells with every face closed take no part.
 
-use rayon::prelude::*;
+use volcano_core::parallel;
 
 use super::multigrid::{Poisson, SolveReport, remove_mean};
 
@@ -21,7 +21,7 @@ use super::multigrid::{Poisson, SolveReport, remove_mean};
 pub fn divergence(u: &[f32], v: &[f32], n: usize, dx: f64, out: &mut [f64]) {
     let mask = n - 1;
     let inv = 1.0 / dx;
-    out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+    parallel::for_each_row(out, n, |j, row| {
         let jp = (j + 1) & mask;
         for (i, o) in row.iter_mut().enumerate() {
             let ip = (i + 1) & mask;
@@ -36,7 +36,7 @@ pub fn flux_divergence(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, d
     let mask = n - 1;
     let inv = 1.0 / dx;
     let f = |a: f32, w: f32| a as f64 * w as f64;
-    out.par_chunks_mut(n).enumerate().with_min_len(8).for_each(|(j, row)| {
+    parallel::for_each_row(out, n, |j, row| {
         let jp = (j + 1) & mask;
         for (i, o) in row.iter_mut().enumerate() {
             let (k, ke, kn) = (j * n + i, j * n + ((i + 1) & mask), jp * n + i);
@@ -62,7 +62,7 @@ pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32],
         let f = if s > 0.0 { (a / s).min(1.0) } else { 0.0 };
         if f >= 1.0 { 1.0 } else { f.powf(power) }
     };
-    u.par_chunks_mut(n).zip(v.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(|(j, (ur, vr))| {
+    parallel::for_each_row((&mut *u, &mut *v), n, |j, (ur, vr)| {
         let jm = (j + n - 1) & mask;
         for i in 0..n {
             let k = j * n + i;
@@ -247,7 +247,7 @@ pub fn project(
     let mask = n - 1;
     let inv = 1.0 / dx;
     let p = &*p;
-    u.par_chunks_mut(n).zip(v.par_chunks_mut(n)).enumerate().with_min_len(8).for_each(|(j, (ur, vr))| {
+    parallel::for_each_row((&mut *u, &mut *v), n, |j, (ur, vr)| {
         let jm = (j + n - 1) & mask;
         for i in 0..n {
             let im = (i + n - 1) & mask;

@@ -1,13 +1,15 @@
 //! One weather step: ground exchange, phase change, vertical exchange, advection and
 //! projection per layer, temperature relaxation.
 //!
-//! Layers run in parallel (rayon) where they are independent (phase change, dynamics); each
-//! layer's work is sequential and the same whatever the thread count, so results are
-//! deterministic. Reductions over layers are summed in layer order.
+//! Layers run in parallel where they are independent (phase change, dynamics), and rows in
+//! parallel inside a layer, all on Bevy's compute task pool through
+//! [`volcano_core::parallel`] (fixed row bands, results in band order): the work and every
+//! reduction are the same whatever the thread count, so results are deterministic.
+//! Reductions over layers are summed in layer order.
 
-use rayon::prelude::*;
 use serde::Serialize;
 use volcano_core::ConfigError;
+use volcano_core::parallel;
 
 use super::advection::{Staggering, Transport, advect_conservative, advect_field, apertures};
 use super::ash::{AshReport, step_ash};
@@ -140,7 +142,7 @@ pub fn step(
     lap(0, &mut report);
 
     // 2. Phase change in every layer (4.2–4.4), layers in parallel.
-    state.layers.par_iter_mut().for_each(|layer| layer_phase_change(layer, params, dt));
+    parallel::par_map(state.layers.iter_mut().collect(), |_, layer| layer_phase_change(layer, params, dt));
     lap(1, &mut report);
 
     // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
@@ -166,12 +168,11 @@ pub fn step(
         divergence_target(&state.layers, i, &mut work.layers[i].target);
     }
     let (n, dx) = (state.grid.n, state.grid.dx);
-    let reports: Vec<(ProjectionReport, Transport)> = state
-        .layers
-        .par_iter_mut()
-        .zip(work.layers.par_iter_mut())
-        .map(|(layer, w)| layer_dynamics(layer, w, params, n, dx, dt))
-        .collect::<Result<_, _>>()?;
+    let items = state.layers.iter_mut().zip(work.layers.iter_mut()).collect();
+    let reports: Vec<(ProjectionReport, Transport)> =
+        parallel::par_map(items, |_, (layer, w)| layer_dynamics(layer, w, params, n, dx, dt))
+            .into_iter()
+            .collect::<Result<_, _>>()?;
     let mut reduction_sum = 0.0;
     for (r, t) in &reports {
         report.max_divergence_error = report.max_divergence_error.max(r.final_error);
@@ -218,34 +219,27 @@ fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f6
     let n = layer.t.nx();
     let rate = 1.0 - (-params.phase_rate * dt).exp();
     let sigma = layer.sigma.data();
-    (
-        layer.t.data_mut().par_chunks_mut(n),
-        layer.h.data_mut().par_chunks_mut(n),
-        layer.w.data_mut().par_chunks_mut(n),
-    )
-        .into_par_iter()
-        .enumerate()
-        .with_min_len(8)
-        .for_each(|(j, (t, h, w))| {
-            for i in 0..t.len() {
-                if sigma[j * n + i] <= 0.0 {
-                    continue;
-                }
-                let s = sigma[j * n + i] as f64;
-                if s < 1.0 {
-                    let (tw, pw) = wedge_air(t[i] as f64, altitude, thickness, s);
-                    let pc = phase_change_fraction(tw, h[i], w[i], pw, rate);
-                    t[i] = (t[i] as f64 + (pc.t - tw)) as f32;
-                    h[i] = pc.h;
-                    w[i] = pc.w;
-                    continue;
-                }
-                let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
-                t[i] = pc.t as f32;
+    let rows = (layer.t.data_mut(), layer.h.data_mut(), layer.w.data_mut());
+    parallel::for_each_row(rows, n, |j, (t, h, w)| {
+        for i in 0..t.len() {
+            if sigma[j * n + i] <= 0.0 {
+                continue;
+            }
+            let s = sigma[j * n + i] as f64;
+            if s < 1.0 {
+                let (tw, pw) = wedge_air(t[i] as f64, altitude, thickness, s);
+                let pc = phase_change_fraction(tw, h[i], w[i], pw, rate);
+                t[i] = (t[i] as f64 + (pc.t - tw)) as f32;
                 h[i] = pc.h;
                 w[i] = pc.w;
+                continue;
             }
-        });
+            let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
+            t[i] = pc.t as f32;
+            h[i] = pc.h;
+            w[i] = pc.w;
+        }
+    });
 }
 
 /// Advection of V and T, wind forcing, orographic damping, projection with the continuity

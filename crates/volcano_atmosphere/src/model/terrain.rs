@@ -10,7 +10,7 @@
 //! (Newton) and the linear ground–air system is integrated exactly over the step, then
 //! re-linearised once about the result (docs/ARCHITECTURE.md §5).
 
-use rayon::prelude::*;
+use volcano_core::parallel;
 use volcano_core::{LandCover, Terrain};
 
 use super::fields::{AtmosphereState, GridSpec, LayerFields, cover_props};
@@ -89,7 +89,7 @@ pub fn sunlit_map(heights: &[f32], n: usize, dx: f64, sun: &SunPosition, out: &m
     let (sx, sy) = (e / horiz, no / horiz);
     let rise = up / horiz * dx; // metres gained per cell travelled
     let mask = n as i64 - 1;
-    out.par_chunks_mut(n).enumerate().for_each(|(j, row)| {
+    parallel::for_each_row(&mut *out, n, |j, row| {
         for (i, o) in row.iter_mut().enumerate() {
             let h0 = heights[j * n + i] as f64;
             let steps = (((top - h0) / rise).ceil().max(0.0) as usize).min(4 * n);
@@ -253,70 +253,70 @@ pub fn ground_exchange(
     let layers = &state.layers;
     let heights = ground.height.data();
     // Per-cell updates computed in parallel from the old state, applied in order below.
-    let updates: Vec<Option<CellUpdate>> = (0..n * n)
-        .into_par_iter()
-        .with_min_len(1024)
-        .map(|k| {
-            let li = ground.lowest[k];
-            if li == u8::MAX {
-                return None;
-            }
-            let layer: &LayerFields = &layers[li as usize];
-            let cover = ground.cover.data()[k];
-            let props = cover_props(cover);
-            let cap = heat_capacity_per_m2(cover, params);
-            let (i, j) = (k % n, k / n);
-            // Surface normal from central differences on the torus.
-            let hx = (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64
-                / (2.0 * dx);
-            let hy = (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64
-                / (2.0 * dx);
-            let norm = (hx * hx + hy * hy + 1.0).sqrt();
-            let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
-            let lit = ground.sunlit.data()[k] as f64;
-            let tg = ground.t.data()[k] as f64;
-            let ta = layer.t.data()[k] as f64;
-            let sigma = layer.sigma.data()[k] as f64;
-            let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
-            // Cloud shading: the column's condensed water above the ground.
-            let lwp: f64 =
-                layers.iter().map(|l| l.w.data()[k] * l.sigma.data()[k] as f64 * l.thickness).sum();
-            let absorbed = lit
-                * cloud_transmission(lwp)
-                * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
-            let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
-            let (tg_heat, ta_new) = ground_heat_step(
-                tg,
-                ta,
-                absorbed + back,
-                props.emissivity as f64,
-                params.sensible_heat_coefficient,
-                cap,
-                air_cap,
-                dt,
-            );
-            // Water exchange (4.12): toward saturation at the ground temperature.
-            let vol = sigma * layer.thickness;
-            let hum = layer.h.data()[k];
-            let target = saturation_humidity(tg_heat, layer.pi);
-            // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
-            let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
-            let slope = (saturation_humidity(tg_heat + 0.5, layer.pi)
-                - saturation_humidity(tg_heat - 0.5, layer.pi))
-            .max(0.0);
-            // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
-            // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
-            let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
-            let grams = (relax * (target - hum) * vol / implicit).clamp(-hum * vol, ground.water.data()[k]);
-            let tg_new = tg_heat - grams * L_V_PER_G / cap;
-            Some(CellUpdate {
-                layer: li,
-                tg: tg_new as f32,
-                ta: ta_new as f32,
-                h: (hum + grams / vol).max(0.0),
-                grams,
-            })
+    let cell = |k: usize| {
+        let li = ground.lowest[k];
+        if li == u8::MAX {
+            return None;
+        }
+        let layer: &LayerFields = &layers[li as usize];
+        let cover = ground.cover.data()[k];
+        let props = cover_props(cover);
+        let cap = heat_capacity_per_m2(cover, params);
+        let (i, j) = (k % n, k / n);
+        // Surface normal from central differences on the torus.
+        let hx =
+            (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64 / (2.0 * dx);
+        let hy =
+            (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64 / (2.0 * dx);
+        let norm = (hx * hx + hy * hy + 1.0).sqrt();
+        let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
+        let lit = ground.sunlit.data()[k] as f64;
+        let tg = ground.t.data()[k] as f64;
+        let ta = layer.t.data()[k] as f64;
+        let sigma = layer.sigma.data()[k] as f64;
+        let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
+        // Cloud shading: the column's condensed water above the ground.
+        let lwp: f64 = layers.iter().map(|l| l.w.data()[k] * l.sigma.data()[k] as f64 * l.thickness).sum();
+        let absorbed = lit
+            * cloud_transmission(lwp)
+            * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
+        let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
+        let (tg_heat, ta_new) = ground_heat_step(
+            tg,
+            ta,
+            absorbed + back,
+            props.emissivity as f64,
+            params.sensible_heat_coefficient,
+            cap,
+            air_cap,
+            dt,
+        );
+        // Water exchange (4.12): toward saturation at the ground temperature.
+        let vol = sigma * layer.thickness;
+        let hum = layer.h.data()[k];
+        let target = saturation_humidity(tg_heat, layer.pi);
+        // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
+        let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
+        let slope = (saturation_humidity(tg_heat + 0.5, layer.pi)
+            - saturation_humidity(tg_heat - 0.5, layer.pi))
+        .max(0.0);
+        // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
+        // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
+        let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
+        let grams = (relax * (target - hum) * vol / implicit).clamp(-hum * vol, ground.water.data()[k]);
+        let tg_new = tg_heat - grams * L_V_PER_G / cap;
+        Some(CellUpdate {
+            layer: li,
+            tg: tg_new as f32,
+            ta: ta_new as f32,
+            h: (hum + grams / vol).max(0.0),
+            grams,
         })
+    };
+    let updates: Vec<Option<CellUpdate>> = parallel::Bands::DEFAULT
+        .map_ranges(n, |rows| (rows.start * n..rows.end * n).map(cell).collect::<Vec<_>>())
+        .into_iter()
+        .flatten()
         .collect();
     let mut moved = 0.0;
     for (k, u) in updates.into_iter().enumerate() {

@@ -49,8 +49,8 @@
 //!   target of the projection (docs/ARCHITECTURE.md §5.3), see [`divergence_target`].
 
 use bevy::reflect::Reflect;
-use rayon::prelude::*;
 use serde::Serialize;
+use volcano_core::parallel;
 
 use super::fields::LayerFields;
 use super::params::AtmosphereParams;
@@ -108,16 +108,14 @@ pub fn vertical_velocity(
     let n = (cells as f64).sqrt() as usize;
     // Terrain gradient (central differences, toroidal).
     let mask = n.wrapping_sub(1);
-    let grad: Vec<(f64, f64)> = (0..cells)
-        .into_par_iter()
-        .with_min_len(4096)
-        .map(|k| {
-            let (i, j) = (k % n, k / n);
+    let mut grad = vec![(0.0f64, 0.0f64); cells];
+    parallel::for_each_row(grad.as_mut_slice(), n, |j, row| {
+        for (i, g) in row.iter_mut().enumerate() {
             let gx = (terrain[j * n + ((i + 1) & mask)] - terrain[j * n + ((i + n - 1) & mask)]) as f64;
             let gy = (terrain[((j + 1) & mask) * n + i] - terrain[((j + n - 1) & mask) * n + i]) as f64;
-            (gx / (2.0 * dx), gy / (2.0 * dx))
-        })
-        .collect();
+            *g = (gx / (2.0 * dx), gy / (2.0 * dx));
+        }
+    });
     for i in 0..nl {
         if i + 1 == nl {
             let top = &mut layers[i];
@@ -130,17 +128,16 @@ pub fn vertical_velocity(
         let (a, b) = (&mut lo[i], &hi[0]);
         let open = |k: usize| a.sigma.data()[k] > 0.0 && b.sigma.data()[k] > 0.0;
         // MSE difference per cell (f64), its mass-weighted (σ) mean over open cells.
-        let diff: Vec<f64> = (0..cells)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|k| {
-                if !open(k) {
-                    return 0.0;
+        let mut diff = vec![0.0f64; cells];
+        parallel::for_each_row(diff.as_mut_slice(), n, |j, row| {
+            for (i, x) in row.iter_mut().enumerate() {
+                let k = j * n + i;
+                if open(k) {
+                    *x = moist_static_energy(a.t.data()[k] as f64, a.altitude, a.h.data()[k], a.pi)
+                        - moist_static_energy(b.t.data()[k] as f64, b.altitude, b.h.data()[k], b.pi);
                 }
-                moist_static_energy(a.t.data()[k] as f64, a.altitude, a.h.data()[k], a.pi)
-                    - moist_static_energy(b.t.data()[k] as f64, b.altitude, b.h.data()[k], b.pi)
-            })
-            .collect();
+            }
+        });
         let (sum, mass) = (0..cells).filter(|&k| open(k)).fold((0.0, 0.0), |(s, m), k| {
             let w = a.sigma.data()[k] as f64;
             (s + w * diff[k], m + w)
@@ -151,46 +148,42 @@ pub fn vertical_velocity(
         let (bs, coupling, decay) = (b.sigma.data(), params.convective_coupling, params.orographic_decay_m);
         let LayerFields { c, up, d, u, v, sigma, .. } = a;
         let (u, v, sa) = (u.data(), v.data(), sigma.data());
-        // Rows in parallel; maxima and counts are order-independent.
-        let rows =
-            (c.data_mut().par_chunks_mut(n), up.data_mut().par_chunks_mut(n), d.data_mut().par_chunks_mut(n))
-                .into_par_iter()
-                .enumerate()
-                .with_min_len(8)
-                .map(|(jj, (cr, ur, dr))| {
-                    let mut m = VerticalReport::default();
-                    for ii in 0..n {
-                        let k = jj * n + ii;
-                        if !(sa[k] > 0.0 && bs[k] > 0.0) {
-                            (cr[ii], ur[ii], dr[ii]) = (0.0, 0.0, 0.0);
-                            continue;
-                        }
-                        let conv = coupling * sa[k] as f64 * (diff[k] - mean);
-                        let (gx, gy) = grad[k];
-                        let lift = if gx == 0.0 && gy == 0.0 {
-                            0.0
-                        } else {
-                            let uc = 0.5 * (u[k] + u[jj * n + ((ii + 1) & mask)]) as f64;
-                            let vc = 0.5 * (v[k] + v[((jj + 1) & mask) * n + ii]) as f64;
-                            let above = (top - terrain[k] as f64).max(0.0);
-                            params.uplift_coupling * (uc * gx + vc * gy) * (-above / decay).exp()
-                        };
-                        let raw = conv + lift;
-                        // At most the thinner of the two free columns per step.
-                        let column = (sa[k] as f64 * ha).min(bs[k] as f64 * hb);
-                        let dk = realised_velocity(raw, column, dt);
-                        let finite = raw.is_finite();
-                        (cr[ii], ur[ii], dr[ii]) =
-                            if finite { (conv as f32, lift as f32, dk as f32) } else { (0.0, 0.0, 0.0) };
-                        m.max_speed = m.max_speed.max(dk.abs());
-                        if finite {
-                            m.max_unlimited_speed = m.max_unlimited_speed.max(raw.abs());
-                        }
-                        m.limited_cells += (!finite || dk.abs() < 0.9 * raw.abs()) as u64;
-                    }
-                    m
-                })
-                .reduce(VerticalReport::default, VerticalReport::merge);
+        // Rows in parallel; maxima and counts are order-independent (and folded in row order).
+        let rows = parallel::map_rows((c.data_mut(), up.data_mut(), d.data_mut()), n, |jj, (cr, ur, dr)| {
+            let mut m = VerticalReport::default();
+            for ii in 0..n {
+                let k = jj * n + ii;
+                if !(sa[k] > 0.0 && bs[k] > 0.0) {
+                    (cr[ii], ur[ii], dr[ii]) = (0.0, 0.0, 0.0);
+                    continue;
+                }
+                let conv = coupling * sa[k] as f64 * (diff[k] - mean);
+                let (gx, gy) = grad[k];
+                let lift = if gx == 0.0 && gy == 0.0 {
+                    0.0
+                } else {
+                    let uc = 0.5 * (u[k] + u[jj * n + ((ii + 1) & mask)]) as f64;
+                    let vc = 0.5 * (v[k] + v[((jj + 1) & mask) * n + ii]) as f64;
+                    let above = (top - terrain[k] as f64).max(0.0);
+                    params.uplift_coupling * (uc * gx + vc * gy) * (-above / decay).exp()
+                };
+                let raw = conv + lift;
+                // At most the thinner of the two free columns per step.
+                let column = (sa[k] as f64 * ha).min(bs[k] as f64 * hb);
+                let dk = realised_velocity(raw, column, dt);
+                let finite = raw.is_finite();
+                (cr[ii], ur[ii], dr[ii]) =
+                    if finite { (conv as f32, lift as f32, dk as f32) } else { (0.0, 0.0, 0.0) };
+                m.max_speed = m.max_speed.max(dk.abs());
+                if finite {
+                    m.max_unlimited_speed = m.max_unlimited_speed.max(raw.abs());
+                }
+                m.limited_cells += (!finite || dk.abs() < 0.9 * raw.abs()) as u64;
+            }
+            m
+        })
+        .into_iter()
+        .fold(VerticalReport::default(), VerticalReport::merge);
         report = report.merge(rows);
     }
     report
@@ -222,51 +215,48 @@ pub fn transfer(layers: &mut [LayerFields], dt: f64) {
         let outside = |held: &[(u32, f32)], k: usize| {
             held.binary_search_by_key(&(k as u32), |c| c.0).ok().map(|i| held[i].1)
         };
-        (
-            a.t.data_mut().par_chunks_mut(n),
-            a.h.data_mut().par_chunks_mut(n),
-            a.w.data_mut().par_chunks_mut(n),
-            a.ash.data_mut().par_chunks_mut(n),
-            b.t.data_mut().par_chunks_mut(n),
-            b.h.data_mut().par_chunks_mut(n),
-            b.w.data_mut().par_chunks_mut(n),
-            b.ash.data_mut().par_chunks_mut(n),
-        )
-            .into_par_iter()
-            .enumerate()
-            .with_min_len(8)
-            .for_each(|(j, (at, ah, aw, aa, bt, bh, bw, ba))| {
-                for x in 0..n {
-                    let k = j * n + x;
-                    let dk = d[k] as f64;
-                    let (sak, sbk) = (sa[k] as f64, sb[k] as f64);
-                    if dk == 0.0 || sak <= 0.0 || sbk <= 0.0 {
-                        continue;
-                    }
-                    let (va, vb) = (sak * ha, sbk * hb);
-                    let up = dk > 0.0;
-                    let (vs, vd, exs, exd) = if up { (va, vb, ex_a, ex_b) } else { (vb, va, ex_b, ex_a) };
-                    let moved = (dk.abs() * dt).min(vs);
-                    let carry = |qa: &mut f64, qb: &mut f64| {
-                        let (qs, qd) = if up { (qa, qb) } else { (qb, qa) };
-                        let m = *qs * moved;
-                        *qs = (*qs - m / vs).max(0.0);
-                        *qd += m / vd;
-                    };
-                    carry(&mut ah[x], &mut bh[x]);
-                    carry(&mut aw[x], &mut bw[x]);
-                    carry(&mut aa[x], &mut ba[x]);
-                    let (ts, td) = if up {
-                        (outside(&held_a, k).unwrap_or(at[x]), &mut bt[x])
-                    } else {
-                        (outside(&held_b, k).unwrap_or(bt[x]), &mut at[x])
-                    };
-                    let th_s = ts as f64 / exs;
-                    let th_d = *td as f64 / exd;
-                    let th = th_d + (th_s - th_d) * (moved / vd).min(1.0);
-                    *td = (th * exd) as f32;
+        let rows = (
+            a.t.data_mut(),
+            a.h.data_mut(),
+            a.w.data_mut(),
+            a.ash.data_mut(),
+            b.t.data_mut(),
+            b.h.data_mut(),
+            b.w.data_mut(),
+            b.ash.data_mut(),
+        );
+        parallel::for_each_row(rows, n, |j, (at, ah, aw, aa, bt, bh, bw, ba)| {
+            for x in 0..n {
+                let k = j * n + x;
+                let dk = d[k] as f64;
+                let (sak, sbk) = (sa[k] as f64, sb[k] as f64);
+                if dk == 0.0 || sak <= 0.0 || sbk <= 0.0 {
+                    continue;
                 }
-            });
+                let (va, vb) = (sak * ha, sbk * hb);
+                let up = dk > 0.0;
+                let (vs, vd, exs, exd) = if up { (va, vb, ex_a, ex_b) } else { (vb, va, ex_b, ex_a) };
+                let moved = (dk.abs() * dt).min(vs);
+                let carry = |qa: &mut f64, qb: &mut f64| {
+                    let (qs, qd) = if up { (qa, qb) } else { (qb, qa) };
+                    let m = *qs * moved;
+                    *qs = (*qs - m / vs).max(0.0);
+                    *qd += m / vd;
+                };
+                carry(&mut ah[x], &mut bh[x]);
+                carry(&mut aw[x], &mut bw[x]);
+                carry(&mut aa[x], &mut ba[x]);
+                let (ts, td) = if up {
+                    (outside(&held_a, k).unwrap_or(at[x]), &mut bt[x])
+                } else {
+                    (outside(&held_b, k).unwrap_or(bt[x]), &mut at[x])
+                };
+                let th_s = ts as f64 / exs;
+                let th_d = *td as f64 / exd;
+                let th = th_d + (th_s - th_d) * (moved / vd).min(1.0);
+                *td = (th * exd) as f32;
+            }
+        });
     }
 }
 

@@ -17,8 +17,9 @@
 
 use super::field::{Edge, FlowField};
 
-use super::bands::{BAND_ROWS, band_range, par_bands};
+use super::bands::{BAND_ROWS, band_range};
 use super::params::{GRAVITY, LavaParams, ViscosityModel};
+use volcano_core::parallel::par_map;
 
 /// What one call to [`advance_flow`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -235,7 +236,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             .enumerate()
             .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
             .collect();
-        let limits = par_bands(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north));
+        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north));
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
             m_max = m_max.max(m);
@@ -325,7 +326,7 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
         .zip(hn.chunks_mut(band).zip(tn.chunks_mut(band)))
         .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
         .collect();
-    let tallies = par_bands(items, |b, ((lim, (hn, tn)), (u, v))| {
+    let tallies = par_map(items, |b, ((lim, (hn, tn)), (u, v))| {
         let rows = band_range(b, ny);
         let (start, n) = (rows.start, rows.len());
         let below = if start > 0 { start - 1 } else { ny - 1 };

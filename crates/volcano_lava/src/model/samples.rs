@@ -17,12 +17,12 @@
 
 use bevy::math::DVec2;
 
-use super::bands::par_bands;
 use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
 };
 use super::field::FlowField;
 use super::params::LavaParams;
+use volcano_core::parallel::par_map;
 
 /// One surface sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -116,7 +116,7 @@ pub fn update_samples(
     // `u32::MAX` when it left the grid or the lava.
     s.cells.resize(s.samples.len(), 0);
     let items: Vec<_> = s.samples.chunks_mut(SAMPLE_CHUNK).zip(s.cells.chunks_mut(SAMPLE_CHUNK)).collect();
-    par_bands(items, |_, (samples, ks)| {
+    par_map(items, |_, (samples, ks)| {
         for (smp, kk) in samples.iter_mut().zip(ks.iter_mut()) {
             // Explicit Euler: a sample moves ≪ 1 cell per step (Courant ~10⁻²).
             smp.pos += velocity(smp.pos) * (dt / dx);

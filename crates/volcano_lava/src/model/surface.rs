@@ -2,10 +2,11 @@
 //! thickness from the time of contact with the air (eq 5.1) and the divergence of the surface
 //! velocity (eq 5.3), with the thesis' thresholds and reset rule.
 
-use super::bands::{BAND_ROWS, band_range, par_bands};
+use super::bands::{BAND_ROWS, band_range};
 use super::field::FlowField;
 use super::params::LavaParams;
 use super::samples::{CellSurface, SurfaceSamples, update_samples};
+use volcano_core::parallel::par_map;
 
 pub use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
@@ -102,7 +103,7 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     let [vsx, vsy] = &mut s.vsurf;
     s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Vec::new);
     let items: Vec<_> = vsx.chunks_mut(band).zip(vsy.chunks_mut(band)).zip(s.hsum.iter_mut()).collect();
-    par_bands(items, |b, ((vsx, vsy), hsum)| {
+    par_map(items, |b, ((vsx, vsy), hsum)| {
         let o = b * band;
         let rows = band_range(b, ny);
         // Horizontal 3-sums of (u, v, 1) over wet cells for the band's rows and the rows
@@ -167,7 +168,7 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     let [new_c, new_t] = &mut s.old;
     let items: Vec<_> =
         new_c.chunks_mut(band).zip(new_t.chunks_mut(band)).zip(s.divergence.chunks_mut(band)).collect();
-    par_bands(items, |b, ((new_c, new_t), divergence)| {
+    par_map(items, |b, ((new_c, new_t), divergence)| {
         let o = b * band;
         for j in band_range(b, ny) {
             for i in 0..nx {
