@@ -205,7 +205,7 @@ impl Bands {
         if len == 0 {
             return Vec::new();
         }
-        assert!(n > 0 && len % n == 0, "{len} elements are not rows of {n}");
+        assert!(n > 0 && len.is_multiple_of(n), "{len} elements are not rows of {n}");
         let rows = len / n;
         let mut items = Vec::with_capacity(self.count(rows));
         let mut rest = slices;
