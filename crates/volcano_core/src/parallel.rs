@@ -1,4 +1,4 @@
-//! Deterministic data parallelism on Bevy's [`ComputeTaskPool`], shared by every domain (the
+//! Deterministic data parallelism on Bevy's task pools, shared by every domain (the
 //! weather model, the lava grid, the pyroclastic particles).
 //!
 //! Work is cut into **fixed bands** of rows: the bands depend on the grid and on
@@ -7,11 +7,22 @@
 //! bit-identical on a laptop, a CI runner and a 64-core workstation. One band runs inline,
 //! without touching the pool.
 //!
-//! The pool is `ComputeTaskPool::get_or_init(TaskPool::default)`: in an app it is the pool
-//! `TaskPoolPlugin` built; in a bare `World`, a test, a command-line tool or a bench it is
-//! created on first use. The calling thread helps run the bands while it waits, so a call
-//! from a task (for instance the weather step on the `AsyncComputeTaskPool`) or from inside
-//! another band (nested loops) makes progress.
+//! The bands run on one of Bevy's pools ([`Pool`]): the `ComputeTaskPool` by default, the
+//! `AsyncComputeTaskPool` inside [`on_pool`]`(Pool::AsyncCompute, ..)`. In an app they are
+//! the pools `TaskPoolPlugin` built (so the app's thread budget is the only one); in a bare
+//! `World`, a test, a command-line tool or a bench they are created on first use. The calling
+//! thread helps run the bands while it waits, so a call from inside another band (nested
+//! loops) makes progress; nested calls stay on the pool of the outer call.
+//!
+//! **Work that a system may block on must not use the compute pool.** Bevy's multi-threaded
+//! executor runs systems as tasks of the compute pool, and a thread waiting for its bands
+//! runs whatever task of that pool is queued, systems included. The weather step runs as a
+//! task (`AsyncComputeTaskPool`) that a system joins (`block_on`) one weather step later: had
+//! its bands been on the compute pool, the task's own thread could pick up that joining
+//! system while helping and wait for itself for ever (the deadlock the first version of this
+//! helper had). So the weather step runs its bands on the async compute pool, whose tasks
+//! never wait for a system. `tests/pool.rs` in `volcano_atmosphere` runs the pipeline in a
+//! multi-threaded app on a two-thread compute pool.
 //!
 //! The helper is written by hand rather than with rayon on purpose: rayon brings a second
 //! thread pool, sized to the machine, that competes with Bevy's for the same cores (on two
@@ -38,44 +49,77 @@
 //! assert_eq!(total, (0..100).map(|j| 4.0 * (j as f32 + 1.0)).sum::<f32>());
 //! ```
 //!
-//! [`ComputeTaskPool`]: bevy::tasks::ComputeTaskPool
 
 use std::cell::Cell;
 use std::ops::Range;
 
-use bevy::tasks::{ComputeTaskPool, TaskPool};
+use bevy::tasks::{AsyncComputeTaskPool, ComputeTaskPool, TaskPool};
 
 /// Rows per band of [`Bands::DEFAULT`]: a 512-row grid makes 16 bands, enough to balance two
 /// to eight cores while each band is long enough that its task's cost does not show.
 pub const BAND_ROWS: usize = 32;
 
-/// Bevy's compute task pool, created with the default size if the app has not built one
-/// (bare `World`, tests, command-line tools, benches).
-pub fn pool() -> &'static ComputeTaskPool {
-    ComputeTaskPool::get_or_init(TaskPool::default)
+/// Which of Bevy's task pools the helper's bands run on (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Pool {
+    /// Bevy's `ComputeTaskPool`: work a system waits for while it runs (the lava grid, the
+    /// pyroclastic particles).
+    #[default]
+    Compute,
+    /// Bevy's `AsyncComputeTaskPool`: work inside a task that a system may block on (the
+    /// weather step of the off-thread pipeline).
+    AsyncCompute,
+}
+
+impl Pool {
+    /// The pool, created with the default size if the app has not built it (bare `World`,
+    /// tests, command-line tools, benches).
+    pub fn task_pool(self) -> &'static TaskPool {
+        match self {
+            Pool::Compute => ComputeTaskPool::get_or_init(TaskPool::default),
+            Pool::AsyncCompute => AsyncComputeTaskPool::get_or_init(TaskPool::default),
+        }
+    }
+
+    /// The pool the helper's calls on this thread use now.
+    pub fn current() -> Pool {
+        POOL.get()
+    }
 }
 
 thread_local! {
     /// Set by [`run_inline`]: every helper call on this thread runs its bands here, in order.
     static INLINE: Cell<bool> = const { Cell::new(false) };
+    /// Set by [`on_pool`] (and inside every band): the pool of this thread's helper calls.
+    static POOL: Cell<Pool> = const { Cell::new(Pool::Compute) };
+}
+
+/// Restores a thread-local flag when dropped (also when the closure panics).
+struct Restore<T: Copy + 'static>(&'static std::thread::LocalKey<Cell<T>>, T);
+
+impl<T: Copy + 'static> Drop for Restore<T> {
+    fn drop(&mut self) {
+        self.0.set(self.1);
+    }
+}
+
+/// Runs `f` with every helper call it makes on this thread (and every call nested in their
+/// bands) running its bands on `pool`.
+pub fn on_pool<R>(pool: Pool, f: impl FnOnce() -> R) -> R {
+    let _restore = Restore(&POOL, POOL.replace(pool));
+    f()
 }
 
 /// Runs `f` with every helper call it makes (on this thread, nested ones included) executed
 /// inline, band after band in band order, without the pool: the single-threaded reference
 /// that tests compare a parallel run with (the bands, hence the results, are the same).
 pub fn run_inline<R>(f: impl FnOnce() -> R) -> R {
-    struct Restore(bool);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            INLINE.set(self.0);
-        }
-    }
-    let _restore = Restore(INLINE.replace(true));
+    let _restore = Restore(&INLINE, INLINE.replace(true));
     f()
 }
 
-/// Runs `f(index, item)` for every item, one task per item on the compute task pool, and
-/// returns the results in item order. Runs inline when there is at most one item (or inside
+/// Runs `f(index, item)` for every item, one task per item on the [current pool](Pool::current),
+/// and returns the results in item order. Runs inline when there is at most one item (or inside
 /// [`run_inline`]).
 ///
 /// The primitive under [`Bands`]: use it when a pass builds its own per-band items (slices of
@@ -85,10 +129,12 @@ pub fn par_map<T: Send, R: Send + 'static>(items: Vec<T>, f: impl Fn(usize, T) -
         return items.into_iter().enumerate().map(|(b, t)| f(b, t)).collect();
     }
     let f = &f;
-    // `scope` returns the spawned tasks' results in spawn order.
-    pool().scope(|scope| {
+    let pool = Pool::current();
+    // `scope` returns the spawned tasks' results in spawn order. A band may run on any thread
+    // of the pool: it carries the pool along, so its own nested calls stay there.
+    pool.task_pool().scope(|scope| {
         for (b, item) in items.into_iter().enumerate() {
-            scope.spawn(async move { f(b, item) });
+            scope.spawn(async move { on_pool(pool, || f(b, item)) });
         }
     })
 }

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on};
+use volcano_core::parallel;
 use volcano_core::prelude::*;
 
 use super::components::{
@@ -23,6 +24,10 @@ use crate::model::fields::{AtmosphereState, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::run::apply_event;
 use crate::model::step::{StepReport, Workspace, step};
+
+/// The pool the weather step's bands run on: the async compute pool, whose tasks never wait for
+/// a system (with the compute pool, `tests/pool.rs` hangs).
+const POOL: parallel::Pool = parallel::Pool::AsyncCompute;
 
 /// Where weather steps run (a resource of [`crate::AtmospherePlugin`]).
 #[derive(Resource, Debug, Clone, PartialEq, Reflect)]
@@ -134,8 +139,12 @@ impl AtmosphereWork {
     }
 }
 
+/// One model step of the pipeline. Its bands run on the async compute pool, on or off the main
+/// thread alike: a system joins this step one weather step later, and a compute-pool thread
+/// helping with the step's bands could pick up that very system and wait for itself
+/// (`volcano_core::parallel`'s module docs).
 fn run_step(mut state: AtmosphereState, params: &AtmosphereParams, mut work: Workspace, dt: f64) -> Stepped {
-    let result = step(&mut state, params, &mut work, dt);
+    let result = parallel::on_pool(POOL, || step(&mut state, params, &mut work, dt));
     // docs/ARCHITECTURE.md §7.1: debug builds check that the state stays finite and
     // non-negative.
     let valid = !cfg!(debug_assertions) || state.is_valid();
