@@ -247,7 +247,8 @@ pub struct PlumeInstances(pub Arc<Vec<AshInstance>>);
 /// about an axis `a` by angle `θ` turns its billboard by `θ (a · v̂)`, `v̂` toward the viewer.
 ///
 /// The counts are planned first, so every parent owns a fixed range of `out` and the ranges
-/// are filled in parallel (compute task pool) with the same result on any number of threads.
+/// are filled in parallel (`volcano_core::parallel`) with the same result on any number of
+/// threads.
 /// `out` is reused: only growth is initialised, every kept slot is overwritten.
 pub fn build_instances(
     settings: &PlumeViewSettings,
@@ -269,19 +270,18 @@ pub fn build_instances(
     }
     // Fixed chunking: the result does not depend on the number of threads.
     const CHUNK: usize = 256;
-    let pool = bevy::tasks::ComputeTaskPool::get_or_init(bevy::tasks::TaskPool::default);
-    pool.scope(|scope| {
-        let mut rest: &mut [AshInstance] = out.as_mut_slice();
-        for (parents, plan) in parents.chunks(CHUNK).zip(plan.chunks(CHUNK)) {
-            let len: usize = plan.iter().map(Plan::count).sum();
-            let (mine, tail) = std::mem::take(&mut rest).split_at_mut(len);
-            rest = tail;
-            scope.spawn(async move {
-                let mut slots = mine.iter_mut();
-                for (p, plan) in parents.iter().zip(plan) {
-                    fill_parent(settings, viewpoint, eruptions, p, plan, &mut slots);
-                }
-            });
+    let mut items = Vec::with_capacity(parents.len().div_ceil(CHUNK));
+    let mut rest: &mut [AshInstance] = out.as_mut_slice();
+    for (parents, plan) in parents.chunks(CHUNK).zip(plan.chunks(CHUNK)) {
+        let len: usize = plan.iter().map(Plan::count).sum();
+        let (mine, tail) = std::mem::take(&mut rest).split_at_mut(len);
+        rest = tail;
+        items.push((parents, plan, mine));
+    }
+    volcano_core::parallel::par_map(items, |_, (parents, plan, mine)| {
+        let mut slots = mine.iter_mut();
+        for (p, plan) in parents.iter().zip(plan) {
+            fill_parent(settings, viewpoint, eruptions, p, plan, &mut slots);
         }
     });
 }
