@@ -7,12 +7,14 @@
 //! Modules follow the two-layer rule of docs/ARCHITECTURE.md §2: *model* modules are plain
 //! data and functions ([`atmosphere`], [`grid`], [`terrain`], [`rng`]); *plugin* modules hold
 //! the ECS glue ([`clock`], [`volcano`], [`plugin`]). [`parallel`] is the deterministic
-//! row-band helper every domain runs its loops with, on Bevy's compute task pool.
+//! row-band helper every domain runs its loops with, on Bevy's task pools; [`interpolation`]
+//! shows moving entities between their last two base ticks.
 
 pub mod atmosphere;
 pub mod clock;
 pub mod error;
 pub mod grid;
+pub mod interpolation;
 pub mod parallel;
 pub mod plugin;
 pub mod rng;
@@ -24,6 +26,7 @@ pub use atmosphere::{AirState, AtmosphereProfile, ThesisIsa, UsStandard1976};
 pub use clock::{Cadence, DomainClock, SimControl, SimDomainAppExt, SimSystems, SimTick};
 pub use error::ConfigError;
 pub use grid::{Boundary, Grid2};
+pub use interpolation::{TickInterpolation, TickInterpolationPlugin, TickInterpolationSystems};
 pub use plugin::VolcanoCorePlugin;
 pub use rng::{VolcanoRng, derive_stream};
 pub use terrain::{LandCover, NodeRegion, StratovolcanoParams, Terrain, TerrainChanged};
@@ -34,7 +37,7 @@ pub mod prelude {
     pub use crate::{
         AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2, LandCover,
         OnTerrain, SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams, Terrain,
-        TerrainChanged, TerrainVolcanoes, ThesisIsa, UsStandard1976, VentPosition, Volcano,
-        VolcanoCorePlugin, VolcanoRng, VolcanoSpec,
+        TerrainChanged, TerrainVolcanoes, ThesisIsa, TickInterpolation, TickInterpolationPlugin,
+        UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng, VolcanoSpec,
     };
 }

@@ -34,6 +34,7 @@ pub mod headless;
 pub mod lava;
 pub mod plume;
 pub mod sky;
+pub mod smooth_motion;
 pub mod terrain;
 pub mod window_capture;
 
@@ -52,6 +53,7 @@ pub use sky::{
     ActiveSky, GradientSky, SkyMode, SkySettings, Sun, VolcanoSky, VolcanoSkyCamera, VolcanoSkyPlugin,
     sky_camera_components, sun_bundle,
 };
+pub use smooth_motion::SmoothMotionPlugin;
 pub use terrain::{
     DepositRenderPlugin, DepositTint, GroundSample, HorizonError, Relief, TerrainHorizon, TerrainHorizonMesh,
     TerrainMesh, TerrainRenderPlugin, UnrenderedTerrain, VentMarker, ground_color, horizon_mesh,
@@ -61,7 +63,8 @@ pub use window_capture::WindowScreenshotPlugin;
 
 /// The simulation's visuals, one plugin per part so any can be disabled: terrain meshes and
 /// vent markers, the orbit camera controller, the eruption column, the deposit tint, lava,
-/// volumetric clouds and the ash fall. Needs the render plugins (`DefaultPlugins` or
+/// volumetric clouds, the ash fall, and the plume drawn between ticks ([`SmoothMotionPlugin`]).
+/// Needs the render plugins (`DefaultPlugins` or
 /// [`headless_default_plugins`]). Does not add the sky ([`VolcanoSkyPlugin`]) nor headless
 /// capture.
 #[derive(Debug, Default, Clone, Copy)]
@@ -77,6 +80,7 @@ impl PluginGroup for VolcanoRenderPlugins {
             .add(LavaRenderPlugin)
             .add(CloudRenderPlugin)
             .add(AshFallRenderPlugin)
+            .add(SmoothMotionPlugin)
     }
 }
 
