@@ -45,7 +45,6 @@ use std::ops::Range;
 
 use bevy::math::{DVec3, Vec3};
 use volcano_core::VolcanoRng;
-use volcano_core::atmosphere::AtmosphereProfile;
 
 use super::ambient::LayeredAmbient;
 use super::params::{Dynamics, PlumeParams};
@@ -468,7 +467,7 @@ fn step_slices(
             continue;
         }
         let vent_altitude = slice.vent.y as f64;
-        let step = match inputs.air {
+        let out = match inputs.air {
             // Coupled: the layers' air and wind around the column (§4.3.3).
             PlumeAir::Coupled(a) => {
                 let wind = |z: f64| a.wind_at(vent_altitude + z);
@@ -479,10 +478,10 @@ fn step_slices(
                 slice.state.step(p, &SliceEnv { air: &own_air, vent_altitude, wind: &wind }, dt)
             }
         };
-        slice.ash_pending += step.sedimented;
+        slice.ash_pending += out.sedimented;
         // Spin of the ring spheres: Ω = v / r_s about the ring tangent (mean size r_s = r/2).
         slice.ring_phase += slice.state.velocity.length() / (0.5 * slice.state.r).max(1e-9) * dt;
-        if step.reached_neutral {
+        if out.reached_neutral {
             report.neutral.push(NeutralEvent {
                 at: k,
                 altitude: slice.state.neutral_altitude.unwrap_or(0.0),

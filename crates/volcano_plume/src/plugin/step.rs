@@ -284,15 +284,17 @@ pub(super) fn step_plume(
         let f = &g.report.finished[i];
         let s = &f.removed.slice;
         match f.outcome {
-            Outcome::Umbrella => out.umbrella.write(UmbrellaSpreading {
-                volcano: g.volcano,
-                apex: s.state.apex,
-                neutral: s.state.neutral_altitude.unwrap_or(s.state.apex),
-            }),
-            Outcome::Collapsed => {
-                out.collapsed.write(PlumeCollapsed { volcano: g.volcano, position: world(s), mass: s.state.mass })
+            Outcome::Umbrella => {
+                out.umbrella.write(UmbrellaSpreading {
+                    volcano: g.volcano,
+                    apex: s.state.apex,
+                    neutral: s.state.neutral_altitude.unwrap_or(s.state.apex),
+                });
             }
-        };
+            Outcome::Collapsed => {
+                out.collapsed.write(PlumeCollapsed { volcano: g.volcano, position: world(s), mass: s.state.mass });
+            }
+        }
         if f.buoyancy_floored {
             let z = s.vent.y as f64 + s.state.neutral_altitude.unwrap_or(s.state.apex);
             debug!("umbrella at {z:.0} m: unstable air, buoyancy frequency raised to its floor");
