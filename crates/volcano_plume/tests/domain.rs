@@ -66,8 +66,20 @@ fn model_run(
 /// Bits of a slice's state and of what it carries.
 fn bits(s: &Slice, ring_phase: f64, ash_pending: f64) -> Vec<u64> {
     let mut v = vec![
-        s.r, s.length, s.density, s.temperature, s.mass, s.age, s.apex, s.initial_mass, s.entrained_mass,
-        s.sedimented_mass, s.solid_mass, s.water_mass, ring_phase, ash_pending,
+        s.r,
+        s.length,
+        s.density,
+        s.temperature,
+        s.mass,
+        s.age,
+        s.apex,
+        s.initial_mass,
+        s.entrained_mass,
+        s.sedimented_mass,
+        s.solid_mass,
+        s.water_mass,
+        ring_phase,
+        ash_pending,
     ];
     v.extend(s.position.to_array());
     v.extend(s.velocity.to_array());
@@ -95,7 +107,8 @@ fn the_model_step_alone_matches_the_plugin_bit_for_bit() {
     );
     // The vent's slices in emission order (secondary columns from the flows share the
     // numbering, so they are left out and the vent's are matched by order).
-    let mut plugin: Vec<&PlumeSlice> = world.query::<&PlumeSlice>().iter(world).filter(|s| !s.secondary).collect();
+    let mut plugin: Vec<&PlumeSlice> =
+        world.query::<&PlumeSlice>().iter(world).filter(|s| !s.secondary).collect();
     plugin.sort_by_key(|s| s.index);
     assert!(collapsed > 10, "the thesis column collapses ({collapsed} slices in {seconds} s)");
     assert!(state.slices.len() > 50, "{} live slices", state.slices.len());
@@ -118,7 +131,8 @@ fn the_model_step_alone_matches_the_plugin_bit_for_bit() {
     let books = *world.query::<&PlumeAshBudget>().single(world).unwrap();
     assert_eq!(books.emitted_kg.to_bits(), state.ash.emitted_kg.to_bits());
     assert!(
-        (books.to_flows_kg - state.ash.to_flows_kg).abs() <= 1e-12 * books.to_flows_kg && books.to_flows_kg > 0.0,
+        (books.to_flows_kg - state.ash.to_flows_kg).abs() <= 1e-12 * books.to_flows_kg
+            && books.to_flows_kg > 0.0,
         "to the flows: plugin {} kg, model {} kg",
         books.to_flows_kg,
         state.ash.to_flows_kg

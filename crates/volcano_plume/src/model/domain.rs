@@ -492,7 +492,12 @@ fn step_slices(
             let lost = slice.ash_pending + slice.state.solid_mass.max(0.0);
             state.ash.lost_kg += lost;
             gone[k] = Some(SliceFate::NonFinite(report.non_finite.len()));
-            report.non_finite.push(RemovedSlice { at: k, slice: slice.clone(), ash_kg: lost, ring: Vec::new() });
+            report.non_finite.push(RemovedSlice {
+                at: k,
+                slice: slice.clone(),
+                ash_kg: lost,
+                ring: Vec::new(),
+            });
             continue;
         }
         if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) {
@@ -504,7 +509,13 @@ fn step_slices(
 
 /// A slice at its apex gives its ring to the umbrella with its ash; a collapsed one goes to the
 /// flows with its ash.
-fn finish(state: &mut PlumeState, inputs: &PlumeInputs, k: usize, gone: &mut [Option<SliceFate>], report: &mut PlumeReport) {
+fn finish(
+    state: &mut PlumeState,
+    inputs: &PlumeInputs,
+    k: usize,
+    gone: &mut [Option<SliceFate>],
+    report: &mut PlumeReport,
+) {
     let slice = state.slices[k].clone();
     let s = &slice.state;
     let ring: Vec<usize> = (0..state.rings.len()).filter(|&i| state.rings[i].slice == slice.index).collect();
@@ -587,7 +598,12 @@ fn ring_positions(rings: &[RingSphere], removed: &mut [RemovedSlice]) {
     }
 }
 
-fn step_umbrella(state: &mut PlumeState, inputs: &PlumeInputs, gone: &mut [Option<SphereFate>], report: &mut PlumeReport) {
+fn step_umbrella(
+    state: &mut PlumeState,
+    inputs: &PlumeInputs,
+    gone: &mut [Option<SphereFate>],
+    report: &mut PlumeReport,
+) {
     let (p, dt) = (inputs.params, inputs.dt);
     for (k, u) in state.umbrella.iter_mut().enumerate() {
         u.sphere.step(dt);
@@ -615,7 +631,12 @@ fn step_umbrella(state: &mut PlumeState, inputs: &PlumeInputs, gone: &mut [Optio
 }
 
 /// The umbrella cap: the oldest (largest age, then lowest id) expire early.
-fn cap_umbrella(state: &mut PlumeState, max: usize, gone: &mut [Option<SphereFate>], report: &mut PlumeReport) {
+fn cap_umbrella(
+    state: &mut PlumeState,
+    max: usize,
+    gone: &mut [Option<SphereFate>],
+    report: &mut PlumeReport,
+) {
     let mut list: Vec<usize> = (0..state.umbrella.len()).filter(|&k| gone[k].is_none()).collect();
     if list.len() <= max {
         return;
@@ -642,7 +663,8 @@ fn compact(
     report: &mut PlumeReport,
 ) {
     let mut ring_gone = vec![false; state.rings.len()];
-    let removed = report.retired.iter().chain(&report.non_finite).chain(report.finished.iter().map(|f| &f.removed));
+    let removed =
+        report.retired.iter().chain(&report.non_finite).chain(report.finished.iter().map(|f| &f.removed));
     for i in removed.flat_map(|r| &r.ring) {
         ring_gone[*i] = true;
     }

@@ -68,12 +68,20 @@ type Eruptions<'w, 's> = Query<
         Option<&'static PlumeAmbient>,
     ),
 >;
-type Slices<'w, 's> =
-    Query<'w, 's, (Entity, &'static mut PlumeSlice, &'static mut Transform), (Without<S1>, Without<Umbrella>)>;
+type Slices<'w, 's> = Query<
+    'w,
+    's,
+    (Entity, &'static mut PlumeSlice, &'static mut Transform),
+    (Without<S1>, Without<Umbrella>),
+>;
 type Rings<'w, 's> =
     Query<'w, 's, (Entity, &'static S1, &'static mut Transform), (Without<PlumeSlice>, Without<Umbrella>)>;
-type Spheres<'w, 's> =
-    Query<'w, 's, (Entity, &'static mut Umbrella, &'static mut Transform), (Without<S1>, Without<PlumeSlice>)>;
+type Spheres<'w, 's> = Query<
+    'w,
+    's,
+    (Entity, &'static mut Umbrella, &'static mut Transform),
+    (Without<S1>, Without<PlumeSlice>),
+>;
 
 /// The plume step: gather, [`domain::step`] per volcano, write back, messages.
 #[allow(clippy::too_many_arguments)]
@@ -180,7 +188,14 @@ pub(super) fn step_plume(
             let (transform, live) = match g.report.slice_fates[em.at] {
                 SliceFate::Kept(j) => {
                     let s = &g.state.slices[j];
-                    (Transform { translation: world(s), rotation: orientation(&s.state), scale: Vec3::ONE }, s)
+                    (
+                        Transform {
+                            translation: world(s),
+                            rotation: orientation(&s.state),
+                            scale: Vec3::ONE,
+                        },
+                        s,
+                    )
                 }
                 // Gone in its first step: spawned as it left, removed below.
                 _ => (at, &em.slice),
@@ -249,7 +264,11 @@ pub(super) fn step_plume(
         if let Some(ev) = r.neutral.get(neutral_seen[v])
             && ev.at == k
         {
-            out.neutral.write(NeutralBuoyancyReached { volcano: g.volcano, altitude: ev.altitude, speed: ev.speed });
+            out.neutral.write(NeutralBuoyancyReached {
+                volcano: g.volcano,
+                altitude: ev.altitude,
+                speed: ev.speed,
+            });
             neutral_seen[v] += 1;
         }
         match r.slice_fates[k] {
@@ -292,7 +311,11 @@ pub(super) fn step_plume(
                 });
             }
             Outcome::Collapsed => {
-                out.collapsed.write(PlumeCollapsed { volcano: g.volcano, position: world(s), mass: s.state.mass });
+                out.collapsed.write(PlumeCollapsed {
+                    volcano: g.volcano,
+                    position: world(s),
+                    mass: s.state.mass,
+                });
             }
         }
         if f.buoyancy_floored {

@@ -25,7 +25,12 @@ fn inputs<'a>(p: &'a PlumeParams, spheres: &'a SphereParams, rng: &'a VolcanoRng
 }
 
 /// A state holding one slice (index 7, with its ring) in the given condition.
-fn one_slice(p: &PlumeParams, spheres: &SphereParams, rng: &VolcanoRng, edit: impl Fn(&mut LiveSlice)) -> PlumeState {
+fn one_slice(
+    p: &PlumeParams,
+    spheres: &SphereParams,
+    rng: &VolcanoRng,
+    edit: impl Fn(&mut LiveSlice),
+) -> PlumeState {
     let mut slice = LiveSlice::at_vent(p, 7, Vec3::new(10.0, 200.0, -5.0));
     edit(&mut slice);
     PlumeState {
@@ -122,8 +127,11 @@ fn a_slice_at_its_apex_spreads_its_ring_and_ash_as_the_umbrella() {
         assert_eq!(u.radius, ring_before[m].sphere.radius(s.r));
         // Stepped once in the umbrella already (detached in this step).
         assert_eq!(u.age, DT);
-        assert!((u.ash + u.ash_pending - solid / 6.0 - if m == 0 { f.removed.slice.ash_pending } else { 0.0 }).abs()
-            < 1e-9 * solid);
+        assert!(
+            (u.ash + u.ash_pending - solid / 6.0 - if m == 0 { f.removed.slice.ash_pending } else { 0.0 })
+                .abs()
+                < 1e-9 * solid
+        );
     }
     assert_eq!(r.sphere_fates, (0..6).map(SphereFate::Kept).collect::<Vec<_>>());
     assert_eq!((state.ash.to_flows_kg, state.ash.lost_kg), (0.0, 0.0));
