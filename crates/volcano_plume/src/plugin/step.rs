@@ -108,7 +108,7 @@ pub(super) fn step_plume(
     let mut slot: EntityHashMap<usize> = EntityHashMap::default();
     for (volcano, _, emission, budget, ..) in &eruptions {
         slot.insert(volcano, plumes.len());
-        plumes.push(gathered(volcano, &emission, &budget));
+        plumes.push(gathered(volcano, emission, budget));
     }
     let mut slice_order: Vec<Entry> = Vec::new();
     let mut slice_of: EntityHashMap<(usize, u64)> = EntityHashMap::default();
