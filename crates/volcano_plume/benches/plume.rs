@@ -77,6 +77,7 @@ fn plume_domain(c: &mut Criterion) {
         umbrella_fallout_s: eruption.umbrella_fallout_s,
         air: PlumeAir::Own,
         caps: StepCaps::default(),
+        rings: None,
         dt: 0.002,
     };
     let mut state = PlumeState::default();

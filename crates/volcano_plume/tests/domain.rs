@@ -54,6 +54,7 @@ fn model_run(
         umbrella_fallout_s: eruption.umbrella_fallout_s,
         air: PlumeAir::Own,
         caps: StepCaps::default(),
+        rings: None,
         dt,
     };
     for n in 1..=steps {

@@ -162,7 +162,8 @@ pub struct AshBooks {
 pub struct PlumeState {
     /// Live slices (rising, or frozen by an invalid edit).
     pub slices: Vec<LiveSlice>,
-    /// The s1 spheres of the live slices, each naming its slice.
+    /// The s1 spheres of the live slices, each naming its slice (with a [`RingSource`], only
+    /// those the step needs, see there).
     pub rings: Vec<RingSphere>,
     /// Spheres of the spreading umbrella.
     pub umbrella: Vec<CloudSphere>,
@@ -228,8 +229,27 @@ pub struct PlumeInputs<'a> {
     pub air: PlumeAir<'a>,
     /// Caps.
     pub caps: StepCaps,
+    /// Where the rings of the slices the state held at the start of the step are: `None` in
+    /// [`PlumeState::rings`] (a model-only run), or kept by the caller ([`RingSource`]).
+    pub rings: Option<RingSource<'a>>,
     /// Step length (s).
     pub dt: f64,
+}
+
+/// Rings kept by the caller (the plugin keeps them on the s1 entities, and looks them up only
+/// for the few slices that leave the column in a step). With one, [`PlumeState::rings`] starts
+/// a step holding none of the live slices' rings; the step appends those of the slices it
+/// emits and, once per step, asks the source for the rings of the slices that leave the
+/// column (retired, non-finite, at their apex or collapsed) by index: the source returns their
+/// spheres, each ring in its own order (rings may be interleaved), and the step appends them
+/// to [`PlumeState::rings`], so the positions in the report stay valid.
+#[derive(Clone, Copy)]
+pub struct RingSource<'a>(pub &'a dyn Fn(&[u64]) -> Vec<RingSphere>);
+
+impl std::fmt::Debug for RingSource<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("RingSource(..)")
+    }
 }
 
 /// A slice that left the column in this step.
@@ -369,16 +389,28 @@ impl PlumeReport {
 /// Advances one volcano's plume by one step of `inputs.dt` seconds (see the module docs).
 pub fn step(state: &mut PlumeState, inputs: &PlumeInputs) -> PlumeReport {
     let mut report = PlumeReport::default();
+    let held = state.slices.len();
     emit(state, inputs, &mut report);
     let n = state.slices.len();
     let mut gone = vec![None; n];
     cap_slices(state, inputs.caps.max_live_slices, &mut gone, &mut report);
-    if !inputs.frozen {
+    let finishing = if inputs.frozen {
+        Vec::new()
+    } else {
         report.stepped = true;
-        let finishing = step_slices(state, inputs, &mut gone, &mut report);
-        for k in finishing {
-            finish(state, inputs, k, &mut gone, &mut report);
+        step_slices(state, inputs, &mut gone, &mut report)
+    };
+    if let Some(RingSource(source)) = inputs.rings {
+        // The rings of the held slices that leave the column, in one request.
+        let leaving =
+            report.retired.iter().chain(&report.non_finite).map(|r| r.at).chain(finishing.iter().copied());
+        let want: Vec<u64> = leaving.filter(|&k| k < held).map(|k| state.slices[k].index).collect();
+        if !want.is_empty() {
+            state.rings.extend(source(&want));
         }
+    }
+    for k in finishing {
+        finish(state, inputs, k, &mut gone, &mut report);
     }
     ring_positions(&state.rings, &mut report.retired);
     ring_positions(&state.rings, &mut report.non_finite);

@@ -1,12 +1,16 @@
 //! The plume domain's step system ([`super::PlumeSystems::Step`]): gathers each volcano's
-//! slices, rings and umbrella spheres into a [`PlumeState`] (in query order), calls
-//! [`domain::step`] once per volcano, and writes the results back in the order the plugin's
-//! separate systems used to: the emitted slices are spawned first, then the live-slice cap's
+//! slices and umbrella spheres into a [`PlumeState`] (in query order), calls [`domain::step`]
+//! once per volcano with the s1 entities as its [`RingSource`] (one pass over them in a step
+//! where slices leave the column, none otherwise), and writes the results back in the order
+//! the plugin's separate systems used to: the emitted slices are spawned first, then the live-slice cap's
 //! retirements, then the slices in query order (state, transform, neutral-buoyancy messages,
 //! removals, then the finished slices: umbrella spheres or a collapse), then the umbrella
 //! spheres in query order (the detached ones last), then the umbrella cap's retirements. Keeping
 //! that order keeps the entities' storage order, and with it the order of every later step's
 //! sums and messages, what it was.
+
+use std::cell::RefCell;
+use std::collections::HashSet;
 
 use bevy::ecs::entity::EntityHashMap;
 use bevy::ecs::system::SystemParam;
@@ -18,7 +22,7 @@ use crate::caps::{PlumeCapReport, PlumeCaps, checked};
 use crate::components::*;
 use crate::model::domain::{
     self, AshBooks, CloudSphere, Emission, Emitter, LiveSlice, Outcome, PlumeAir, PlumeInputs, PlumeReport,
-    PlumeState, RingSphere, SliceFate, SphereFate, StepCaps,
+    PlumeState, RingSource, RingSphere, SliceFate, SphereFate, StepCaps,
 };
 
 /// The messages the plume step writes.
@@ -38,9 +42,14 @@ struct Gathered {
     report: PlumeReport,
     /// Entities of the slices by position (the gathered ones, then the emitted ones).
     slices: Vec<Entity>,
+    /// Emission indices of the gathered slices.
+    indices: Vec<u64>,
     /// How many slices were gathered (the rest were emitted in this step).
     gathered_slices: usize,
-    /// Ring spheres by position: indices into the step's list of s1 entities.
+    /// The s1 entities the step asked for ([`RingSource`]), with their place in the query.
+    found: Vec<(usize, Entity)>,
+    /// Ring spheres by position in [`PlumeState::rings`]: indices into the step's list of s1
+    /// entities (those of the emitted slices, then those found).
     rings: Vec<usize>,
     /// Entities of the umbrella spheres by position (the gathered ones, then the detached).
     spheres: Vec<Entity>,
@@ -48,8 +57,9 @@ struct Gathered {
     gathered_spheres: usize,
 }
 
-/// An s1 sphere's entity, and whether it was spawned in this step (it is not in the world yet).
-type RingEntity = (Entity, bool);
+/// An s1 sphere's entity and its place in the s1 query (`None`: spawned in this step, not in
+/// the world yet).
+type RingEntity = (Entity, Option<usize>);
 
 /// A slice or umbrella sphere in the order the step meets it: its entity and, unless its
 /// volcano is gone, the volcano's slot and its position there.
@@ -110,17 +120,26 @@ pub(super) fn step_plume(
         slot.insert(volcano, plumes.len());
         plumes.push(gathered(volcano, emission, budget));
     }
+    // Consecutive entities mostly belong to the same volcano: look the slot up once per run.
+    let mut last: Option<(Entity, Option<usize>)> = None;
+    let mut slot_of = |volcano: Entity| match last {
+        Some((v, found)) if v == volcano => found,
+        _ => {
+            let found = slot.get(&volcano).copied();
+            last = Some((volcano, found));
+            found
+        }
+    };
     let mut slice_order: Vec<Entry> = Vec::new();
-    let mut slice_of: EntityHashMap<(usize, u64)> = EntityHashMap::default();
     for (entity, s, _) in &slices {
-        let Some(&v) = slot.get(&s.volcano) else {
+        let Some(v) = slot_of(s.volcano) else {
             slice_order.push((entity, None));
             continue;
         };
         let g = &mut plumes[v];
         slice_order.push((entity, Some((v, g.slices.len()))));
-        slice_of.insert(entity, (v, s.index));
         g.slices.push(entity);
+        g.indices.push(s.index);
         g.state.slices.push(LiveSlice {
             index: s.index,
             vent: s.vent,
@@ -130,18 +149,9 @@ pub(super) fn step_plume(
             secondary: s.secondary,
         });
     }
-    let mut all_rings: Vec<RingEntity> = Vec::new();
-    for (entity, s1, _) in &rings {
-        if let Some(&(v, index)) = slice_of.get(&s1.slice) {
-            let g = &mut plumes[v];
-            g.rings.push(all_rings.len());
-            all_rings.push((entity, false));
-            g.state.rings.push(RingSphere { slice: index, id: s1.id, sphere: s1.sphere });
-        }
-    }
     let mut sphere_order: Vec<Entry> = Vec::new();
     for (entity, u, _) in &spheres {
-        let Some(&v) = slot.get(&u.volcano) else {
+        let Some(v) = slot_of(u.volcano) else {
             sphere_order.push((entity, None));
             continue;
         };
@@ -165,6 +175,9 @@ pub(super) fn step_plume(
         g.gathered_slices = g.slices.len();
         g.gathered_spheres = g.spheres.len();
         let Ok((_, eruption, _, _, vent, rng, ambient)) = eruptions.get(g.volcano) else { continue };
+        let found = RefCell::new(Vec::new());
+        let (held, indices) = (&g.slices, &g.indices);
+        let source = |want: &[u64]| find_rings(&rings, held, indices, want, &mut found.borrow_mut());
         let inputs = PlumeInputs {
             params: &eruption.params,
             spheres: &eruption.spheres,
@@ -176,12 +189,15 @@ pub(super) fn step_plume(
             umbrella_fallout_s: eruption.umbrella_fallout_s,
             air: ambient.map_or(PlumeAir::Own, |a| PlumeAir::Coupled(&a.0)),
             caps: step_caps,
+            rings: Some(RingSource(&source)),
             dt,
         };
         g.report = domain::step(&mut g.state, &inputs);
+        g.found = found.into_inner();
     }
 
     // Write back. The emitted slices first, as the emission spawned them before all else.
+    let mut all_rings: Vec<RingEntity> = Vec::new();
     for g in &mut plumes {
         for em in &g.report.emitted {
             let at = Transform::from_translation(world(&em.slice));
@@ -204,17 +220,23 @@ pub(super) fn step_plume(
             let (entity, ring) =
                 spawn_with_ring(&mut commands, name, (transform, component(g.volcano, live)), at, &em.ring);
             g.slices.push(entity);
+            debug_assert_eq!(g.rings.len(), em.first_ring, "emitted rings are numbered in order");
             for e in ring {
                 g.rings.push(all_rings.len());
-                all_rings.push((e, true));
+                all_rings.push((e, None));
             }
+        }
+        // The rings the step asked for follow the emitted ones.
+        for &(q, e) in &g.found {
+            g.rings.push(all_rings.len());
+            all_rings.push((e, Some(q)));
         }
     }
     let mut by_entity: Vec<usize> = (0..plumes.len()).collect();
     by_entity.sort_by_key(|&v| plumes[v].volcano);
 
     // The live-slice cap (volcanoes in entity order), then the rings of what it retired.
-    let mut retired_rings: Vec<usize> = Vec::new();
+    let mut retired_rings: Vec<RingEntity> = Vec::new();
     for g in by_entity.iter().map(|&v| &plumes[v]).filter(|g| !g.report.retired.is_empty()) {
         warn_once!(
             "eruption {}: more than {} live slices; the excess is retired with its ash released into the \
@@ -231,18 +253,36 @@ pub(super) fn step_plume(
             cap_report.slices_retired += 1;
             cap_report.slice_ash_released_kg += r.ash_kg;
             commands.entity(entity).despawn();
-            retired_rings.extend(r.ring.iter().map(|&i| g.rings[i]));
+            retired_rings.extend(r.ring.iter().map(|&i| all_rings[g.rings[i]]));
         }
     }
     if by_entity.iter().any(|&v| !plumes[v].report.retired.is_empty()) {
-        retired_rings.sort_unstable();
-        for i in retired_rings {
-            commands.entity(all_rings[i].0).despawn();
+        // In the s1 query's order.
+        retired_rings.sort_unstable_by_key(|&(_, q)| q);
+        for (sphere, _) in retired_rings {
+            commands.entity(sphere).despawn();
         }
         cap_report.capped_steps += 1;
     }
 
-    // The slices in query order, then the emitted ones.
+    // The slices' new states (the query's order is the gathered one: nothing moved since).
+    for ((entity, mut slice, mut transform), &(gathered, at)) in slices.iter_mut().zip(&slice_order) {
+        debug_assert_eq!(entity, gathered);
+        let Some((v, k)) = at else { continue };
+        let r = &plumes[v].report;
+        if let SliceFate::Kept(j) = r.slice_fates[k]
+            && r.stepped
+        {
+            let s = &plumes[v].state.slices[j];
+            slice.state = s.state.clone();
+            slice.ring_phase = s.ring_phase;
+            slice.ash_pending = s.ash_pending;
+            transform.translation = world(s);
+            transform.rotation = orientation(&s.state);
+        }
+    }
+
+    // The slices' events in query order, then the emitted ones'.
     let emitted: Vec<Entry> = (plumes.iter().enumerate())
         .flat_map(|(v, g)| g.report.emitted.iter().map(move |e| (g.slices[e.at], Some((v, e.at)))))
         .collect();
@@ -272,16 +312,6 @@ pub(super) fn step_plume(
             neutral_seen[v] += 1;
         }
         match r.slice_fates[k] {
-            SliceFate::Kept(j) if r.stepped && k < g.gathered_slices => {
-                let s = &g.state.slices[j];
-                if let Ok((_, mut slice, mut transform)) = slices.get_mut(entity) {
-                    slice.state = s.state.clone();
-                    slice.ring_phase = s.ring_phase;
-                    slice.ash_pending = s.ash_pending;
-                    transform.translation = world(s);
-                    transform.rotation = orientation(&s.state);
-                }
-            }
             SliceFate::Kept(_) | SliceFate::Retired(_) => {}
             SliceFate::NonFinite(i) => {
                 let removed = &r.non_finite[i];
@@ -323,7 +353,7 @@ pub(super) fn step_plume(
             debug!("umbrella at {z:.0} m: unstable air, buoyancy frequency raised to its floor");
         }
         for (m, &ring) in f.removed.ring.iter().enumerate() {
-            let (sphere, spawned) = all_rings[g.rings[ring]];
+            let (sphere, q) = all_rings[g.rings[ring]];
             if f.outcome == Outcome::Collapsed {
                 commands.entity(sphere).despawn();
                 continue;
@@ -336,7 +366,7 @@ pub(super) fn step_plume(
             };
             let (translation, scale) = (cloud_world(cloud), Vec3::splat(cloud.radius as f32));
             let umbrella = umbrella_component(g.volcano, cloud);
-            if spawned {
+            if q.is_none() {
                 // Not in the world yet: spawned at the slice's first position, unturned.
                 let transform = Transform { translation, rotation: Quat::IDENTITY, scale };
                 commands.entity(sphere).remove::<S1>().insert((umbrella, transform));
@@ -361,7 +391,21 @@ pub(super) fn step_plume(
         }
     }
 
-    // The umbrella spheres in query order, then the detached ones.
+    // The umbrella spheres' new states (in the gathered order), then their events in query
+    // order, the detached ones last.
+    for ((entity, mut u, mut transform), &(gathered, at)) in spheres.iter_mut().zip(&sphere_order) {
+        debug_assert_eq!(entity, gathered);
+        let Some((v, k)) = at else { continue };
+        if let SphereFate::Kept(j) = plumes[v].report.sphere_fates[k] {
+            let c = &plumes[v].state.umbrella[j];
+            u.sphere = c.sphere;
+            u.age = c.age;
+            u.ash = c.ash;
+            u.ash_pending = c.ash_pending;
+            transform.translation = cloud_world(c);
+            transform.scale = Vec3::splat(c.radius as f32);
+        }
+    }
     for (entity, at) in sphere_order.into_iter().chain(detached) {
         let Some((v, k)) = at else {
             // Its eruption is gone: nobody books its ash any more.
@@ -369,27 +413,13 @@ pub(super) fn step_plume(
             continue;
         };
         let g = &plumes[v];
-        match g.report.sphere_fates[k] {
-            SphereFate::Kept(j) if k < g.gathered_spheres => {
-                let c = &g.state.umbrella[j];
-                if let Ok((_, mut u, mut transform)) = spheres.get_mut(entity) {
-                    u.sphere = c.sphere;
-                    u.age = c.age;
-                    u.ash = c.ash;
-                    u.ash_pending = c.ash_pending;
-                    transform.translation = cloud_world(c);
-                    transform.scale = Vec3::splat(c.radius as f32);
-                }
+        if let SphereFate::Expired(e) = g.report.sphere_fates[k] {
+            let r = &g.report.expired[e];
+            if r.ash_kg > 0.0 {
+                let position = cloud_world(&r.sphere);
+                out.released.write(AshReleased { volcano: g.volcano, position, mass: r.ash_kg });
             }
-            SphereFate::Kept(_) | SphereFate::Retired(_) => {}
-            SphereFate::Expired(e) => {
-                let r = &g.report.expired[e];
-                if r.ash_kg > 0.0 {
-                    let position = cloud_world(&r.sphere);
-                    out.released.write(AshReleased { volcano: g.volcano, position, mass: r.ash_kg });
-                }
-                commands.entity(entity).despawn();
-            }
+            commands.entity(entity).despawn();
         }
     }
 
@@ -467,11 +497,36 @@ fn gathered(volcano: Entity, emission: &EmissionState, budget: &PlumeAshBudget) 
         state,
         report: PlumeReport::default(),
         slices: Vec::new(),
+        indices: Vec::new(),
         gathered_slices: 0,
+        found: Vec::new(),
         rings: Vec::new(),
         spheres: Vec::new(),
         gathered_spheres: 0,
     }
+}
+
+/// The [`RingSource`] of one volcano: the s1 spheres of the slices with these indices (`held`
+/// and `indices`: the volcano's gathered slices), in the s1 query's order, in one pass; their
+/// entities and places in the query go to `found`, in the same order.
+fn find_rings(
+    rings: &Rings,
+    held: &[Entity],
+    indices: &[u64],
+    want: &[u64],
+    found: &mut Vec<(usize, Entity)>,
+) -> Vec<RingSphere> {
+    let want: HashSet<u64> = want.iter().copied().collect();
+    let of: EntityHashMap<u64> =
+        held.iter().zip(indices).filter(|(_, i)| want.contains(i)).map(|(&e, &i)| (e, i)).collect();
+    let mut out = Vec::new();
+    for (q, (entity, s1, _)) in rings.iter().enumerate() {
+        if let Some(&index) = of.get(&s1.slice) {
+            out.push(RingSphere { slice: index, id: s1.id, sphere: s1.sphere });
+            found.push((q, entity));
+        }
+    }
+    out
 }
 
 /// World position of a slice's centre.

@@ -20,6 +20,7 @@ fn inputs<'a>(p: &'a PlumeParams, spheres: &'a SphereParams, rng: &'a VolcanoRng
         umbrella_fallout_s: 600.0,
         air: PlumeAir::Own,
         caps: StepCaps::default(),
+        rings: None,
         dt: DT,
     }
 }
