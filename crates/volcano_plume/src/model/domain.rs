@@ -4,7 +4,7 @@
 //! [`step`] runs, in this order (the order the plugin's systems ran in before there was a
 //! model step, so results are unchanged):
 //!
-//! 1. **Emission** (§3.4.1): a slice at the vent every [`PlumeParams::emission_interval`]
+//! 1. **Emission** (§3.4.1): a slice at the vent every `PlumeParams::emission_interval`
 //!    (`r₀/(2v₀)` for the thesis' slice), at most [`MAX_EMISSIONS_PER_STEP`] per step; what is
 //!    due beyond that is carried to the next steps as a backlog, never dropped. Each new slice
 //!    gets its ring of s1 spheres (§3.5.1) from its own random stream ([`ring`]).
@@ -12,9 +12,10 @@
 //!    [`StepCaps::max_live_slices`], secondary columns (lightest first), then the oldest
 //!    slices are retired and their ash released.
 //! 3. **Slices**, in the state's order, unless the eruption is frozen: eqs 3.3–3.9
-//!    ([`Slice::step`]) in the coupled air or the parameters' own, the ash σ_col sheds (eq 3.9)
-//!    kept in [`LiveSlice::ash_pending`], the ring's spin `Ω = v / r_s` with the mean sphere
-//!    size `r_s = r/2` (§3.5.1), neutral-buoyancy events. A slice whose state is no longer
+//!    ([`Slice::step`](crate::model::slice::Slice::step)) in the coupled air or the
+//!    parameters' own, the ash σ_col sheds (eq 3.9) kept in [`LiveSlice::ash_pending`], the
+//!    ring's spin `Ω = v / r_s` with the mean sphere size `r_s = r/2` (§3.5.1),
+//!    neutral-buoyancy events. A slice whose state is no longer
 //!    finite is removed and its ash booked as lost.
 //! 4. **Finishing**: a slice at its apex gives its ring's spheres to the umbrella (§3.5.2),
 //!    sharing its solid mass among them; a collapsed slice (§3.6) is handed to the pyroclastic
@@ -36,355 +37,31 @@
 //! keeping a parallel list of its own (the plugin: entities) can follow every change
 //! ([`PlumeReport::slice_fates`], [`PlumeReport::sphere_fates`]).
 //!
+//! A caller that keeps the rings itself (the plugin: on the s1 entities) passes a
+//! [`RingSource`]; the step then asks it, once, for the rings of the slices that leave the
+//! column instead of holding every ring.
+//!
 //! Slices are identified by their emission index ([`LiveSlice::index`], unique within a
 //! volcano: the vent's slices and the secondary columns share one counter), ring and umbrella
 //! spheres by their id `(slice index << 8) | k`.
 
+mod inputs;
+mod report;
+mod state;
+
 use std::collections::HashMap;
-use std::ops::Range;
 
-use bevy::math::{DVec3, Vec3};
-use volcano_core::VolcanoRng;
+pub use inputs::{Emitter, PlumeAir, PlumeInputs, RingSource, StepCaps};
+pub use report::{
+    Emitted, Finished, NeutralEvent, Outcome, PlumeReport, RemovedSlice, RemovedSphere, SliceFate, SphereFate,
+};
+pub use state::{
+    AshBooks, CloudSphere, Emission, LiveSlice, MAX_EMISSIONS_PER_STEP, PlumeState, RingSphere, ring,
+};
 
-use super::ambient::LayeredAmbient;
-use super::params::{Dynamics, PlumeParams};
-use super::slice::{Phase, Slice, SliceEnv};
-use super::spheres::{S1Sphere, SphereParams, s1_ring};
+use super::params::Dynamics;
+use super::slice::{Phase, SliceEnv};
 use super::umbrella::{Spread, UmbrellaSphere, buoyancy_frequency, gravity_current_coefficient};
-
-/// Most slices an eruption emits per plume step.
-pub const MAX_EMISSIONS_PER_STEP: u32 = 4;
-
-/// A live slice of the column: the model's side of a `PlumeSlice` (without its volcano).
-#[derive(Debug, Clone, PartialEq)]
-pub struct LiveSlice {
-    /// Emission index, also the id of its random stream ("slice", index).
-    pub index: u64,
-    /// Vent position in world space when emitted (its `y` is the vent's altitude).
-    pub vent: Vec3,
-    /// Model state, plume frame (z above the vent).
-    pub state: Slice,
-    /// Spin angle of a ring sphere of mean size, `∫ v / (r/2) dt` (rad, unbounded).
-    pub ring_phase: f64,
-    /// Ash shed (σ_col, eq 3.9) and not yet handed to an atmosphere (kg).
-    pub ash_pending: f64,
-    /// A secondary column lifted off a pyroclastic flow (not emitted at the vent).
-    pub secondary: bool,
-}
-
-impl LiveSlice {
-    /// A new slice at the vent (§3.4.1).
-    pub fn at_vent(p: &PlumeParams, index: u64, vent: Vec3) -> Self {
-        Self { index, vent, state: Slice::at_vent(p), ring_phase: 0.0, ash_pending: 0.0, secondary: false }
-    }
-}
-
-/// An s1 sphere on a live slice's vortex ring.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RingSphere {
-    /// Index of the slice it rides on.
-    pub slice: u64,
-    /// Stable id `(slice index << 8) | k`.
-    pub id: u64,
-    /// Position on the ring and size factor.
-    pub sphere: S1Sphere,
-}
-
-/// The ring of s1 spheres of slice `index` (§3.5.1), from its own random stream
-/// `("slice", index)`: the same spheres whoever asks.
-pub fn ring(spheres: &SphereParams, rng: &VolcanoRng, index: u64) -> Vec<RingSphere> {
-    s1_ring(spheres, &mut rng.stream("slice", index))
-        .into_iter()
-        .enumerate()
-        .map(|(k, sphere)| RingSphere { slice: index, id: (index << 8) | k as u64, sphere })
-        .collect()
-}
-
-/// A sphere of the spreading umbrella: the model's side of an `Umbrella` (without its volcano).
-#[derive(Debug, Clone, PartialEq)]
-pub struct CloudSphere {
-    /// Stable id (that of the s1 sphere it was).
-    pub id: u64,
-    /// Kinematics.
-    pub sphere: UmbrellaSphere,
-    /// Radius (m).
-    pub radius: f64,
-    /// Density of the slice it left (kg/m³).
-    pub density: f64,
-    /// Seconds since it detached.
-    pub age: f64,
-    /// Vent position in world space.
-    pub vent: Vec3,
-    /// Ash still carried (kg).
-    pub ash: f64,
-    /// Ash fallen out of it and not yet handed to an atmosphere (kg).
-    pub ash_pending: f64,
-}
-
-impl CloudSphere {
-    /// Position in the plume frame of its vent (m, z above the vent).
-    pub fn position(&self) -> DVec3 {
-        let h = self.sphere.horizontal();
-        DVec3::new(h.x, h.y, self.sphere.altitude())
-    }
-}
-
-/// Emission bookkeeping (the fields of `EmissionState`).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Emission {
-    /// Seconds since the last slice.
-    pub since_last: f64,
-    /// Slices numbered so far (vent slices and secondary columns).
-    pub emitted: u64,
-    /// Slices due at the end of the last step but not emitted; carried to the next steps.
-    pub backlog: u64,
-    /// Steps that ended with a backlog.
-    pub capped_steps: u64,
-}
-
-/// Where the emitted ash went (kg; the fields of `PlumeAshBudget`).
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct AshBooks {
-    /// Solid mass of every slice emitted at the vent.
-    pub emitted_kg: f64,
-    /// Solid mass of slices that collapsed into pyroclastic flows.
-    pub to_flows_kg: f64,
-    /// Ash removed without a place to put it (non-finite state, a slice with no ring spheres).
-    pub lost_kg: f64,
-    /// Ash released by expiring umbrella spheres and by what the caps retired.
-    pub released_kg: f64,
-    /// Of `released_kg`, the ash of slices and spheres the caps retired.
-    pub capped_kg: f64,
-}
-
-/// One volcano's plume: live slices, their rings, the umbrella, emission and ash books.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct PlumeState {
-    /// Live slices (rising, or frozen by an invalid edit).
-    pub slices: Vec<LiveSlice>,
-    /// The s1 spheres of the live slices, each naming its slice (with a [`RingSource`], only
-    /// those the step needs, see there).
-    pub rings: Vec<RingSphere>,
-    /// Spheres of the spreading umbrella.
-    pub umbrella: Vec<CloudSphere>,
-    /// Emission clock and counters.
-    pub emission: Emission,
-    /// Ash books.
-    pub ash: AshBooks,
-}
-
-/// The air the column and its umbrella read.
-#[derive(Debug, Clone, Copy)]
-pub enum PlumeAir<'a> {
-    /// The eruption's own: [`PlumeParams::air`] and [`PlumeParams::wind`].
-    Own,
-    /// A coupled atmosphere's layers around the column (§4.3.3).
-    Coupled(&'a LayeredAmbient),
-}
-
-/// Where new slices leave from.
-#[derive(Debug, Clone, Copy)]
-pub struct Emitter<'a> {
-    /// Vent position in world space.
-    pub vent: Vec3,
-    /// The volcano's random state (each slice's ring comes from its own stream).
-    pub rng: &'a VolcanoRng,
-}
-
-/// Bookkeeping limits of one step (from `PlumeCaps`; `usize::MAX` for none).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct StepCaps {
-    /// Most live slices.
-    pub max_live_slices: usize,
-    /// Most umbrella spheres.
-    pub max_umbrella_spheres: usize,
-}
-
-impl Default for StepCaps {
-    fn default() -> Self {
-        Self { max_live_slices: usize::MAX, max_umbrella_spheres: usize::MAX }
-    }
-}
-
-/// What one step reads.
-#[derive(Debug, Clone, Copy)]
-pub struct PlumeInputs<'a> {
-    /// Slice parameters.
-    pub params: &'a PlumeParams,
-    /// Sphere counts of new rings.
-    pub spheres: &'a SphereParams,
-    /// Whether the eruption emits.
-    pub active: bool,
-    /// The eruption's parameters failed validation (a bad live edit): nothing is emitted and
-    /// the slices hold still until they are fixed; the umbrella goes on.
-    pub frozen: bool,
-    /// Where slices leave from; `None` (no vent or random state yet): no emission, and the
-    /// emission clock does not run.
-    pub emitter: Option<Emitter<'a>>,
-    /// Umbrella spheres older than this expire (s).
-    pub umbrella_lifetime: f64,
-    /// Time constant of the ash fallout from umbrella spheres (s).
-    pub umbrella_fallout_s: f64,
-    /// Ambient air and wind.
-    pub air: PlumeAir<'a>,
-    /// Caps.
-    pub caps: StepCaps,
-    /// Where the rings of the slices the state held at the start of the step are: `None` in
-    /// [`PlumeState::rings`] (a model-only run), or kept by the caller ([`RingSource`]).
-    pub rings: Option<RingSource<'a>>,
-    /// Step length (s).
-    pub dt: f64,
-}
-
-/// Rings kept by the caller (the plugin keeps them on the s1 entities, and looks them up only
-/// for the few slices that leave the column in a step). With one, [`PlumeState::rings`] starts
-/// a step holding none of the live slices' rings; the step appends those of the slices it
-/// emits and, once per step, asks the source for the rings of the slices that leave the
-/// column (retired, non-finite, at their apex or collapsed) by index: the source returns their
-/// spheres, each ring in its own order (rings may be interleaved), and the step appends them
-/// to [`PlumeState::rings`], so the positions in the report stay valid.
-#[derive(Clone, Copy)]
-pub struct RingSource<'a>(pub &'a dyn Fn(&[u64]) -> Vec<RingSphere>);
-
-impl std::fmt::Debug for RingSource<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("RingSource(..)")
-    }
-}
-
-/// A slice that left the column in this step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RemovedSlice {
-    /// Its position (numbered after emission).
-    pub at: usize,
-    /// Its last state.
-    pub slice: LiveSlice,
-    /// Its ash (kg): released (cap), lost (non-finite), handed to the flows (collapse), shared
-    /// among its umbrella spheres (apex) or lost (apex without ring spheres).
-    pub ash_kg: f64,
-    /// Positions of its ring spheres in [`PlumeState::rings`] after emission, in order.
-    pub ring: Vec<usize>,
-}
-
-/// How a finished slice ended.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Outcome {
-    /// Reached its apex: its ring spheres spread as the umbrella.
-    Umbrella,
-    /// Collapsed: handed to the pyroclastic flows.
-    Collapsed,
-}
-
-/// A slice that reached its apex or collapsed in this step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Finished {
-    /// The slice, its ash and its ring.
-    pub removed: RemovedSlice,
-    /// How it ended.
-    pub outcome: Outcome,
-    /// Umbrella spheres made of its ring (positions before the umbrella phase; in ring order).
-    pub spheres: Range<usize>,
-    /// The buoyancy frequency of a gravity-current umbrella was raised to its floor
-    /// (`model::umbrella::MIN_BUOYANCY_FREQUENCY`).
-    pub buoyancy_floored: bool,
-}
-
-/// A slice crossed its neutral-buoyancy altitude.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct NeutralEvent {
-    /// Its position (numbered after emission).
-    pub at: usize,
-    /// Altitude above the vent (m).
-    pub altitude: f64,
-    /// Vertical speed at that moment (m/s).
-    pub speed: f64,
-}
-
-/// A new slice.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Emitted {
-    /// Its position.
-    pub at: usize,
-    /// The slice as it left the vent.
-    pub slice: LiveSlice,
-    /// Its ring, appended to [`PlumeState::rings`] from position `first_ring` on.
-    pub ring: Vec<RingSphere>,
-    /// Position of its first ring sphere.
-    pub first_ring: usize,
-}
-
-/// An umbrella sphere that expired, or that the cap retired, in this step.
-#[derive(Debug, Clone, PartialEq)]
-pub struct RemovedSphere {
-    /// Its position (numbered before the umbrella phase).
-    pub at: usize,
-    /// Its last state.
-    pub sphere: CloudSphere,
-    /// Ash it released (kg, `ash + ash_pending`; nothing is booked when ≤ 0).
-    pub ash_kg: f64,
-}
-
-/// What became of a slice in this step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SliceFate {
-    /// Still live, at this position of [`PlumeState::slices`].
-    Kept(usize),
-    /// Retired by the cap: entry of [`PlumeReport::retired`].
-    Retired(usize),
-    /// Non-finite: entry of [`PlumeReport::non_finite`].
-    NonFinite(usize),
-    /// Apex or collapse: entry of [`PlumeReport::finished`].
-    Finished(usize),
-}
-
-/// What became of an umbrella sphere in this step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum SphereFate {
-    /// Still spreading, at this position of [`PlumeState::umbrella`].
-    Kept(usize),
-    /// Expired: entry of [`PlumeReport::expired`].
-    Expired(usize),
-    /// Retired by the cap: entry of [`PlumeReport::umbrella_retired`].
-    Retired(usize),
-}
-
-/// What one step did. Lists are in the order things happened.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct PlumeReport {
-    /// The slices were stepped (false while the eruption is frozen).
-    pub stepped: bool,
-    /// Slices emitted at the vent.
-    pub emitted: Vec<Emitted>,
-    /// The step ended with a backlog after one without ([`Emission::backlog`]).
-    pub backlog_began: bool,
-    /// Slices the live-slice cap retired (in the cap's order), ash released.
-    pub retired: Vec<RemovedSlice>,
-    /// Neutral-buoyancy crossings.
-    pub neutral: Vec<NeutralEvent>,
-    /// Slices removed because their state was no longer finite, ash lost.
-    pub non_finite: Vec<RemovedSlice>,
-    /// Slices that reached their apex or collapsed.
-    pub finished: Vec<Finished>,
-    /// Umbrella spheres that expired.
-    pub expired: Vec<RemovedSphere>,
-    /// Umbrella spheres the cap retired (in the cap's order), ash released.
-    pub umbrella_retired: Vec<RemovedSphere>,
-    /// One per slice position (numbered after emission).
-    pub slice_fates: Vec<SliceFate>,
-    /// One per umbrella position (numbered before the umbrella phase).
-    pub sphere_fates: Vec<SphereFate>,
-}
-
-impl PlumeReport {
-    /// Slices that collapsed.
-    pub fn collapsed(&self) -> impl Iterator<Item = &Finished> {
-        self.finished.iter().filter(|f| f.outcome == Outcome::Collapsed)
-    }
-    /// Slices that reached their apex and spread as the umbrella.
-    pub fn spreading(&self) -> impl Iterator<Item = &Finished> {
-        self.finished.iter().filter(|f| f.outcome == Outcome::Umbrella)
-    }
-}
 
 /// Advances one volcano's plume by one step of `inputs.dt` seconds (see the module docs).
 pub fn step(state: &mut PlumeState, inputs: &PlumeInputs) -> PlumeReport {

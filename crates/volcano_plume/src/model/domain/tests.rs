@@ -6,6 +6,9 @@ use bevy::math::{DVec3, Vec3};
 use volcano_core::VolcanoRng;
 
 use super::*;
+use crate::model::params::PlumeParams;
+use crate::model::slice::Slice;
+use crate::model::spheres::SphereParams;
 
 const DT: f64 = 0.002;
 
