@@ -100,6 +100,6 @@ pub mod prelude {
     pub use volcano_coupling::{CouplingBudget, CouplingSettings, CouplingSystems};
     pub use volcano_plume::{
         Eruption, EruptionScript, EruptionTimeline, NeutralBuoyancyReached, PlumeCapReport, PlumeCaps,
-        PlumeCollapsed, PlumeParams, PlumeSlice, Preset, UmbrellaSpreading, WindProfile,
+        PlumeCollapsed, PlumeParams, PlumeSlice, PlumeSystems, Preset, UmbrellaSpreading, WindProfile,
     };
 }

@@ -5,14 +5,20 @@
 //! [`PlumeCapReport`] (with a warning the first time), never dropped silently, and the choice
 //! is deterministic (a stable order, the same at any frame rate).
 //!
+//! The live-slice and umbrella caps act inside the plume domain's step
+//! ([`crate::model::domain::step`], given the numbers as `StepCaps`; the first acts between the
+//! emission and the slices' step, the second after the umbrella's), so a model-only run applies
+//! them too; the plugin turns what they retired into messages and [`PlumeCapReport`] entries.
+//! The particle and secondary-column caps are applied by the pyroclastic systems.
+//!
 //! - Live slices ([`PlumeCaps::max_live_slices`]): beyond the cap, secondary columns are
 //!   retired first (lightest first, then by index), then the column's oldest slices (lowest
 //!   emission index, the top of the column). A retired slice's ash (solid mass and what it shed
-//!   and has not handed over) is released into the air where it is, as an [`AshReleased`]
-//!   message, and booked in [`PlumeAshBudget::released_kg`] and [`PlumeAshBudget::capped_kg`].
+//!   and has not handed over) is released into the air where it is, as an [`crate::AshReleased`]
+//!   message, and booked in [`crate::PlumeAshBudget::released_kg`] and [`crate::PlumeAshBudget::capped_kg`].
 //! - Umbrella spheres ([`PlumeCaps::max_umbrella_spheres`], per eruption): beyond it the
 //!   oldest (largest age, then id) expire early: their ash is released as when they expire
-//!   (an [`AshReleased`] message, [`PlumeAshBudget::released_kg`] and `capped_kg`).
+//!   (an [`crate::AshReleased`] message, [`crate::PlumeAshBudget::released_kg`] and `capped_kg`).
 //! - Pyroclastic particles ([`PlumeCaps::max_particles`], all flows): beyond it the oldest
 //!   (lowest id, i.e. from the earliest collapse) settle where they are: their mass is
 //!   deposited on the ground below them ([`crate::PyroclasticBudget::deposited`], or `lost` off the
@@ -26,12 +32,9 @@
 //!   (Holding them back as particles for a later step was tried first: after the eruption
 //!   scene's collapse it re-clustered thousands of stragglers every step.)
 
-use bevy::ecs::entity::{EntityHashMap, EntityHashSet};
 use bevy::prelude::*;
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
-
-use crate::components::{AshReleased, PlumeAshBudget, PlumeSlice, S1, Umbrella};
 
 /// The caps (a resource, editable live; `volcano::VolcanoQuality` sets it). The defaults are
 /// far above what the built-in scenes reach, so they only act on runaway eruptions.
@@ -103,110 +106,6 @@ pub(crate) fn checked(caps: &PlumeCaps) -> PlumeCaps {
             warn_once!("PlumeCaps: {e}; using the defaults");
             PlumeCaps::default()
         }
-    }
-}
-
-/// Retires live slices beyond [`PlumeCaps::max_live_slices`] (see the module docs).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn cap_live_slices(
-    caps: Res<PlumeCaps>,
-    mut commands: Commands,
-    mut budgets: Query<&mut PlumeAshBudget>,
-    slices: Query<(Entity, &PlumeSlice, &Transform)>,
-    spheres: Query<(Entity, &S1)>,
-    mut report: ResMut<PlumeCapReport>,
-    mut released: MessageWriter<AshReleased>,
-) {
-    let max = checked(&caps).max_live_slices as usize;
-    let mut by_volcano: EntityHashMap<Vec<(Entity, &PlumeSlice, &Transform)>> = EntityHashMap::default();
-    for (e, s, t) in &slices {
-        by_volcano.entry(s.volcano).or_default().push((e, s, t));
-    }
-    let mut volcanoes: Vec<_> = by_volcano.into_iter().filter(|(_, l)| l.len() > max).collect();
-    if volcanoes.is_empty() {
-        return;
-    }
-    volcanoes.sort_by_key(|(v, _)| *v);
-    let mut retired = EntityHashSet::default();
-    for (volcano, mut list) in volcanoes {
-        // Secondary columns first (lightest first), then the column from its oldest slice.
-        list.sort_by(|a, b| {
-            (!a.1.secondary)
-                .cmp(&!b.1.secondary)
-                .then_with(|| match a.1.secondary {
-                    true => a.1.state.mass.total_cmp(&b.1.state.mass),
-                    false => std::cmp::Ordering::Equal,
-                })
-                .then(a.1.index.cmp(&b.1.index))
-        });
-        let excess = list.len() - max;
-        warn_once!(
-            "eruption {volcano}: more than {max} live slices; the excess is retired with its ash released \
-             into the air (PlumeCaps::max_live_slices, PlumeCapReport)"
-        );
-        for &(entity, slice, transform) in &list[..excess] {
-            let ash = slice.state.solid_mass.max(0.0) + slice.ash_pending.max(0.0);
-            if ash > 0.0 {
-                if let Ok(mut b) = budgets.get_mut(volcano) {
-                    b.released_kg += ash;
-                    b.capped_kg += ash;
-                }
-                released.write(AshReleased { volcano, position: transform.translation, mass: ash });
-            }
-            report.slices_retired += 1;
-            report.slice_ash_released_kg += ash;
-            retired.insert(entity);
-            commands.entity(entity).despawn();
-        }
-    }
-    for (sphere, s1) in &spheres {
-        if retired.contains(&s1.slice) {
-            commands.entity(sphere).despawn();
-        }
-    }
-    report.capped_steps += 1;
-}
-
-/// Retires the oldest umbrella spheres beyond [`PlumeCaps::max_umbrella_spheres`] (see the
-/// module docs).
-pub(crate) fn cap_umbrella(
-    caps: Res<PlumeCaps>,
-    mut commands: Commands,
-    mut budgets: Query<&mut PlumeAshBudget>,
-    spheres: Query<(Entity, &Umbrella, &Transform)>,
-    mut report: ResMut<PlumeCapReport>,
-    mut released: MessageWriter<AshReleased>,
-) {
-    let max = checked(&caps).max_umbrella_spheres as usize;
-    if spheres.iter().len() <= max {
-        return;
-    }
-    let mut by_volcano: EntityHashMap<Vec<(Entity, &Umbrella, &Transform)>> = EntityHashMap::default();
-    for (e, u, t) in &spheres {
-        by_volcano.entry(u.volcano).or_default().push((e, u, t));
-    }
-    let mut volcanoes: Vec<_> = by_volcano.into_iter().filter(|(_, l)| l.len() > max).collect();
-    volcanoes.sort_by_key(|(v, _)| *v);
-    for (volcano, mut list) in volcanoes {
-        list.sort_by(|a, b| b.1.age.total_cmp(&a.1.age).then(a.1.id.cmp(&b.1.id)));
-        warn_once!(
-            "eruption {volcano}: more than {max} umbrella spheres; the oldest expire early with their ash \
-             released (PlumeCaps::max_umbrella_spheres, PlumeCapReport)"
-        );
-        for &(entity, u, transform) in &list[..list.len() - max] {
-            let ash = u.ash.max(0.0) + u.ash_pending.max(0.0);
-            if ash > 0.0 {
-                if let Ok(mut b) = budgets.get_mut(volcano) {
-                    b.released_kg += ash;
-                    b.capped_kg += ash;
-                }
-                released.write(AshReleased { volcano, position: transform.translation, mass: ash });
-            }
-            report.umbrella_retired += 1;
-            report.umbrella_ash_released_kg += ash;
-            commands.entity(entity).despawn();
-        }
-        report.capped_steps += 1;
     }
 }
 

@@ -140,7 +140,7 @@ pub struct EmissionState {
     /// Slices emitted so far.
     pub emitted: u64,
     /// Slices that were due at the end of the last step but not emitted (more than
-    /// `plugin::MAX_EMISSIONS_PER_STEP` per step); carried to the next steps.
+    /// `model::domain::MAX_EMISSIONS_PER_STEP` per step); carried to the next steps.
     pub backlog: u64,
     /// Steps that ended with a backlog.
     pub capped_steps: u64,

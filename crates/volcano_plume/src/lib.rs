@@ -2,9 +2,10 @@
 //! entrainment, forces of weight, buoyancy, friction and wind, and the phases jet → buoyant
 //! plume → umbrella, or collapse.
 //!
-//! [`model`] holds plain data and functions, testable without ECS; [`plugin`] runs them in the
-//! `PlumeStep` domain: add an [`Eruption`] next to a `Volcano` and slices, s1 spheres and the
-//! umbrella appear as entities.
+//! [`model`] holds plain data and functions, testable without ECS; its [`step`]
+//! (`model::domain::step`) advances one volcano's whole plume by one step. [`plugin`] runs it in
+//! the `PlumeStep` domain ([`PlumeSystems`]): add an [`Eruption`] next to a `Volcano` and
+//! slices, s1 spheres and the umbrella appear as entities.
 
 pub mod caps;
 pub mod components;
@@ -22,12 +23,13 @@ pub use components::{
 };
 pub use ground::{DepositMap, PyroclasticBudget};
 pub use model::ambient::{AmbientLevel, LayeredAmbient};
+pub use model::domain::{PlumeAir, PlumeInputs, PlumeReport, PlumeState, step};
 pub use model::params::{Dynamics, PlumeParams, Preset};
 pub use model::pyroclastic::PyroclasticParams;
 pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
 pub use model::timeline::{EruptionTimeline, TimelineKey, TimelineState};
 pub use model::wind::WindProfile;
-pub use plugin::{PlumePlugin, PlumeStep};
+pub use plugin::{PlumePlugin, PlumeStep, PlumeSystems};
 pub use pyroclastic::{
     PyroParticle, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery, PyroclasticStep,
     PyroclasticSystems, SecondaryColumnFormed,

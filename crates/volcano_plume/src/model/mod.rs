@@ -4,6 +4,7 @@
 pub mod ambient;
 pub mod column;
 pub mod deposit;
+pub mod domain;
 pub mod humid;
 pub mod inverse;
 pub mod params;
