@@ -40,8 +40,11 @@ fn run_to(app: &mut App, tick: u64) {
     }
 }
 
-/// Slices by index (state), and the s1 spheres' transforms as the simulation wrote them.
-fn sim_state(app: &mut App) -> (Vec<(u64, String)>, Vec<(u64, Transform)>) {
+/// Slices by index (their state, printed), and the s1 spheres' transforms as the simulation
+/// wrote them (by id).
+type SimState = (Vec<(u64, String)>, Vec<(u64, Transform)>);
+
+fn sim_state(app: &mut App) -> SimState {
     let world = app.world_mut();
     let mut slices: Vec<_> =
         world.query::<&PlumeSlice>().iter(world).map(|s| (s.index, format!("{:?}", s.state))).collect();
