@@ -156,8 +156,8 @@ pub fn glow_texels(flow: &FlowField, crust: &[f64], params: &LavaParams, pattern
             let t = v * pattern.width + u;
             let (m, mottle) = (pattern.crack[t], pattern.mottle[t]);
             for n in 0..3 {
-                let skin = bilerp(&skin, n) * mottle;
-                let c = skin + (bilerp(&crack, n) - skin) * m;
+                let top = bilerp(&skin, n) * mottle;
+                let c = top + (bilerp(&crack, n) - top) * m;
                 out.extend_from_slice(&f16_bits(c).to_le_bytes());
             }
             out.extend_from_slice(&f16_bits(1.0).to_le_bytes());
@@ -345,7 +345,7 @@ mod tests {
         assert_eq!(pattern, GlowPattern::new(&flow), "deterministic");
         let p = LavaParams::default();
         let mut tex = Vec::new();
-        glow_texels(&flow, &vec![0.01; 256], &p, &pattern, &mut tex);
+        glow_texels(&flow, &[0.01; 256], &p, &pattern, &mut tex);
         assert_eq!(tex.len(), 8 * 64 * 64);
         let red = |t: usize| {
             let b = [tex[8 * t], tex[8 * t + 1]];
@@ -366,6 +366,27 @@ mod tests {
         let hot = glow_sum(incandescent(surface_temperature(&p, 1450.0, 0.01 * CRACK_DEPTH)));
         let dull = glow_sum(incandescent(surface_temperature(&p, 1450.0, 0.01)));
         assert!(hot > 5.0 * dull, "{hot} vs {dull}");
+    }
+
+    #[test]
+    fn only_lava_glows_and_the_glow_reaches_the_outline() {
+        // 16 × 16 cells of 0.5 m, one hot cell of 1 m at (4, 4).
+        let g = Grid2::new(16, 16, 0.5, Vec2::ZERO, 0.0).unwrap();
+        let mut flow = FlowField::new(g, Edges::default(), 300.0).unwrap();
+        flow.place_volume(Vec2::new(2.0, 2.0), 0.0, 0.25, 1450.0).unwrap();
+        let pattern = GlowPattern::new(&flow);
+        let mut tex = Vec::new();
+        glow_texels(&flow, &[0.0; 256], &LavaParams::default(), &pattern, &mut tex);
+        let red = |u: usize, v: usize| {
+            let t = v * pattern.width + u;
+            u16::from_le_bytes([tex[8 * t], tex[8 * t + 1]])
+        };
+        // Cell (4, 4) spans texels 16..20; its dry neighbour (5, 4) takes its colour (the
+        // outline lies between them), cells further away stay black.
+        assert!(red(18, 18) > 0x3000, "hot lava glows: {:#x}", red(18, 18));
+        assert!(red(22, 18) > 0x3000, "the margin keeps the glow: {:#x}", red(22, 18));
+        assert_eq!(red(40, 40), 0, "dry ground does not glow");
+        assert_eq!(red(18, 30), 0);
     }
 
     #[test]

@@ -120,11 +120,11 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
                 // covered neighbours' colour below.
                 (_, Cover::Dry) => frozen_albedo(),
                 (LavaRenderMode::DebugCrust, Cover::Frozen) => LinearRgba::from(Srgba::rgb_u8(150, 150, 150)),
-                (LavaRenderMode::Lit, Cover::Frozen) => frozen_albedo() * shade,
+                (LavaRenderMode::Lit, Cover::Frozen) => scaled(frozen_albedo(), shade),
                 (_, Cover::Frozen) => frozen_albedo(),
                 (LavaRenderMode::DebugCrust, Cover::Lava) => debug_crust(crust_k),
                 (LavaRenderMode::DebugThickness, Cover::Lava) => heat_ramp(h.data()[k] / hmax),
-                (LavaRenderMode::Lit, Cover::Lava) => crust_albedo(crust_k, params.rigid_crust) * shade,
+                (LavaRenderMode::Lit, Cover::Lava) => scaled(crust_albedo(crust_k, params.rigid_crust), shade),
             };
             colors.push(colour.to_f32_array());
         }
@@ -173,6 +173,11 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
         .with_inserted_attribute(Mesh::ATTRIBUTE_TANGENT, tangents)
         .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
         .with_inserted_indices(Indices::U32(grid.indices))
+}
+
+/// `c` with its colour (not its alpha) times `s`.
+fn scaled(c: LinearRgba, s: f32) -> LinearRgba {
+    LinearRgba::rgb(c.red * s, c.green * s, c.blue * s)
 }
 
 /// Mean of the detail albedo grain ([`detail_images`](super::crust::detail_images)), divided
