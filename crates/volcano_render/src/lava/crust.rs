@@ -13,13 +13,13 @@
 //!   (world metres / [`DETAIL_TILE`]).
 
 use bevy::asset::RenderAssetUsages;
+use bevy::color::LinearRgba;
 use bevy::image::{Image, ImageAddressMode, ImageSampler, ImageSamplerDescriptor};
 use bevy::math::Vec2;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use volcano_lava::view::surface_temperature;
 use volcano_lava::{FlowField, LavaParams};
 
-use super::surface::incandescent;
 use crate::terrain::value_noise;
 
 /// Fraction of the crust left at the bottom of a crack: its top is that much hotter.
@@ -32,6 +32,28 @@ pub const CRACK_WIDTH: f32 = 0.05;
 pub const DETAIL_TILE: f32 = 3.0;
 /// Most emissive texels along a side: fields above 128 cells get fewer texels per cell.
 pub const MAX_TEXELS: usize = 512;
+
+/// Second radiation constant `hc/k` (m·K) of Planck's law.
+const C2: f64 = 1.438_777e-2;
+/// Wavelengths (m) standing for the red, green and blue channels.
+const WAVELENGTHS: [f64; 3] = [610e-9, 550e-9, 465e-9];
+/// Temperature (K) whose red radiance maps to 1.0 in [`incandescent`]: hotter saturates.
+pub const REFERENCE_TEMPERATURE: f64 = 1500.0;
+
+/// Relative spectral radiance of a black body at temperature `t` (K) in the red, green and
+/// blue channels (Planck's law at [`WAVELENGTHS`]), scaled so the red channel of a body at
+/// [`REFERENCE_TEMPERATURE`] is 1. Linear RGB; 0 at or below 0 K or for non-finite input.
+/// Each channel rises monotonically with temperature, and the colour shifts from deep red
+/// (1000 K) to orange (1400 K) to yellow-white (well above 2000 K).
+pub fn incandescent(t: f64) -> LinearRgba {
+    if !(t.is_finite() && t > 0.0) {
+        return LinearRgba::BLACK;
+    }
+    let radiance = |lambda: f64, temp: f64| 1.0 / (lambda.powi(5) * ((C2 / (lambda * temp)).exp_m1()));
+    let reference = radiance(WAVELENGTHS[0], REFERENCE_TEMPERATURE);
+    let [r, g, b] = WAVELENGTHS.map(|l| (radiance(l, t) / reference) as f32);
+    LinearRgba::rgb(r, g, b)
+}
 
 /// Emissive texels per cell side for an `nx × ny` field: 4, fewer on large fields (at least 1).
 pub fn texels_per_cell(nx: usize, ny: usize) -> usize {
@@ -311,7 +333,6 @@ fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use bevy::color::LinearRgba;
     use volcano_core::Grid2;
     use volcano_lava::Edges;
 

@@ -33,12 +33,9 @@ use volcano_lava::{LavaField, LavaState};
 
 use crate::terrain::{MeshSurface, TerrainMesh};
 
-pub use crust::{GlowPattern, glow_texels};
+pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
 pub use folds::{FoldInstance, fold_transform};
-pub use surface::{
-    REFERENCE_TEMPERATURE, crust_albedo, debug_crust, frozen_albedo, incandescent, keep_over_terrain,
-    surface_mesh,
-};
+pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
 
 /// How lava is drawn (a resource; switch it live from a panel).
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]

@@ -1,5 +1,5 @@
-//! Pure parts of the lava look: the incandescent colour of a surface temperature, the colour of
-//! the crust, and the surface mesh of a lava field. No ECS here, so all of it is unit-tested.
+//! Pure parts of the lava look: the colour of the crust and the surface mesh of a lava field.
+//! No ECS here, so all of it is unit-tested.
 
 use bevy::asset::RenderAssetUsages;
 use bevy::color::{ColorToComponents, LinearRgba, Mix, Srgba};
@@ -12,30 +12,9 @@ use super::LavaRenderMode;
 use super::crust::{DETAIL_TILE, albedo_variation, dilate};
 use super::margin::{EDGE, clip_grid, coverage};
 
-/// Second radiation constant `hc/k` (m·K) of Planck's law.
-const C2: f64 = 1.438_777e-2;
-/// Wavelengths (m) standing for the red, green and blue channels.
-const WAVELENGTHS: [f64; 3] = [610e-9, 550e-9, 465e-9];
-/// Temperature (K) whose red radiance maps to 1.0 in [`incandescent`]: hotter saturates.
-pub const REFERENCE_TEMPERATURE: f64 = 1500.0;
 /// Lava lifted this much (m) above the ground it covers, so a thin sheet does not z-fight the
 /// terrain mesh.
 pub const LIFT: f32 = 0.01;
-
-/// Relative spectral radiance of a black body at temperature `t` (K) in the red, green and
-/// blue channels (Planck's law at [`WAVELENGTHS`]), scaled so the red channel of a body at
-/// [`REFERENCE_TEMPERATURE`] is 1. Linear RGB; 0 at or below 0 K or for non-finite input.
-/// Each channel rises monotonically with temperature, and the colour shifts from deep red
-/// (1000 K) to orange (1400 K) to yellow-white (well above 2000 K).
-pub fn incandescent(t: f64) -> LinearRgba {
-    if !(t.is_finite() && t > 0.0) {
-        return LinearRgba::BLACK;
-    }
-    let radiance = |lambda: f64, temp: f64| 1.0 / (lambda.powi(5) * ((C2 / (lambda * temp)).exp_m1()));
-    let reference = radiance(WAVELENGTHS[0], REFERENCE_TEMPERATURE);
-    let [r, g, b] = WAVELENGTHS.map(|l| (radiance(l, t) / reference) as f32);
-    LinearRgba::rgb(r, g, b)
-}
 
 /// Albedo (linear) of the lava surface under a crust `crust` (m): a glassy dark red-brown for
 /// fresh lava darkening to black basalt once the crust reaches `rigid` (m).
@@ -209,6 +188,8 @@ mod tests {
     use bevy::math::Vec2;
     use volcano_core::Grid2;
     use volcano_lava::view::surface_temperature;
+
+    use crate::lava::crust::{REFERENCE_TEMPERATURE, incandescent};
     use volcano_lava::Edges;
 
     #[test]
