@@ -4,8 +4,8 @@
 //!
 //! - **Emissive** ([`glow_texels`]): each cell has two colours, the [`incandescent`] colour of
 //!   its crust top ([`surface_temperature`] under the whole crust) and that of a crack (under
-//!   [`CRACK_DEPTH`] of it). A fixed world-space pattern ([`GlowPattern`]: Voronoi plate edges
-//!   about [`PLATE`] apart, patchy, plus mottling) mixes the two per texel, so a thin crust
+//!   [`CRACK_DEPTH`] of it). A fixed world-space pattern ([`GlowPattern`]: warped Voronoi plate
+//!   edges about [`PLATE`] apart, patchy, plus mottling) mixes the two per texel, so a thin crust
 //!   shows a net of hot cracks, a thick one a few dull red lines and a rigid one none, and
 //!   fresh lava glows unevenly. Texels are `Rgba16Float` (linear, unclamped).
 //! - **Detail** ([`detail_images`]): a tileable grain multiplying the vertex albedo, a
@@ -26,7 +26,7 @@ use crate::terrain::value_noise;
 pub const CRACK_DEPTH: f64 = 0.2;
 /// Mean spacing (m) of the crust plates whose edges crack.
 pub const PLATE: f32 = 0.9;
-/// Width (m) of a crack (at least about a third of a texel is drawn).
+/// Width (m) of a crack (drawn at least a texel wide).
 pub const CRACK_WIDTH: f32 = 0.05;
 /// Size (m) of one tile of the detail textures on UV 1.
 pub const DETAIL_TILE: f32 = 3.0;
@@ -92,11 +92,13 @@ impl GlowPattern {
                 let x = (u as f32 + 0.5) / s as f32 - 0.5;
                 let y = (v as f32 + 0.5) / s as f32 - 0.5;
                 let p = first + Vec2::new(x, y) * cell;
-                let d = plate_edge_distance(p);
-                let half = (0.5 * CRACK_WIDTH * (0.6 + 0.8 * value_noise(p, 1.3, 71))).max(0.35 * texel);
+                // Warped, so the plates are not a regular honeycomb.
+                let warp = Vec2::new(value_noise(p, 0.7, 77), value_noise(p, 0.7, 78)) - 0.5;
+                let d = plate_edge_distance(p + 0.4 * PLATE * warp);
+                let half = (0.5 * CRACK_WIDTH * (0.6 + 0.8 * value_noise(p, 1.3, 71))).max(0.5 * texel);
                 let cover = ((half - d) / texel + 0.5).clamp(0.0, 1.0);
                 // Patchy: some plate edges have not opened.
-                let open = smoothstep(0.35, 0.65, value_noise(p, 2.7, 72));
+                let open = smoothstep(0.4, 0.7, value_noise(p, 2.7, 72));
                 crack.push(cover * open);
                 mottle.push(0.75 + 0.5 * (0.6 * value_noise(p, 0.6, 73) + 0.4 * value_noise(p, 2.1, 74)));
             }
