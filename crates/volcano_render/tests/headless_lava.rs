@@ -71,10 +71,10 @@ fn render(name: &str, crust: f64, mode: LavaRenderMode, glow: bool) -> ([f64; 3]
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
-    // ~0.14 m per pixel: the disc spans x ≈ 59..145 px; bare ground at x ≈ 150..165 px (next
+    // ~0.14 m per pixel: the disc spans x ≈ 59..145 px; bare ground at x ≈ 150..158 px (next
     // to it) and 220..260 px.
     let disc = rgb_region_mean(&rgb, W, (85, 120), (105, 135));
-    let near = rgb_region_mean(&rgb, W, (150, 165), (105, 135));
+    let near = rgb_region_mean(&rgb, W, (150, 158), (105, 135));
     let bare = rgb_region_mean(&rgb, W, (220, 260), (105, 135));
     eprintln!("{name}: disc {disc:?}, next to it {near:?}, bare ground {bare:?} ({})", out.display());
     (disc, near, bare)

@@ -25,6 +25,7 @@ mod surface;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::image::ImageSampler;
+use bevy::light::NotShadowCaster;
 use bevy::mesh::{Indices, UvChannel};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
@@ -234,6 +235,9 @@ fn update_surfaces(
                 MeshMaterial3d(material),
                 Transform::IDENTITY,
                 Visibility::Hidden,
+                // A sheet centimetres to decimetres thick: its only shadows were jagged slivers
+                // off the margins at a low sun. It still receives shadows (ropes, obstacles).
+                NotShadowCaster,
                 ChildOf(entity),
             ));
             continue;

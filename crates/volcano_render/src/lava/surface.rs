@@ -57,8 +57,9 @@ enum Cover {
 /// `x`, altitude, world `z`; cell `(i, j)` at `j · nx + i`) at the lava surface (ground +
 /// frozen + liquid lava, lifted by [`LIFT`]); the rest are quad centres and the outline
 /// ([`margin`](super::margin)): the surface is clipped where the lava's [`coverage`] crosses
-/// ½, inside the cells, and comes down to the ground (+ [`LIFT`]) there, so the outline is
-/// smooth instead of a cell staircase. An empty field has no indices. Vertex colours: the
+/// ½, inside the cells, and comes down to the ground (+ [`LIFT`]) there, or stays level with
+/// the lava where the ground rises above it (a wall), so the outline is smooth instead of a
+/// cell staircase. An empty field has no indices. Vertex colours: the
 /// albedo (with [`albedo_variation`]) for [`LavaRenderMode::Lit`], the debug colours otherwise,
 /// carried into the outline from the covered cells. UV 0 addresses the cell centres of an
 /// `nx × ny` texture (see [`glow_texels`](super::crust::glow_texels)); UV 1 is world `(x, z)`
@@ -123,13 +124,18 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
             normals.push(Vec3::new(-dydx, 1.0, -dydz).normalize_or(Vec3::Y).to_array());
         }
     }
+    let mut cover: Vec<[f32; 1]> = alpha.iter().map(|&a| [a]).collect();
     grid.extend(&mut positions);
     grid.extend(&mut base);
+    grid.extend(&mut cover);
     grid.extend(&mut colors);
     grid.extend(&mut uvs);
     grid.extend(&mut normals);
-    for (v, ..) in grid.outline(n) {
-        positions[v][1] = base[v][0];
+    for (v, a, b, _) in grid.outline(n) {
+        // Down to the ground, but not above the lava's own surface: against a wall the lava
+        // ponds flat instead of climbing it.
+        let inside = if cover[a as usize][0] >= cover[b as usize][0] { a } else { b };
+        positions[v][1] = base[v][0].min(positions[inside as usize][1]);
     }
     for nrm in normals.iter_mut().skip(n) {
         *nrm = Vec3::from(*nrm).normalize_or(Vec3::Y).to_array();
@@ -269,6 +275,26 @@ mod tests {
         let empty = FlowField::flat(4, 3, 0.5).unwrap();
         let m = surface_mesh(&empty, &crust, &p, LavaRenderMode::Lit);
         assert_eq!(m.indices().map(|i| i.len()), Some(0));
+    }
+
+    #[test]
+    fn lava_against_a_wall_stays_level() {
+        // Flat ground at 100 m with a 5 m wall in column 2; 1 m of lava in cell (1, 1).
+        let mut g = Grid2::new(4, 3, 0.5, Vec2::ZERO, 0.0).unwrap();
+        for j in 0..3 {
+            for i in 0..4 {
+                g.set(i, j, if i == 2 { 105.0 } else { 100.0 });
+            }
+        }
+        let mut f = FlowField::new(g, Edges::default(), 300.0).unwrap();
+        f.place_volume(Vec2::new(0.5, 0.5), 0.0, 0.25, 1400.0).unwrap();
+        let mesh = surface_mesh(&f, &[0.0; 12], &LavaParams::default(), LavaRenderMode::Lit);
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        let Some(Indices::U32(idx)) = mesh.indices() else { panic!("u32 indices") };
+        assert!(!idx.is_empty());
+        for &v in idx {
+            assert!(pos[v as usize][1] <= 101.0 + LIFT + 1e-4, "climbs the wall: {:?}", pos[v as usize]);
+        }
     }
 
     #[test]
