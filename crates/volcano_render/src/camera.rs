@@ -5,8 +5,8 @@
 //! (the egui crate does it when egui wants the pointer); this crate does not depend on a UI.
 
 use bevy::camera::{Hdr, PerspectiveProjection, Projection};
-use bevy::post_process::bloom::Bloom;
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll, MouseScrollUnit};
+use bevy::post_process::bloom::Bloom;
 use bevy::prelude::*;
 
 use crate::sky::{SkySettings, VolcanoSkyCamera, sky_camera_components};

@@ -147,7 +147,13 @@ pub fn plate_edge_distance(p: Vec2) -> f32 {
 /// lava (black elsewhere), spread into dry cells next to lava so the margin keeps its colour up
 /// to the outline; per texel: the two interpolated between cell centres and mixed by the
 /// pattern.
-pub fn glow_texels(flow: &FlowField, crust: &[f64], params: &LavaParams, pattern: &GlowPattern, out: &mut Vec<u8>) {
+pub fn glow_texels(
+    flow: &FlowField,
+    crust: &[f64],
+    params: &LavaParams,
+    pattern: &GlowPattern,
+    out: &mut Vec<u8>,
+) {
     let (nx, ny) = (flow.nx(), flow.ny());
     let (h, temp) = (flow.thickness().data(), flow.temperature().data());
     let wet: Vec<bool> = h.iter().map(|&h| h > params.min_thickness).collect();
@@ -156,7 +162,8 @@ pub fn glow_texels(flow: &FlowField, crust: &[f64], params: &LavaParams, pattern
         let c = incandescent(surface_temperature(params, temp[k], c));
         [c.red.min(8.0), c.green.min(8.0), c.blue.min(8.0)]
     };
-    let mut skin: Vec<[f32; 3]> = (0..h.len()).map(|k| if wet[k] { colour(k, 1.0) } else { [0.0; 3] }).collect();
+    let mut skin: Vec<[f32; 3]> =
+        (0..h.len()).map(|k| if wet[k] { colour(k, 1.0) } else { [0.0; 3] }).collect();
     let mut crack: Vec<[f32; 3]> =
         (0..h.len()).map(|k| if wet[k] { colour(k, CRACK_DEPTH) } else { [0.0; 3] }).collect();
     dilate(&mut skin, &wet, nx, ny);
@@ -173,7 +180,8 @@ pub fn glow_texels(flow: &FlowField, crust: &[f64], params: &LavaParams, pattern
             let (i0, fx) = (x.floor() as usize, x.fract());
             let i1 = (i0 + 1).min(nx - 1);
             let bilerp = |a: &[[f32; 3]], n: usize| {
-                let (a00, a10, a01, a11) = (a[j0 * nx + i0][n], a[j0 * nx + i1][n], a[j1 * nx + i0][n], a[j1 * nx + i1][n]);
+                let (a00, a10, a01, a11) =
+                    (a[j0 * nx + i0][n], a[j0 * nx + i1][n], a[j1 * nx + i0][n], a[j1 * nx + i1][n]);
                 let top = a00 + (a10 - a00) * fx;
                 top + (a01 + (a11 - a01) * fx - top) * fy
             };
@@ -287,13 +295,19 @@ pub fn detail_images() -> [Image; 3] {
             let r = 0.3 + 0.6 * tile_fbm(u, v, 82);
             rough.extend([0, unorm(r), 0, 255]);
             let at = |du: isize, dv: isize| {
-                let (a, b) = ((u as isize + du).rem_euclid(n as isize), (v as isize + dv).rem_euclid(n as isize));
+                let (a, b) =
+                    ((u as isize + du).rem_euclid(n as isize), (v as isize + dv).rem_euclid(n as isize));
                 bump[b as usize * n + a as usize]
             };
             let dx = amplitude * (at(1, 0) - at(-1, 0)) / (2.0 * texel);
             let dy = amplitude * (at(0, 1) - at(0, -1)) / (2.0 * texel);
             let nrm = bevy::math::Vec3::new(-dx, -dy, 1.0).normalize();
-            normal.extend([unorm(0.5 + 0.5 * nrm.x), unorm(0.5 + 0.5 * nrm.y), unorm(0.5 + 0.5 * nrm.z), 255]);
+            normal.extend([
+                unorm(0.5 + 0.5 * nrm.x),
+                unorm(0.5 + 0.5 * nrm.y),
+                unorm(0.5 + 0.5 * nrm.z),
+                255,
+            ]);
         }
     }
     [albedo, rough, normal].map(|data| {

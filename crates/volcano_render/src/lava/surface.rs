@@ -79,7 +79,14 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
     };
     let n = nx * ny;
     let depth: Vec<f64> = (0..n).map(|k| h.data()[k].max(0.0) + solid[k].max(0.0)).collect();
-    let alpha = coverage(&depth, nx, ny, params.min_thickness);
+    let mut alpha = coverage(&depth, nx, ny, params.min_thickness);
+    // Frozen lava is drawn whole (a chilled rim around a flow would otherwise count as a
+    // sliver of the liquid sheet beside it and leave only the terrain's basalt tint).
+    for (a, &s) in alpha.iter_mut().zip(solid) {
+        if s > params.min_thickness {
+            *a = 1.0;
+        }
+    }
     let grid = clip_grid(&alpha, nx, ny);
     let mut positions = Vec::with_capacity(n + grid.extra.len());
     let mut base = Vec::with_capacity(n + grid.extra.len());
@@ -104,7 +111,9 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
                 (_, Cover::Frozen) => frozen_albedo(),
                 (LavaRenderMode::DebugCrust, Cover::Lava) => debug_crust(crust_k),
                 (LavaRenderMode::DebugThickness, Cover::Lava) => heat_ramp(h.data()[k] / hmax),
-                (LavaRenderMode::Lit, Cover::Lava) => scaled(crust_albedo(crust_k, params.rigid_crust), shade),
+                (LavaRenderMode::Lit, Cover::Lava) => {
+                    scaled(crust_albedo(crust_k, params.rigid_crust), shade)
+                }
             };
             colors.push(colour.to_f32_array());
         }
