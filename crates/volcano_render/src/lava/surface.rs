@@ -79,14 +79,9 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
     };
     let n = nx * ny;
     let depth: Vec<f64> = (0..n).map(|k| h.data()[k].max(0.0) + solid[k].max(0.0)).collect();
-    let mut alpha = coverage(&depth, nx, ny, params.min_thickness);
-    // Frozen lava is drawn whole (a chilled rim around a flow would otherwise count as a
-    // sliver of the liquid sheet beside it and leave only the terrain's basalt tint).
-    for (a, &s) in alpha.iter_mut().zip(solid) {
-        if s > params.min_thickness {
-            *a = 1.0;
-        }
-    }
+    // Frozen lava counts by its depth like liquid lava: a chilled rim of millimetres beside a
+    // sheet of decimetres is a sliver of the sheet (drawing it whole serrated the outline).
+    let alpha = coverage(&depth, nx, ny, params.min_thickness);
     let grid = clip_grid(&alpha, nx, ny);
     let mut positions = Vec::with_capacity(n + grid.extra.len());
     let mut base = Vec::with_capacity(n + grid.extra.len());
