@@ -235,8 +235,8 @@ fn update_surfaces(
                 MeshMaterial3d(material),
                 Transform::IDENTITY,
                 Visibility::Hidden,
-                // A sheet centimetres to decimetres thick: its only shadows were jagged slivers
-                // off the margins at a low sun. It still receives shadows (ropes, obstacles).
+                // A sheet centimetres to decimetres thick: its own shadows are negligible (one
+                // less shadow pass). It still receives shadows (ropes, obstacles).
                 NotShadowCaster,
                 ChildOf(entity),
             ));
