@@ -396,6 +396,7 @@ pub fn run_scene_window<M>(name: &str, extra: impl bevy::app::Plugins<M>) -> App
 
 #[cfg(feature = "render")]
 fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
+    use volcano_render::sky::sun_cascades_for;
     use volcano_render::{OrbitCamera, Sun, camera_bundle, sun_bundle};
     let c = spec.camera;
     let orbit = OrbitCamera {
@@ -407,11 +408,14 @@ fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
     };
     commands.spawn(camera_bundle(orbit));
     let s = spec.sun;
-    commands.spawn(sun_bundle(Sun {
-        azimuth_deg: s.azimuth_deg,
-        elevation_deg: s.elevation_deg,
-        illuminance: s.illuminance_lux,
-    }));
+    commands
+        .spawn(sun_bundle(Sun {
+            azimuth_deg: s.azimuth_deg,
+            elevation_deg: s.elevation_deg,
+            illuminance: s.illuminance_lux,
+        }))
+        // Shadow texels to match the view: decimetres on a lava close-up (fold ropes).
+        .insert(sun_cascades_for(c.distance));
 }
 
 #[cfg(test)]

@@ -65,6 +65,10 @@ enum Command {
         /// cheaper; the column's apex moves by metres (docs/ARCHITECTURE.md §3.4).
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
         plume_substeps: Option<u32>,
+        /// HDR with bloom on the camera (`GlowCamera`), so hot lava glows past its edges;
+        /// `--bloom false` renders LDR like the interactive scenes.
+        #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+        bloom: bool,
     },
     /// Run a scene's whole simulation headless (no rendering), one base tick per update, and
     /// write DIR/bench.json: main-thread ms per base tick (p50, p99, max), weather ticks beside
@@ -232,9 +236,10 @@ fn main() -> ExitCode {
             lava_view,
             camera,
             plume_substeps,
+            bloom,
         } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
-            let views = (plume_view.into(), lava, camera);
+            let views = (plume_view.into(), lava, camera, bloom);
             render(&scene, ticks, out, (width, height), min_stddev, views, plume_substeps)
         }
     }
@@ -352,10 +357,11 @@ fn render(
     out: PathBuf,
     (width, height): (u32, u32),
     min_stddev: f64,
-    (view, lava_view, camera): (
+    (view, lava_view, camera, bloom): (
         volcano::render::PlumeRenderMode,
         volcano::render::LavaRenderMode,
         Option<CameraSpec>,
+        bool,
     ),
     plume_substeps: Option<u32>,
 ) -> ExitCode {
@@ -414,6 +420,12 @@ fn render(
             // The first update has zero delta; then ticks/chunk updates; then 3 to settle.
             capture_after_updates: 1 + ticks / chunk + 3,
         });
+    if bloom {
+        // The scene's camera opts in to HDR and bloom (no egui here to need LDR).
+        app.add_observer(|add: On<Add, volcano::render::VolcanoViewer>, mut commands: Commands| {
+            commands.entity(add.entity).insert(volcano::render::GlowCamera);
+        });
+    }
     app.world_mut().resource_mut::<Time<Virtual>>().set_max_delta(Duration::from_millis(20) * chunk.max(13));
     if let Some(n) = plume_substeps
         && let Err(e) = app

@@ -4,8 +4,9 @@
 //! UI crates tell the camera to ignore the mouse by setting the [`PointerCaptured`] resource
 //! (the egui crate does it when egui wants the pointer); this crate does not depend on a UI.
 
-use bevy::camera::{PerspectiveProjection, Projection};
+use bevy::camera::{Hdr, PerspectiveProjection, Projection};
 use bevy::input::mouse::{AccumulatedMouseMotion, AccumulatedMouseScroll, MouseScrollUnit};
+use bevy::post_process::bloom::Bloom;
 use bevy::prelude::*;
 
 use crate::sky::{SkySettings, VolcanoSkyCamera, sky_camera_components};
@@ -17,6 +18,22 @@ use crate::sky::{SkySettings, VolcanoSkyCamera, sky_camera_components};
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]
 #[reflect(Component, Default, Debug)]
 pub struct VolcanoViewer;
+
+/// Opt-in HDR with bloom for a camera: adding it brings [`Hdr`] and [`glow_bloom`] (unless the
+/// camera already has a `Bloom`), so incandescent lava (and anything brighter than white)
+/// glows past its edges instead of clipping. Nothing in the volcano adds it to a game's camera;
+/// the headless `volcano render` does to its own. Interactive scenes leave it out: bevy_egui
+/// 0.40 drew no panels on an HDR camera under llvmpipe.
+#[derive(Component, Debug, Clone, Copy, Default, Reflect)]
+#[reflect(Component, Default, Debug)]
+#[require(Hdr, Bloom = glow_bloom())]
+pub struct GlowCamera;
+
+/// The bloom a [`GlowCamera`] gets: Bevy's energy-conserving `NATURAL` preset, a little
+/// stronger.
+pub fn glow_bloom() -> Bloom {
+    Bloom { intensity: 0.2, ..Bloom::NATURAL }
+}
 
 /// Whether a UI owns the pointer this frame; while `true` the orbit camera ignores the mouse.
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
@@ -174,6 +191,7 @@ impl Plugin for OrbitCameraPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<OrbitCamera>()
             .register_type::<VolcanoViewer>()
+            .register_type::<GlowCamera>()
             .register_type::<PointerCaptured>()
             .init_resource::<PointerCaptured>()
             .add_systems(Update, (orbit_input, apply_orbit).chain());

@@ -5,7 +5,7 @@
 //!
 //! [`VolcanoRenderPlugins`] draws the simulation and touches nothing of the game's lighting or
 //! cameras, except that the camera tagged [`VolcanoViewer`] gets `VolumetricFog` while clouds
-//! exist. Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
+//! exist (and a camera the game tags [`GlowCamera`] is HDR with bloom). Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
 //! with [`camera_bundle`] (a [`VolcanoViewer`] and [`VolcanoSkyCamera`]); the same scene code
 //! renders to a window (with `DefaultPlugins`) or to a PNG (with [`headless_default_plugins`]
 //! and [`HeadlessCapturePlugin`]). Any member of the group can be left out:
@@ -41,7 +41,9 @@ pub mod window_capture;
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 
 pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
-pub use camera::{OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle};
+pub use camera::{
+    GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
+};
 pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
@@ -87,7 +89,7 @@ impl PluginGroup for VolcanoRenderPlugins {
 /// Everything a scene usually needs from this crate.
 pub mod prelude {
     pub use crate::{
-        HeadlessCapturePlugin, OrbitCamera, PlumeRenderMode, PointerCaptured, SkySettings, Sun,
+        GlowCamera, HeadlessCapturePlugin, OrbitCamera, PlumeRenderMode, PointerCaptured, SkySettings, Sun,
         TerrainHorizon, UnrenderedTerrain, VolcanoRenderPlugins, VolcanoSkyCamera, VolcanoSkyPlugin,
         VolcanoViewer, camera_bundle, headless_default_plugins, sun_bundle,
     };

@@ -2,6 +2,7 @@
 //! glow orange-red where it lies and leave the bare ground beside it as it is; under a rigid
 //! crust in the debug-crust view the same disc must turn blue (thesis Fig 5.11 colours). If
 //! the surface mesh, its emissive texture or the material were broken, the ground would show.
+//! On a [`GlowCamera`] (HDR with bloom) the glow spills onto the ground next to the disc.
 
 use std::path::PathBuf;
 
@@ -10,16 +11,17 @@ use volcano_core::{Terrain, VolcanoCorePlugin};
 use volcano_lava::model::breakout::BreakoutState;
 use volcano_lava::{Edges, FlowField, FoldSystem, LavaField, LavaParams, LavaState, Placement, SurfaceState};
 use volcano_render::{
-    HeadlessCapturePlugin, LavaRenderMode, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin,
+    GlowCamera, HeadlessCapturePlugin, LavaRenderMode, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin,
     camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean,
 };
 
 const W: u32 = 320;
 const H: u32 = 240;
 
-/// Renders the disc with `crust` (m) in `mode`; returns the mean RGB over the disc and over
-/// bare ground to its right.
-fn render(name: &str, crust: f64, mode: LavaRenderMode) -> ([f64; 3], [f64; 3]) {
+/// Renders the disc with `crust` (m) in `mode`, through a [`GlowCamera`] if `glow`; returns the
+/// mean RGB over the disc, over bare ground just right of it and over bare ground further
+/// right.
+fn render(name: &str, crust: f64, mode: LavaRenderMode, glow: bool) -> ([f64; 3], [f64; 3], [f64; 3]) {
     let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
     let _ = std::fs::remove_file(&out);
     let terrain = Terrain::flat(129, 0.5, 0.0).unwrap();
@@ -61,24 +63,33 @@ fn render(name: &str, crust: f64, mode: LavaRenderMode) -> ([f64; 3], [f64; 3]) 
                 min_distance: 1.0,
                 ..default()
             };
-            commands.spawn(camera_bundle(orbit));
+            let camera = commands.spawn(camera_bundle(orbit)).id();
+            if glow {
+                commands.entity(camera).insert(GlowCamera);
+            }
         })
         .run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
-    // ~0.14 m per pixel: the disc spans x ≈ 59..145 px; bare ground at x ≈ 220..260 px.
+    // ~0.14 m per pixel: the disc spans x ≈ 59..145 px; bare ground at x ≈ 150..158 px (next
+    // to it) and 220..260 px.
     let disc = rgb_region_mean(&rgb, W, (85, 120), (105, 135));
+    let near = rgb_region_mean(&rgb, W, (150, 158), (105, 135));
     let bare = rgb_region_mean(&rgb, W, (220, 260), (105, 135));
-    eprintln!("{name}: disc {disc:?}, bare ground {bare:?} ({})", out.display());
-    (disc, bare)
+    eprintln!("{name}: disc {disc:?}, next to it {near:?}, bare ground {bare:?} ({})", out.display());
+    (disc, near, bare)
 }
 
 #[test]
 fn hot_lava_glows_and_crust_shows_in_the_debug_view() {
-    let (disc, bare) = render("headless_lava_lit.png", 0.0, LavaRenderMode::Lit);
+    let (disc, near, bare) = render("headless_lava_lit.png", 0.0, LavaRenderMode::Lit, false);
     assert!(disc[0] > bare[0] + 80.0, "hot lava is not brighter than the ground: {disc:?} vs {bare:?}");
     assert!(disc[0] > disc[2] + 80.0, "hot lava is not red-orange: {disc:?}");
-    let (disc, bare) = render("headless_lava_crust.png", 0.05, LavaRenderMode::DebugCrust);
+    let (glow_disc, glow_near, glow_bare) = render("headless_lava_glow.png", 0.0, LavaRenderMode::Lit, true);
+    assert!(glow_disc[0] > glow_bare[0] + 80.0, "no glow on an HDR camera: {glow_disc:?} vs {glow_bare:?}");
+    let spill = (glow_near[0] - glow_bare[0]) - (near[0] - bare[0]);
+    assert!(spill > 4.0, "no bloom next to the lava: {glow_near:?} vs {near:?} ({spill:.1})");
+    let (disc, _, bare) = render("headless_lava_crust.png", 0.05, LavaRenderMode::DebugCrust, false);
     assert!(disc[2] > disc[0] + 60.0 && disc[2] > disc[1] + 40.0, "crust > 2 cm is not blue: {disc:?}");
     assert!(bare[2] < disc[2] - 60.0, "the ground is as blue as the crust: {bare:?}");
 }

@@ -2,22 +2,31 @@
 //!
 //! - **Surface**: one mesh per [`LavaState`] (a child of the field entity, vertices at the cell
 //!   centres on the lava surface, see [`surface_mesh`]), rebuilt at most every
-//!   [`LavaRenderSettings::rebuild_every_frames`] frames after the lava changed. In the lit
-//!   view its emissive texture is the [`incandescent`] colour of each cell's crust-top
-//!   temperature (a black body: bright orange at the vent, dull red under a thin skin, dark
-//!   under a rigid crust) and its albedo darkens from glassy red-brown to basalt with the crust.
-//! - **Folds**: every fold particle is a cylinder (length L, diameter ℓ, along its tangent, at
-//!   its vertical offset and rolling height above the surface), one entity per particle sharing
-//!   one mesh and material, so Bevy batches them into instanced draws.
+//!   [`LavaRenderSettings::rebuild_every_frames`] frames after the lava changed. Its outline
+//!   runs inside the cells where the lava's coverage crosses ½ ([`margin`]), not along the cell
+//!   staircase. In the lit view its emissive texture (a few texels per cell, `Rgba16Float`) is
+//!   the [`incandescent`] colour of the crust-top temperature (a black body: bright orange at
+//!   the vent, dull red under a thin skin, dark under a rigid crust) with hotter cracks along
+//!   the edges of crust plates and mottling ([`crust`]); its albedo darkens from glassy
+//!   red-brown to basalt with the crust, varies over metres, and world-space detail textures
+//!   add grain, roughness and centimetre bumps. The glow blooms on cameras that opt in to HDR
+//!   ([`crate::GlowCamera`]).
+//! - **Folds**: every fold particle is a rope segment (a capsule of diameter 1.3 ℓ, 1.3 L long
+//!   along its tangent so neighbours overlap, at its vertical offset and rolling height above
+//!   the surface), one entity per particle sharing one mesh and material, so Bevy batches them
+//!   into instanced draws; they cast shadows ([`LavaRenderSettings::fold_shadows`]).
 //! - **Debug views** ([`LavaRenderMode`]): crust thickness in the colours of thesis Figs
 //!   5.11–5.13 (red < 8 mm, green 8 mm–2 cm, blue > 2 cm; folds white) and lava thickness.
 
+pub mod crust;
 mod folds;
+pub mod margin;
 mod surface;
 
 use bevy::asset::RenderAssetUsages;
 use bevy::image::ImageSampler;
-use bevy::mesh::Indices;
+use bevy::light::NotShadowCaster;
+use bevy::mesh::{Indices, UvChannel};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use volcano_core::Terrain;
@@ -25,11 +34,9 @@ use volcano_lava::{LavaField, LavaState};
 
 use crate::terrain::{MeshSurface, TerrainMesh};
 
-pub use folds::FoldInstance;
-pub use surface::{
-    REFERENCE_TEMPERATURE, crust_albedo, debug_crust, emissive_texels, frozen_albedo, incandescent,
-    keep_over_terrain, surface_mesh,
-};
+pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
+pub use folds::{FoldInstance, fold_transform};
+pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
 
 /// How lava is drawn (a resource; switch it live from a panel).
 #[derive(Resource, Debug, Clone, Copy, Default, PartialEq, Eq, Reflect)]
@@ -69,24 +76,44 @@ pub struct LavaRenderSettings {
     pub emissive_nits: f32,
     /// Draw the fold particles.
     pub show_folds: bool,
+    /// Fold ropes cast shadows (one more draw per rope and shadow cascade).
+    pub fold_shadows: bool,
 }
 
 impl Default for LavaRenderSettings {
     fn default() -> Self {
-        Self { rebuild_every_frames: 2, emissive_nits: 40_000.0, show_folds: true }
+        Self { rebuild_every_frames: 2, emissive_nits: 40_000.0, show_folds: true, fold_shadows: true }
     }
 }
 
 /// The surface mesh child of a [`LavaField`] entity.
 #[derive(Component, Debug, Clone)]
 pub struct LavaSurface {
-    /// Emissive texture (one texel per cell).
+    /// Emissive texture ([`crust::texels_per_cell`] texels per cell side).
     pub image: Handle<Image>,
     /// This surface's material.
     pub material: Handle<StandardMaterial>,
     frames: u32,
     dirty: bool,
     texels: Vec<u8>,
+    pattern: GlowPattern,
+}
+
+/// The crust's tileable detail textures (albedo grain, roughness, normal map), shared by every
+/// lava surface.
+#[derive(Resource, Debug, Clone)]
+struct LavaDetail {
+    albedo: Handle<Image>,
+    roughness: Handle<Image>,
+    normal: Handle<Image>,
+}
+
+impl FromWorld for LavaDetail {
+    fn from_world(world: &mut World) -> Self {
+        let [albedo, roughness, normal] = crust::detail_images();
+        let mut images = world.resource_mut::<Assets<Image>>();
+        Self { albedo: images.add(albedo), roughness: images.add(roughness), normal: images.add(normal) }
+    }
 }
 
 /// Adds the lava surface and fold visuals to [`LavaState`] entities.
@@ -110,31 +137,44 @@ impl Plugin for LavaRenderPlugin {
             && app.world().contains_resource::<Assets<Mesh>>()
             && app.world().contains_resource::<Assets<Image>>()
         {
-            app.init_resource::<folds::FoldAssets>();
+            app.init_resource::<folds::FoldAssets>().init_resource::<LavaDetail>();
         }
     }
 }
 
-/// A black `nx × ny` emissive texture.
-fn emissive_image(nx: usize, ny: usize, texels: Vec<u8>) -> Image {
-    let size = Extent3d { width: nx as u32, height: ny as u32, depth_or_array_layers: 1 };
+/// A `width × height` emissive texture of `Rgba16Float` texels (black if `texels` is empty).
+fn emissive_image(width: usize, height: usize, mut texels: Vec<u8>) -> Image {
+    texels.resize(8 * width * height, 0);
+    let size = Extent3d { width: width as u32, height: height as u32, depth_or_array_layers: 1 };
     let mut image = Image::new(
         size,
         TextureDimension::D2,
         texels,
-        TextureFormat::Rgba8UnormSrgb,
+        TextureFormat::Rgba16Float,
         RenderAssetUsages::RENDER_WORLD,
     );
     image.sampler = ImageSampler::linear();
     image
 }
 
-/// Sets `material` up for `mode`.
-fn style_material(material: &mut StandardMaterial, mode: LavaRenderMode, settings: &LavaRenderSettings) {
+/// Sets `material` up for `mode`: in the lit view the detail textures on UV 1, in the debug
+/// views plain vertex colours.
+fn style_material(
+    material: &mut StandardMaterial,
+    mode: LavaRenderMode,
+    settings: &LavaRenderSettings,
+    detail: Option<&LavaDetail>,
+) {
     let lit = mode == LavaRenderMode::Lit;
     material.unlit = !lit;
     let s = if lit { settings.emissive_nits.max(0.0) } else { 0.0 };
     material.emissive = LinearRgba::rgb(s, s, s);
+    let detail = detail.filter(|_| lit);
+    material.base_color_texture = detail.map(|d| d.albedo.clone());
+    material.metallic_roughness_texture = detail.map(|d| d.roughness.clone());
+    material.normal_map_texture = detail.map(|d| d.normal.clone());
+    // The roughness map holds the roughness itself.
+    material.perceptual_roughness = if detail.is_some() { 1.0 } else { 0.45 };
 }
 
 /// What [`update_surfaces`] reads of a field.
@@ -153,7 +193,9 @@ fn update_surfaces(
     mut meshes: Option<ResMut<Assets<Mesh>>>,
     mut images: Option<ResMut<Assets<Image>>>,
     mut materials: Option<ResMut<Assets<StandardMaterial>>>,
+    detail: Option<Res<LavaDetail>>,
 ) {
+    let detail = detail.as_deref();
     let (Some(meshes), Some(images), Some(materials)) =
         (meshes.as_mut(), images.as_mut(), materials.as_mut())
     else {
@@ -163,27 +205,39 @@ fn update_surfaces(
     for (entity, field, state, children) in &fields {
         let existing = children.and_then(|c| c.iter().find(|c| surfaces.contains(*c)));
         let Some(child) = existing else {
-            let (nx, ny) = (state.flow.nx(), state.flow.ny());
-            let image = images.add(emissive_image(nx, ny, vec![0; 4 * nx * ny]));
+            let pattern = GlowPattern::new(&state.flow);
+            let image = images.add(emissive_image(pattern.width, pattern.height, Vec::new()));
             let mut material = StandardMaterial {
                 base_color: Color::WHITE,
                 emissive_texture: Some(image.clone()),
                 emissive_exposure_weight: 1.0,
-                perceptual_roughness: 0.45,
                 reflectance: 0.35,
+                base_color_channel: UvChannel::Uv1,
+                metallic_roughness_channel: UvChannel::Uv1,
+                normal_map_channel: UvChannel::Uv1,
                 ..default()
             };
-            style_material(&mut material, *mode, &settings);
+            style_material(&mut material, *mode, &settings, detail);
             let material = materials.add(material);
             let mesh = surface_mesh(&state.flow, &state.surface.crust, &field.params, *mode);
             commands.entity(entity).insert_if_new((Transform::IDENTITY, Visibility::default()));
             commands.spawn((
                 Name::new("Lava surface"),
-                LavaSurface { image, material: material.clone(), frames: 0, dirty: true, texels: Vec::new() },
+                LavaSurface {
+                    image,
+                    material: material.clone(),
+                    frames: 0,
+                    dirty: true,
+                    texels: Vec::new(),
+                    pattern,
+                },
                 Mesh3d(meshes.add(mesh)),
                 MeshMaterial3d(material),
                 Transform::IDENTITY,
                 Visibility::Hidden,
+                // A sheet centimetres to decimetres thick: its own shadows are negligible (one
+                // less shadow pass). It still receives shadows (ropes, obstacles).
+                NotShadowCaster,
                 ChildOf(entity),
             ));
             continue;
@@ -193,7 +247,7 @@ fn update_surfaces(
         surface.frames = surface.frames.saturating_add(1);
         surface.dirty |= state.is_changed() || restyle;
         if restyle && let Some(mut m) = materials.get_mut(&surface.material) {
-            style_material(&mut m, *mode, &settings);
+            style_material(&mut m, *mode, &settings, detail);
         }
         if !surface.dirty || surface.frames < settings.rebuild_every_frames.max(1) {
             continue;
@@ -205,7 +259,7 @@ fn update_surfaces(
         let stride = under.and_then(|(_, c)| c.iter().find_map(|c| terrain_meshes.get(c).ok()));
         if let (Some((terrain, _)), Some(m)) = (under, stride) {
             let drawn = MeshSurface::new(terrain, m.stride);
-            keep_over_terrain(&mut mesh, &state.flow, &field.params, |x, z| drawn.height_at(x, z));
+            keep_over_terrain(&mut mesh, |x, z| drawn.height_at(x, z));
         }
         let empty = mesh.indices().is_none_or(Indices::is_empty);
         let shown = if empty { Visibility::Hidden } else { Visibility::Inherited };
@@ -216,10 +270,12 @@ fn update_surfaces(
             let _ = meshes.insert(mesh3d.id(), mesh);
         }
         if *mode == LavaRenderMode::Lit {
-            emissive_texels(&state.flow, crust, &field.params, &mut surface.texels);
-            let texels = surface.texels.clone();
-            let _ =
-                images.insert(surface.image.id(), emissive_image(state.flow.nx(), state.flow.ny(), texels));
+            if !surface.pattern.fits(&state.flow) {
+                surface.pattern = GlowPattern::new(&state.flow);
+            }
+            glow_texels(&state.flow, crust, &field.params, &surface.pattern, &mut surface.texels);
+            let (w, h) = (surface.pattern.width, surface.pattern.height);
+            let _ = images.insert(surface.image.id(), emissive_image(w, h, surface.texels.clone()));
             // Touch the material so its bind group picks up the new texture.
             let _ = materials.get_mut(&surface.material);
         }

@@ -1,43 +1,20 @@
-//! Pure parts of the lava look: the incandescent colour of a surface temperature, the colour of
-//! the crust, and the surface mesh and emissive texels of a lava field. No ECS here, so all of
-//! it is unit-tested.
+//! Pure parts of the lava look: the colour of the crust and the surface mesh of a lava field.
+//! No ECS here, so all of it is unit-tested.
 
 use bevy::asset::RenderAssetUsages;
-use bevy::color::{ColorToComponents, ColorToPacked, LinearRgba, Mix, Srgba};
+use bevy::color::{ColorToComponents, LinearRgba, Mix, Srgba};
 use bevy::math::Vec3;
 use bevy::mesh::{Indices, Mesh, PrimitiveTopology, VertexAttributeValues};
-use volcano_lava::view::{crust_colour, surface_temperature};
+use volcano_lava::view::crust_colour;
 use volcano_lava::{FlowField, LavaParams};
 
 use super::LavaRenderMode;
+use super::crust::{DETAIL_TILE, albedo_variation, dilate};
+use super::margin::{EDGE, clip_grid, coverage};
 
-/// Second radiation constant `hc/k` (m·K) of Planck's law.
-const C2: f64 = 1.438_777e-2;
-/// Wavelengths (m) standing for the red, green and blue channels.
-const WAVELENGTHS: [f64; 3] = [610e-9, 550e-9, 465e-9];
-/// Temperature (K) whose red radiance maps to 1.0 in [`incandescent`]: hotter saturates.
-pub const REFERENCE_TEMPERATURE: f64 = 1500.0;
 /// Lava lifted this much (m) above the ground it covers, so a thin sheet does not z-fight the
 /// terrain mesh.
 pub const LIFT: f32 = 0.01;
-/// Vertices of uncovered cells sink this far (m) below the ground: the edge quads of the lava
-/// dive under the terrain, which then draws the flow's outline.
-pub const SINK: f32 = 0.1;
-
-/// Relative spectral radiance of a black body at temperature `t` (K) in the red, green and
-/// blue channels (Planck's law at [`WAVELENGTHS`]), scaled so the red channel of a body at
-/// [`REFERENCE_TEMPERATURE`] is 1. Linear RGB; 0 at or below 0 K or for non-finite input.
-/// Each channel rises monotonically with temperature, and the colour shifts from deep red
-/// (1000 K) to orange (1400 K) to yellow-white (well above 2000 K).
-pub fn incandescent(t: f64) -> LinearRgba {
-    if !(t.is_finite() && t > 0.0) {
-        return LinearRgba::BLACK;
-    }
-    let radiance = |lambda: f64, temp: f64| 1.0 / (lambda.powi(5) * ((C2 / (lambda * temp)).exp_m1()));
-    let reference = radiance(WAVELENGTHS[0], REFERENCE_TEMPERATURE);
-    let [r, g, b] = WAVELENGTHS.map(|l| (radiance(l, t) / reference) as f32);
-    LinearRgba::rgb(r, g, b)
-}
 
 /// Albedo (linear) of the lava surface under a crust `crust` (m): a glassy dark red-brown for
 /// fresh lava darkening to black basalt once the crust reaches `rigid` (m).
@@ -76,13 +53,17 @@ enum Cover {
     Dry,
 }
 
-/// Mesh of the lava surface of `flow`: one vertex per cell centre (world `x`, altitude, world
-/// `z`; `nx · ny` vertices in row order, cell `(i, j)` at `j · nx + i`), at the lava surface
-/// (ground + frozen + liquid lava, lifted by [`LIFT`]) where the cell holds liquid lava thicker
-/// than `min_thickness` or frozen lava, and [`SINK`] below the ground elsewhere. Triangles only
-/// for quads with at least one covered corner, so an empty field has no indices. Vertex
-/// colours: the albedo for [`LavaRenderMode::Lit`], the debug colours otherwise. UVs address
-/// the cell centres of an `nx × ny` texture (see [`emissive_texels`]).
+/// Mesh of the lava surface of `flow`. The first `nx · ny` vertices are the cell centres (world
+/// `x`, altitude, world `z`; cell `(i, j)` at `j · nx + i`) at the lava surface (ground +
+/// frozen + liquid lava, lifted by [`LIFT`]); the rest are quad centres and the outline
+/// ([`margin`](super::margin)): the surface is clipped where the lava's [`coverage`] crosses
+/// ½, inside the cells, and comes down to the ground (+ [`LIFT`]) there, or stays level with
+/// the lava where the ground rises above it (a wall), so the outline is smooth instead of a
+/// cell staircase. An empty field has no indices. Vertex colours: the
+/// albedo (with [`albedo_variation`]) for [`LavaRenderMode::Lit`], the debug colours otherwise,
+/// carried into the outline from the covered cells. UV 0 addresses the cell centres of an
+/// `nx × ny` texture (see [`glow_texels`](super::crust::glow_texels)); UV 1 is world `(x, z)`
+/// over [`DETAIL_TILE`], with tangents along +x for the detail normal map.
 pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: LavaRenderMode) -> Mesh {
     let (nx, ny) = (flow.nx(), flow.ny());
     let (h, ground, solid) = (flow.thickness(), flow.ground().data(), flow.solid().data());
@@ -97,43 +78,46 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
         }
     };
     let n = nx * ny;
-    let mut positions = Vec::with_capacity(n);
-    let mut colors = Vec::with_capacity(n);
-    let mut uvs = Vec::with_capacity(n);
-    let mut covered = Vec::with_capacity(n);
+    let depth: Vec<f64> = (0..n).map(|k| h.data()[k].max(0.0) + solid[k].max(0.0)).collect();
+    // Frozen lava counts by its depth like liquid lava: a chilled rim of millimetres beside a
+    // sheet of decimetres is a sliver of the sheet (drawing it whole serrated the outline).
+    let alpha = coverage(&depth, nx, ny, params.min_thickness);
+    let grid = clip_grid(&alpha, nx, ny);
+    let mut positions = Vec::with_capacity(n + grid.extra.len());
+    let mut base = Vec::with_capacity(n + grid.extra.len());
+    let mut colors = Vec::with_capacity(n + grid.extra.len());
+    let mut uvs = Vec::with_capacity(n + grid.extra.len());
     for j in 0..ny {
         for i in 0..nx {
             let k = j * nx + i;
             let p = h.position(i, j);
-            let c = cover(k);
-            let y = match c {
-                Cover::Lava => (ground[k] + h.data()[k]) as f32 + LIFT,
-                Cover::Frozen => ground[k] as f32 + LIFT,
-                Cover::Dry => ground[k] as f32 - SINK,
-            };
-            positions.push([p.x, y, p.y]);
+            positions.push([p.x, (ground[k] + h.data()[k].max(0.0)) as f32 + LIFT, p.y]);
+            // The ground under the lava: where the outline comes down to.
+            base.push([(ground[k] - solid[k].max(0.0)) as f32 + LIFT]);
             uvs.push([(i as f32 + 0.5) / nx as f32, (j as f32 + 0.5) / ny as f32]);
             let crust_k = crust.get(k).copied().unwrap_or(0.0);
-            let colour = match (mode, c) {
-                // Dry vertices only show in the margin quads, dipping under the ground. In the
-                // crust view they stay neutral (a red one next to blue crust would blend to a
-                // misleading purple where lava ponds against an obstacle).
-                (LavaRenderMode::DebugCrust, Cover::Dry) => frozen_albedo(),
-                (LavaRenderMode::DebugThickness, Cover::Dry) => heat_ramp(0.0),
-                (LavaRenderMode::Lit, Cover::Dry) => crust_albedo(0.0, params.rigid_crust),
+            let shade = albedo_variation(p) / DETAIL_GRAIN;
+            let colour = match (mode, cover(k)) {
+                // Dry cells only lend colour where the outline cuts their quad; they get their
+                // covered neighbours' colour below.
+                (_, Cover::Dry) => frozen_albedo(),
                 (LavaRenderMode::DebugCrust, Cover::Frozen) => LinearRgba::from(Srgba::rgb_u8(150, 150, 150)),
+                (LavaRenderMode::Lit, Cover::Frozen) => scaled(frozen_albedo(), shade),
                 (_, Cover::Frozen) => frozen_albedo(),
                 (LavaRenderMode::DebugCrust, Cover::Lava) => debug_crust(crust_k),
                 (LavaRenderMode::DebugThickness, Cover::Lava) => heat_ramp(h.data()[k] / hmax),
-                (LavaRenderMode::Lit, Cover::Lava) => crust_albedo(crust_k, params.rigid_crust),
+                (LavaRenderMode::Lit, Cover::Lava) => {
+                    scaled(crust_albedo(crust_k, params.rigid_crust), shade)
+                }
             };
             colors.push(colour.to_f32_array());
-            covered.push(c != Cover::Dry);
         }
     }
-    // Smooth normals from central differences of the vertex heights.
+    let inside: Vec<bool> = alpha.iter().map(|&a| a >= EDGE).collect();
+    dilate(&mut colors, &inside, nx, ny);
+    // Smooth normals from central differences of the surface heights.
     let dx = flow.cell() as f32;
-    let mut normals = Vec::with_capacity(n);
+    let mut normals = Vec::with_capacity(n + grid.extra.len());
     for j in 0..ny {
         for i in 0..nx {
             let y = |a: usize, b: usize| positions[b * nx + a][1];
@@ -144,48 +128,62 @@ pub fn surface_mesh(flow: &FlowField, crust: &[f64], params: &LavaParams, mode: 
             normals.push(Vec3::new(-dydx, 1.0, -dydz).normalize_or(Vec3::Y).to_array());
         }
     }
-    let mut indices = Vec::new();
-    for j in 0..ny.saturating_sub(1) {
-        for i in 0..nx.saturating_sub(1) {
-            let v00 = j * nx + i;
-            let (v10, v01, v11) = (v00 + 1, v00 + nx, v00 + nx + 1);
-            if covered[v00] || covered[v10] || covered[v01] || covered[v11] {
-                // Counter-clockwise seen from above (+y), as the terrain mesh.
-                indices.extend([v00, v01, v10, v10, v01, v11].map(|v| v as u32));
-            }
-        }
+    let mut cover: Vec<[f32; 1]> = alpha.iter().map(|&a| [a]).collect();
+    grid.extend(&mut positions);
+    grid.extend(&mut base);
+    grid.extend(&mut cover);
+    grid.extend(&mut colors);
+    grid.extend(&mut uvs);
+    grid.extend(&mut normals);
+    for (v, a, b, _) in grid.outline(n) {
+        // Down to the ground, but not above the lava's own surface: against a wall the lava
+        // ponds flat instead of climbing it.
+        let inside = if cover[a as usize][0] >= cover[b as usize][0] { a } else { b };
+        positions[v][1] = base[v][0].min(positions[inside as usize][1]);
     }
+    for nrm in normals.iter_mut().skip(n) {
+        *nrm = Vec3::from(*nrm).normalize_or(Vec3::Y).to_array();
+    }
+    let detail: Vec<[f32; 2]> = positions.iter().map(|p| [p[0] / DETAIL_TILE, p[2] / DETAIL_TILE]).collect();
+    // Tangent along +x (UV 1's u); the bitangent −(n × t) is +z, UV 1's v.
+    let tangents: Vec<[f32; 4]> = normals
+        .iter()
+        .map(|&nrm| {
+            let nrm = Vec3::from(nrm);
+            let t = (Vec3::X - nrm * nrm.x).normalize_or(Vec3::X);
+            [t.x, t.y, t.z, -1.0]
+        })
+        .collect();
     Mesh::new(PrimitiveTopology::TriangleList, RenderAssetUsages::RENDER_WORLD)
         .with_inserted_attribute(Mesh::ATTRIBUTE_POSITION, positions)
         .with_inserted_attribute(Mesh::ATTRIBUTE_NORMAL, normals)
         .with_inserted_attribute(Mesh::ATTRIBUTE_UV_0, uvs)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_UV_1, detail)
+        .with_inserted_attribute(Mesh::ATTRIBUTE_TANGENT, tangents)
         .with_inserted_attribute(Mesh::ATTRIBUTE_COLOR, colors)
-        .with_inserted_indices(Indices::U32(indices))
+        .with_inserted_indices(Indices::U32(grid.indices))
 }
 
-/// Keeps a [`surface_mesh`] of `flow` on the right side of the drawn terrain, whose altitude
-/// at world `(x, z)` is `terrain(x, z)`: covered vertices at least [`LIFT`] above it, dry ones
-/// at least [`SINK`] below. The field's ground is the terrain's bilinear surface, while the
-/// terrain mesh is made of triangles; on a 40 m grid the two differ by decimetres, enough to
-/// hide a lava sheet. Returns how many vertices moved.
-pub fn keep_over_terrain(
-    mesh: &mut Mesh,
-    flow: &FlowField,
-    params: &LavaParams,
-    terrain: impl Fn(f32, f32) -> f32,
-) -> usize {
-    let (h, solid) = (flow.thickness().data(), flow.solid().data());
+/// `c` with its colour (not its alpha) times `s`.
+fn scaled(c: LinearRgba, s: f32) -> LinearRgba {
+    LinearRgba::rgb(c.red * s, c.green * s, c.blue * s)
+}
+
+/// Mean of the detail albedo grain ([`detail_images`](super::crust::detail_images)), divided
+/// out of the vertex colours so the surface keeps its albedo on average.
+const DETAIL_GRAIN: f32 = 0.85;
+
+/// Keeps a [`surface_mesh`] on the right side of the drawn terrain, whose altitude at world
+/// `(x, z)` is `terrain(x, z)`: every vertex at least [`LIFT`] above it. The field's ground is
+/// the terrain's bilinear surface, while the terrain mesh is made of triangles; on a 40 m grid
+/// the two differ by decimetres, enough to hide a lava sheet. Returns how many vertices moved.
+pub fn keep_over_terrain(mesh: &mut Mesh, terrain: impl Fn(f32, f32) -> f32) -> usize {
     let Some(VertexAttributeValues::Float32x3(pos)) = mesh.attribute_mut(Mesh::ATTRIBUTE_POSITION) else {
         return 0;
     };
-    if pos.len() != h.len() {
-        return 0;
-    }
     let mut moved = 0;
-    for (k, p) in pos.iter_mut().enumerate() {
-        let ground = terrain(p[0], p[2]);
-        let covered = h[k] > params.min_thickness || solid[k] > params.min_thickness;
-        let y = if covered { p[1].max(ground + LIFT) } else { p[1].min(ground - SINK) };
+    for p in pos.iter_mut() {
+        let y = p[1].max(terrain(p[0], p[2]) + LIFT);
         if y != p[1] {
             p[1] = y;
             moved += 1;
@@ -194,31 +192,14 @@ pub fn keep_over_terrain(
     moved
 }
 
-/// Emissive texels (`Rgba8UnormSrgb`, `nx × ny`, row `j` = cell row `j`) of the lit view: the
-/// [`incandescent`] colour of each liquid cell's crust-top temperature
-/// ([`surface_temperature`]: the thicker the crust, the cooler and darker the top), black
-/// elsewhere. `out` is cleared and refilled.
-pub fn emissive_texels(flow: &FlowField, crust: &[f64], params: &LavaParams, out: &mut Vec<u8>) {
-    let (h, temp) = (flow.thickness().data(), flow.temperature().data());
-    out.clear();
-    out.reserve(4 * h.len());
-    for k in 0..h.len() {
-        let c = if h[k] > params.min_thickness {
-            let ts = surface_temperature(params, temp[k], crust.get(k).copied().unwrap_or(0.0));
-            incandescent(ts)
-        } else {
-            LinearRgba::BLACK
-        };
-        let s = Srgba::from(LinearRgba::rgb(c.red.min(1.0), c.green.min(1.0), c.blue.min(1.0)));
-        out.extend_from_slice(&s.to_u8_array());
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use bevy::math::Vec2;
     use volcano_core::Grid2;
+    use volcano_lava::view::surface_temperature;
+
+    use crate::lava::crust::{REFERENCE_TEMPERATURE, incandescent};
     use volcano_lava::Edges;
 
     #[test]
@@ -268,22 +249,32 @@ mod tests {
     }
 
     #[test]
-    fn mesh_vertices_sit_on_the_lava_and_cover_only_wet_quads() {
+    fn mesh_vertices_sit_on_the_lava_and_the_outline_on_the_ground() {
         let f = field();
         let p = LavaParams::default();
         let crust = vec![0.0; 12];
         let mesh = surface_mesh(&f, &crust, &p, LavaRenderMode::Lit);
-        assert_eq!(mesh.count_vertices(), 12);
+        // 12 cells, 4 quad centres, 8 outline vertices (4 on the cell edges, 4 to the centres).
+        assert_eq!(mesh.count_vertices(), 24);
         let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
         // Cell (1, 1) = vertex 5: x = 10.5, z = 20.5, y = ground 101 + lava 1 + lift.
         assert_eq!((pos[5][0], pos[5][2]), (10.5, 20.5));
         assert!((pos[5][1] - (102.0 + LIFT)).abs() < 1e-4, "{:?}", pos[5]);
-        // A dry cell sinks under its ground.
-        assert!((pos[0][1] - (100.0 - SINK)).abs() < 1e-4, "{:?}", pos[0]);
-        // Quads touching vertex 5: (0,0), (1,0), (0,1), (1,1) → 4 quads, 24 indices.
+        // Two clipped triangles in each of the 4 quads around vertex 5; every other vertex
+        // they use is on the outline, on the ground (100 m + 2 m per metre of x) + lift.
         let Some(Indices::U32(idx)) = mesh.indices() else { panic!("u32 indices") };
         assert_eq!(idx.len(), 24);
-        assert!(idx.chunks(6).all(|q| q.contains(&5)));
+        assert!(idx.chunks(3).all(|t| t.contains(&5)));
+        for &v in idx.iter().filter(|&&v| v != 5) {
+            let [x, y, _] = pos[v as usize];
+            assert!(v >= 12, "a dry cell centre is drawn: {v}");
+            assert!((y - (100.0 + 2.0 * (x - 10.0) + LIFT)).abs() < 1e-4, "{:?}", pos[v as usize]);
+            // Inside the four quads, between the cell centre and its neighbours.
+            assert!((x - 10.5).abs() < 0.5 && (pos[v as usize][2] - 20.5).abs() < 0.5);
+        }
+        // Detail UVs and tangents for the normal map.
+        assert!(mesh.attribute(Mesh::ATTRIBUTE_UV_1).is_some());
+        assert!(mesh.attribute(Mesh::ATTRIBUTE_TANGENT).is_some());
         // Empty field: no triangles.
         let empty = FlowField::flat(4, 3, 0.5).unwrap();
         let m = surface_mesh(&empty, &crust, &p, LavaRenderMode::Lit);
@@ -291,16 +282,32 @@ mod tests {
     }
 
     #[test]
-    fn emissive_texels_glow_only_on_hot_lava() {
+    fn lava_against_a_wall_stays_level() {
+        // Flat ground at 100 m with a 5 m wall in column 2; 1 m of lava in cell (1, 1).
+        let mut g = Grid2::new(4, 3, 0.5, Vec2::ZERO, 0.0).unwrap();
+        for j in 0..3 {
+            for i in 0..4 {
+                g.set(i, j, if i == 2 { 105.0 } else { 100.0 });
+            }
+        }
+        let mut f = FlowField::new(g, Edges::default(), 300.0).unwrap();
+        f.place_volume(Vec2::new(0.5, 0.5), 0.0, 0.25, 1400.0).unwrap();
+        let mesh = surface_mesh(&f, &[0.0; 12], &LavaParams::default(), LavaRenderMode::Lit);
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        let Some(Indices::U32(idx)) = mesh.indices() else { panic!("u32 indices") };
+        assert!(!idx.is_empty());
+        for &v in idx {
+            assert!(pos[v as usize][1] <= 101.0 + LIFT + 1e-4, "climbs the wall: {:?}", pos[v as usize]);
+        }
+    }
+
+    #[test]
+    fn the_terrain_lifts_the_surface() {
         let f = field();
-        let p = LavaParams::default();
-        let mut tex = Vec::new();
-        emissive_texels(&f, &[0.0; 12], &p, &mut tex);
-        assert_eq!(tex.len(), 4 * 12);
-        assert!(tex[4 * 5] > 120, "hot lava glows red: {:?}", &tex[20..24]);
-        assert_eq!(&tex[0..3], &[0, 0, 0], "dry ground does not glow");
-        let mut crusted = Vec::new();
-        emissive_texels(&f, &[0.03; 12], &p, &mut crusted);
-        assert!(crusted[4 * 5] < tex[4 * 5] / 4, "a crust darkens it: {:?}", &crusted[20..24]);
+        let mut mesh = surface_mesh(&f, &[0.0; 12], &LavaParams::default(), LavaRenderMode::Lit);
+        let moved = keep_over_terrain(&mut mesh, |_, _| 101.5);
+        let pos = mesh.attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        assert!(moved > 0 && pos.iter().all(|p| p[1] >= 101.5 + LIFT - 1e-4));
+        assert!((pos[5][1] - (102.0 + LIFT)).abs() < 1e-4, "the lava above it stays");
     }
 }

@@ -69,10 +69,19 @@ impl Sun {
 
 /// Shadow cascades sized for a volcano seen from tens of kilometres.
 pub fn sun_cascades() -> CascadeShadowConfig {
+    sun_cascades_for(f32::INFINITY)
+}
+
+/// Shadow cascades for a camera about `view_distance` metres from what it looks at: the first
+/// cascade ends at 4 × that distance (at least 100 m, at most 4 km), so a close-up of a lava
+/// patch gets decimetre shadow texels (fold ropes shadow the crust) and a volcano seen from
+/// kilometres the same cascades as [`sun_cascades`].
+pub fn sun_cascades_for(view_distance: f32) -> CascadeShadowConfig {
+    let first = if view_distance.is_nan() { 4_000.0 } else { (4.0 * view_distance).clamp(100.0, 4_000.0) };
     CascadeShadowConfigBuilder {
         num_cascades: 3,
-        minimum_distance: 10.0,
-        first_cascade_far_bound: 4_000.0,
+        minimum_distance: (0.1 * first).min(10.0),
+        first_cascade_far_bound: first,
         maximum_distance: 80_000.0,
         overlap_proportion: 0.2,
     }
