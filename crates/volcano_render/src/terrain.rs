@@ -22,7 +22,7 @@ mod region;
 use volcano_core::{LandCover, Terrain, TerrainChanged, VentPosition, Volcano};
 
 pub use cover::{GroundSample, Relief, ground_color, value_noise};
-pub(crate) use cover::{mix, smoothstep};
+pub(crate) use cover::{lattice_hash, mix, smoothstep};
 pub use deposit::{DepositRenderPlugin, DepositTint};
 pub use horizon::{HorizonError, TerrainHorizon, TerrainHorizonMesh, horizon_mesh};
 

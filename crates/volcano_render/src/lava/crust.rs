@@ -20,7 +20,7 @@ use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use volcano_lava::view::surface_temperature;
 use volcano_lava::{FlowField, LavaParams};
 
-use crate::terrain::value_noise;
+use crate::terrain::{lattice_hash as hash01, smoothstep, value_noise};
 
 /// Fraction of the crust left at the bottom of a crack: its top is that much hotter.
 pub const CRACK_DEPTH: f64 = 0.2;
@@ -326,24 +326,6 @@ pub fn detail_images() -> [Image; 3] {
         });
         image
     })
-}
-
-/// Hash of a lattice point to [0, 1).
-fn hash01(ix: i32, iz: i32, seed: u32) -> f32 {
-    let mut h = (ix as u32).wrapping_mul(0x8da6_b343)
-        ^ (iz as u32).wrapping_mul(0xd816_3841)
-        ^ seed.wrapping_mul(0xcb1a_b31f);
-    h ^= h >> 15;
-    h = h.wrapping_mul(0x2c1b_3c6d);
-    h ^= h >> 12;
-    h = h.wrapping_mul(0x297a_2d39);
-    h ^= h >> 15;
-    (h >> 8) as f32 / 16_777_216.0
-}
-
-fn smoothstep(e0: f32, e1: f32, x: f32) -> f32 {
-    let t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0);
-    t * t * (3.0 - 2.0 * t)
 }
 
 #[cfg(test)]

@@ -137,8 +137,8 @@ pub fn value_noise(p: Vec2, wavelength: f32, seed: u32) -> f32 {
     a + (b - a) * v
 }
 
-/// Hash of a lattice point to [0, 1).
-fn lattice_hash(ix: i32, iz: i32, seed: u32) -> f32 {
+/// Hash of a lattice point to [0, 1) (also the lava crust's cell pattern).
+pub(crate) fn lattice_hash(ix: i32, iz: i32, seed: u32) -> f32 {
     let mut h = (ix as u32).wrapping_mul(0x8da6_b343)
         ^ (iz as u32).wrapping_mul(0xd816_3841)
         ^ seed.wrapping_mul(0xcb1a_b31f);
