@@ -270,14 +270,8 @@ impl Bands {
     /// parallel, rows in order inside a band. `row` is the same kind of slice or tuple as
     /// `slices`, holding row `j`.
     pub fn for_each_row<S: RowSlices>(self, slices: S, n: usize, f: impl Fn(usize, S) + Sync) {
-        self.map(slices, n, |first, band| {
-            let mut rest = band;
-            for j in first..first + rest.elem_count() / n {
-                let (row, tail) = rest.split_at_elem(n);
-                f(j, row);
-                rest = tail;
-            }
-        });
+        // The rows' results are `()`: the vectors collecting them never allocate.
+        self.map_rows(slices, n, f);
     }
 
     /// Runs `f(j, row)` for every row like [`Bands::for_each_row`] and returns the rows'
