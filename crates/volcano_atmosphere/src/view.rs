@@ -9,7 +9,7 @@
 
 pub use crate::model::ash::{ash_at, ash_blended, layer_blend};
 pub use crate::model::fields::{AtmosphereState, GridSpec, LayerFields};
-pub use crate::model::maps::{MapField, field_values};
+pub use crate::model::maps::{MapField, field_values, png_bytes};
 pub use crate::model::volume::{ClusterMemory, VolumeSpec};
 
 use crate::model::volume::{coherent_forms_with, density_volume};

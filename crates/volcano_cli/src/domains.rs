@@ -5,7 +5,7 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use volcano_atmosphere::model::maps::{MapField, field_values, png_bytes};
+use volcano_atmosphere::view::{MapField, field_values, png_bytes};
 use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
 
 /// Options of `volcano lava`.
@@ -84,7 +84,7 @@ pub fn lava(a: &LavaArgs) -> ExitCode {
     };
     s.run_until(c.seconds);
     let json = serde_json::to_string_pretty(&s.summary()).unwrap_or_default();
-    if let Err(e) = volcano_lava::scenario::maps::write_maps(&s.field, &s.surface, &s.folds, &a.out) {
+    if let Err(e) = volcano_lava::view::write_maps(&s.field, &s.surface, &s.folds, &a.out) {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }

@@ -13,8 +13,8 @@ use volcano::coupling::plugin::ash_ledger;
 use volcano::coupling::{CouplingBudget, CouplingSettings};
 use volcano::plume::{DepositMap, Eruption, PlumeAmbient, PlumeSlice, Preset, Umbrella, UmbrellaSpreading};
 use volcano::prelude::*;
-use volcano_atmosphere::model::fields::LayerFields;
-use volcano_atmosphere::model::maps::png_bytes;
+use volcano_atmosphere::view::LayerFields;
+use volcano_atmosphere::view::png_bytes;
 use volcano_atmosphere::{AirLayer, Atmosphere, Scenario, spawn_scenario_with};
 
 /// The atmospheres of the three scenarios.

@@ -50,7 +50,7 @@ fn main() {
     eprintln!("wall time {:.2} s", start.elapsed().as_secs_f64());
     println!("{}", serde_json::to_string_pretty(&summary).expect("summary serialises"));
     if let Some(dir) = args.next() {
-        match volcano_lava::scenario::maps::write_maps(
+        match volcano_lava::view::write_maps(
             &scenario.field,
             &scenario.surface,
             &scenario.folds,

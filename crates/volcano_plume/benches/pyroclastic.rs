@@ -10,10 +10,10 @@ use rand::RngExt;
 use std::hint::black_box;
 use volcano_core::StratovolcanoParams;
 use volcano_core::rng::derive_stream;
+use volcano_plume::model::flows::par_map_ordered;
 use volcano_plume::model::params::PlumeParams;
 use volcano_plume::model::pyroclastic::{Particle, PyroclasticParams, find_clusters, step_particle};
 use volcano_plume::model::slice::SliceEnv;
-use volcano_plume::pyroclastic::par_map_ordered;
 
 fn bench(c: &mut Criterion) {
     let terrain =

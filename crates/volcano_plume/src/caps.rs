@@ -9,7 +9,8 @@
 //! ([`crate::model::domain::step`], given the numbers as `StepCaps`; the first acts between the
 //! emission and the slices' step, the second after the umbrella's), so a model-only run applies
 //! them too; the plugin turns what they retired into messages and [`PlumeCapReport`] entries.
-//! The particle and secondary-column caps are applied by the pyroclastic systems.
+//! The particle and secondary-column caps act inside the pyroclastic domain's step
+//! ([`crate::model::flows::step`], given the numbers in `FlowInputs`), likewise.
 //!
 //! - Live slices ([`PlumeCaps::max_live_slices`]): beyond the cap, secondary columns are
 //!   retired first (lightest first, then by index), then the column's oldest slices (lowest
@@ -109,45 +110,9 @@ pub(crate) fn checked(caps: &PlumeCaps) -> PlumeCaps {
     }
 }
 
-/// Keeps the `max` heaviest clusters (ties: the lower first member) in their original order
-/// and returns the others (in their original order).
-pub(crate) fn heaviest_clusters(
-    groups: &mut Vec<Vec<usize>>,
-    mass: impl Fn(&[usize]) -> f64,
-    max: usize,
-) -> Vec<Vec<usize>> {
-    if groups.len() <= max {
-        return Vec::new();
-    }
-    let mut order: Vec<(usize, f64, usize)> = groups
-        .iter()
-        .enumerate()
-        .map(|(k, g)| (k, mass(g), g.first().copied().unwrap_or(usize::MAX)))
-        .collect();
-    order.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.2.cmp(&b.2)));
-    let mut keep = vec![false; groups.len()];
-    for &(k, ..) in &order[..max] {
-        keep[k] = true;
-    }
-    let (kept, rest): (Vec<_>, Vec<_>) =
-        std::mem::take(groups).into_iter().zip(keep).partition(|(_, keep)| *keep);
-    *groups = kept.into_iter().map(|(g, _)| g).collect();
-    rest.into_iter().map(|(g, _)| g).collect()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn the_heaviest_clusters_are_kept_in_order() {
-        let mut groups = vec![vec![0], vec![1, 2], vec![3], vec![4, 5, 6], vec![7]];
-        let mass = |g: &[usize]| g.len() as f64;
-        assert_eq!(heaviest_clusters(&mut groups, mass, 3), vec![vec![3], vec![7]]);
-        // Masses 1, 2, 1, 3, 1: keeps 2 and 3, then the first of the 1s.
-        assert_eq!(groups, vec![vec![0], vec![1, 2], vec![4, 5, 6]]);
-        assert!(heaviest_clusters(&mut groups, mass, 3).is_empty());
-    }
 
     #[test]
     fn caps_are_validated() {

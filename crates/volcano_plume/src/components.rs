@@ -1,7 +1,6 @@
 //! Components and messages of the plume plugin.
 
 use bevy::ecs::entity::Entity;
-use bevy::math::DVec3;
 use bevy::prelude::{Component, Message, ReflectComponent, Vec3};
 use bevy::reflect::Reflect;
 use volcano_core::error::ConfigError;
@@ -298,8 +297,4 @@ pub struct UmbrellaSpreading {
     pub neutral: f64,
 }
 
-/// Plume frame (z up, metres above the vent) to a world offset (y up). Model x → world x,
-/// model y → world −z, so counter-clockwise angles from +x seen from above are preserved.
-pub fn plume_to_world(p: DVec3) -> Vec3 {
-    Vec3::new(p.x as f32, p.z as f32, -p.y as f32)
-}
+pub use crate::model::plume_to_world;

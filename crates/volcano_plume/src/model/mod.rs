@@ -5,6 +5,8 @@ pub mod ambient;
 pub mod column;
 pub mod deposit;
 pub mod domain;
+pub mod flows;
+pub mod ground;
 pub mod humid;
 pub mod inverse;
 pub mod params;
@@ -16,6 +18,7 @@ pub mod timeline;
 pub mod umbrella;
 pub mod wind;
 
+use bevy::math::{DVec3, Vec3};
 use params::{Dynamics, PlumeParams};
 use slice::{Phase, Slice, SliceEnv, StepReport};
 
@@ -34,4 +37,10 @@ impl Slice {
             Dynamics::Thesis => self.step_thesis(p, env, dt),
         }
     }
+}
+
+/// Plume frame (z up, metres above the vent) to a world offset (y up). Model x → world x,
+/// model y → world −z, so counter-clockwise angles from +x seen from above are preserved.
+pub fn plume_to_world(p: DVec3) -> Vec3 {
+    Vec3::new(p.x as f32, p.z as f32, -p.y as f32)
 }

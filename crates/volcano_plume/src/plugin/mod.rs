@@ -80,7 +80,7 @@ impl Plugin for PlumePlugin {
             // from the tick it formed in.
             .add_systems(
                 crate::pyroclastic::PyroclasticStep,
-                adopt_secondary_columns.after(crate::pyroclastic::PyroclasticSystems::LiftOff),
+                adopt_secondary_columns.after(crate::pyroclastic::PyroclasticSystems::Step),
             )
             .add_systems(FixedUpdate, sync_sphere_transforms.in_set(SimSystems::End));
     }

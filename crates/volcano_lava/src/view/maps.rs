@@ -4,10 +4,10 @@ use std::path::{Path, PathBuf};
 
 use volcano_core::ConfigError;
 
+use super::crust_colour;
 use crate::model::field::FlowField;
 use crate::model::folds::FoldSystem;
 use crate::model::surface::SurfaceState;
-use crate::view::crust_colour;
 
 fn ramp(x: f64) -> [u8; 3] {
     // black → red → yellow → white

@@ -1,0 +1,176 @@
+//! What eruptions leave on the ground and their books, as plain data (issue 14, item 2: many
+//! volcanoes on many terrains share nothing): the [`DepositMap`] of one terrain (the
+//! pyroclastic flows and the coupled ash fall of the volcanoes standing on it add to it), and
+//! the [`PyroclasticBudget`] of one volcano. The plugins keep them as components (on every
+//! `Terrain` and on every volcano with an `Eruption`); the pyroclastic domain's step
+//! ([`crate::model::flows`]) works on them directly.
+
+use bevy::math::Vec2;
+use bevy::prelude::{Component, ReflectComponent, ReflectDefault};
+use bevy::reflect::Reflect;
+use volcano_core::{Boundary, Grid2, Terrain};
+
+use crate::model::deposit;
+
+/// Ash deposited on one terrain, per terrain node (kg, f64). Every `Terrain` gets one (the
+/// plume plugin makes it a required component). Particles run over `surface` (terrain +
+/// deposit), and the deposit relaxes to its angle of repose once per second
+/// ([`crate::model::deposit`]).
+#[derive(Component, Debug, Clone, Default, Reflect)]
+#[reflect(opaque)]
+#[reflect(Component, Debug, Default)]
+pub struct DepositMap {
+    /// Deposited mass per node (kg); `None` until the first flow or ash fall reaches it.
+    pub mass: Option<Grid2<f64>>,
+    /// Terrain height plus deposit thickness (m), what particles collide with.
+    pub surface: Option<Grid2<f32>>,
+    /// Bulk density used for thickness (kg/m³): that of the last eruption that deposited here.
+    pub bulk_density: f64,
+    /// Angle of repose the deposit relaxes to (degrees): that of the last eruption that
+    /// deposited here (0 until one has).
+    pub repose_angle_deg: f64,
+    /// Bumped whenever the deposit changes (renderers redraw when it moves).
+    pub revision: u64,
+    pub(crate) scratch: Vec<f64>,
+}
+
+impl DepositMap {
+    /// Deposit thickness (m) at world `(x, z)`; 0 off the map.
+    pub fn thickness_at(&self, x: f32, z: f32) -> f64 {
+        let Some(g) = &self.mass else { return 0.0 };
+        let p = Vec2::new(x, z);
+        if !g.contains(p) || self.bulk_density <= 0.0 {
+            return 0.0;
+        }
+        deposit::thickness(g.nearest(p, Boundary::Clamp), g.cell(), self.bulk_density)
+    }
+    /// Deposit thickness (m) at node `(i, j)` of the terrain grid; 0 outside.
+    pub fn thickness_at_node(&self, i: usize, j: usize) -> f64 {
+        match &self.mass {
+            Some(g) if i < g.nx() && j < g.ny() => {
+                deposit::thickness(g.get(i, j), g.cell(), self.bulk_density)
+            }
+            _ => 0.0,
+        }
+    }
+    /// Total deposited mass (kg).
+    pub fn total(&self) -> f64 {
+        self.mass.as_ref().map_or(0.0, |g| g.data().iter().sum())
+    }
+    /// Creates the grids over `terrain` if they do not exist yet, or anew (emptied) if the
+    /// terrain's grid changed size.
+    pub(crate) fn ensure(&mut self, terrain: &Terrain) {
+        if !self.fits(terrain) {
+            let h = terrain.heights();
+            self.mass = Grid2::new(h.nx(), h.ny(), h.cell(), h.origin(), 0.0).ok();
+            self.surface = Some(h.clone());
+        }
+    }
+    /// Whether the grids exist and match `terrain`'s size.
+    pub(crate) fn fits(&self, terrain: &Terrain) -> bool {
+        let h = terrain.heights();
+        self.mass.as_ref().is_some_and(|g| g.nx() == h.nx() && g.ny() == h.ny())
+    }
+    /// Adds `mass` kg at world `(x, z)` = `p` on `terrain` (this map's terrain; the grids are
+    /// created over it if needed; `bulk_density` kg/m³ is used if the map has none yet).
+    /// Returns false, adding nothing, where `p` is off the terrain. Used for ash fall from the
+    /// coupled atmosphere.
+    pub fn add_on(&mut self, terrain: &Terrain, p: Vec2, mass: f64, bulk_density: f64) -> bool {
+        if mass.is_nan() || mass <= 0.0 || !terrain.contains(p.x, p.y) {
+            return false;
+        }
+        self.ensure(terrain);
+        if self.bulk_density <= 0.0 {
+            self.bulk_density = bulk_density;
+        }
+        self.add(p, mass);
+        true
+    }
+    /// Lets the deposit slide to its angle of repose: `passes` Jacobi passes of
+    /// [`deposit::relax_to_repose`] (the angle of the last eruption that deposited here, the
+    /// default [`crate::PyroclasticParams`]' for a map that only received ash fall), then the
+    /// collision surface follows. Returns whether anything moved (the revision is bumped). A
+    /// map without grids, or whose grids no longer match `terrain`, is left alone.
+    pub fn relax(&mut self, terrain: &Terrain, passes: usize) -> bool {
+        let h = terrain.heights();
+        if self.mass.as_ref().is_none_or(|m| h.nx() != m.nx() || h.ny() != m.ny()) {
+            return false;
+        }
+        let (Some(mass), Some(surface)) = (self.mass.as_mut(), self.surface.as_mut()) else { return false };
+        let angle = if self.repose_angle_deg > 0.0 {
+            self.repose_angle_deg
+        } else {
+            crate::model::pyroclastic::PyroclasticParams::default().repose_angle_deg
+        };
+        let tan = angle.to_radians().tan();
+        let (dims, cell) = ((mass.nx(), mass.ny()), mass.cell());
+        let mut moved = 0.0;
+        for _ in 0..passes {
+            moved += deposit::relax_to_repose(
+                h.data(),
+                mass.data_mut(),
+                dims,
+                cell,
+                self.bulk_density,
+                tan,
+                &mut self.scratch,
+            );
+        }
+        if moved > 0.0 {
+            deposit::deposit_surface(h.data(), mass.data(), cell, self.bulk_density, surface.data_mut());
+            self.revision += 1;
+        }
+        moved > 0.0
+    }
+    /// Adds mass to the nearest node and raises the surface there.
+    pub(crate) fn add(&mut self, p: Vec2, mass: f64) {
+        let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return };
+        let (fx, fy) = g.to_grid(p);
+        let i = (fx.round().max(0.0) as usize).min(g.nx() - 1);
+        let j = (fy.round().max(0.0) as usize).min(g.ny() - 1);
+        g.set(i, j, g.get(i, j) + mass);
+        let rise = deposit::thickness(mass, g.cell(), self.bulk_density) as f32;
+        s.set(i, j, s.get(i, j) + rise);
+        self.revision += 1;
+    }
+}
+
+/// Mass accounting of one volcano's pyroclastic flows (kg): `collapsed = airborne + deposited +
+/// lifted + lost`, with airborne the mass of its live particles. On every volcano with an
+/// `Eruption` (a required component).
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Component, Debug, Default)]
+pub struct PyroclasticBudget {
+    /// Mass of slices handed over to particles.
+    pub collapsed: f64,
+    /// Mass deposited on the terrain.
+    pub deposited: f64,
+    /// Mass lifted into secondary columns.
+    pub lifted: f64,
+    /// Mass of particles that left the volcano's terrain (or a volcano on no terrain).
+    pub lost: f64,
+    /// Particles spawned so far.
+    pub spawned: u64,
+    /// Secondary columns formed so far.
+    pub secondary_columns: u64,
+    /// Of `deposited`, `lost` and `lifted`, the mass the caps removed (particles settled by
+    /// [`crate::caps::PlumeCaps::max_particles`], clusters lifted without a column by
+    /// [`crate::caps::PlumeCaps::max_secondary_per_step`]).
+    pub capped: f64,
+    /// Particles settled by that cap.
+    pub capped_particles: u64,
+}
+
+impl std::ops::AddAssign for PyroclasticBudget {
+    /// Sums two volcanoes' books (for reports over every volcano).
+    fn add_assign(&mut self, o: Self) {
+        self.collapsed += o.collapsed;
+        self.deposited += o.deposited;
+        self.lifted += o.lifted;
+        self.lost += o.lost;
+        self.spawned += o.spawned;
+        self.secondary_columns += o.secondary_columns;
+        self.capped += o.capped;
+        self.capped_particles += o.capped_particles;
+    }
+}
