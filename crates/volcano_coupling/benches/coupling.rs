@@ -1,13 +1,15 @@
 //! Cost of the plume ↔ atmosphere transfers of one weather step at 256² × 5 layers with 300
-//! column slices: imposition, the ambient profile and the ash hand-over.
+//! column slices: the coupling's two steps (`volcano_coupling::model::step`), i.e. imposition,
+//! the ash hand-over of every slice, the ambient profile, and the collection of fallen ash.
 
-use bevy::math::DVec2;
+use bevy::math::{DVec2, DVec3};
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields, layer_geometry};
-use volcano_coupling::model::column::{
-    ColumnSlice, ambient_levels, impose, nearest_slice_per_layer, release_columns,
+use volcano_coupling::CouplingBudget;
+use volcano_coupling::model::column::ColumnSlice;
+use volcano_coupling::model::step::{
+    AirSide, AmbientRequest, AshParcel, CoupledColumn, air_to_plume, plume_to_air,
 };
-use volcano_coupling::model::inject::inject_ash;
 
 fn setup() -> (GridSpec, Vec<LayerFields>, Vec<ColumnSlice>) {
     let g = GridSpec::new(256, 100.0).unwrap();
@@ -33,16 +35,19 @@ fn setup() -> (GridSpec, Vec<LayerFields>, Vec<ColumnSlice>) {
 fn bench(c: &mut Criterion) {
     let (g, layers, slices) = setup();
     let mut ground = vec![0.0; g.cells()];
+    let parcels: Vec<AshParcel> = slices
+        .iter()
+        .map(|s| AshParcel { at: DVec3::new(s.centre.x, s.altitude, s.centre.y), kg: 1e-3 })
+        .collect();
+    let mut books = CouplingBudget::default();
     c.bench_function("coupling transfers 256² × 5, 300 slices", |b| {
         let mut l = layers.clone();
         b.iter(|| {
-            let near = nearest_slice_per_layer(&l, &slices);
-            release_columns(&mut l);
-            let r = impose(&mut l, g, &slices, &near);
-            let a = ambient_levels(&l, g, &slices, &near, DVec2::ZERO, 100.0);
-            for s in &slices {
-                inject_ash(&mut l, &mut ground, g, (s.centre.x, s.altitude, s.centre.y), 1.0);
-            }
+            let mut air = AirSide { grid: g, layers: &mut l, ground_ash: &mut ground, books: &mut books };
+            let column = [CoupledColumn { slices: &slices, plume_to_air: true }];
+            let r = plume_to_air(&mut air, &column, &parcels);
+            let ask = [AmbientRequest { slices: &slices, vent: DVec2::ZERO, r0: 100.0 }];
+            let a = air_to_plume(&mut air, true, &ask, |_, _, _| true);
             (r, a)
         })
     });

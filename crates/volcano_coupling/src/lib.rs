@@ -17,5 +17,9 @@
 pub mod model;
 pub mod plugin;
 
+pub use model::books::CouplingBudget;
 pub use model::column::{ColumnSlice, TransferReport};
-pub use plugin::{AshLedger, CouplingBudget, CouplingPlugin, CouplingSettings, CouplingSystems, ash_ledger};
+pub use model::step::{
+    AirSide, AirToPlumeReport, AmbientRequest, AshParcel, CoupledColumn, PlumeToAirReport,
+};
+pub use plugin::{AshLedger, CouplingPlugin, CouplingSettings, CouplingSystems, ash_ledger};

@@ -4,9 +4,10 @@
 //! earlier (`WeatherSystems::Apply`), so it writes into the state the next step starts from;
 //! air → plume and the ash deposit run in `SimSystems::AfterWeather` on the ticks where the
 //! weather stepped and read that written-back result (the lag: docs/ARCHITECTURE.md §3.3).
-//! Systems gather slices, spheres and layers, call [`crate::model`], write back.
+//! Systems gather slices, spheres and layers, call the coupling's two steps
+//! ([`crate::model::step`]), write back.
 
-use bevy::math::DVec2;
+use bevy::math::{DVec2, DVec3};
 use bevy::prelude::*;
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
 use volcano_atmosphere::plugin::AtmosphereGround;
@@ -16,10 +17,10 @@ use volcano_plume::{
     AshReleased, DepositMap, Eruption, LayeredAmbient, PlumeAmbient, PlumeAshBudget, PlumeSlice, Umbrella,
 };
 
-use crate::model::column::{
-    ColumnSlice, TransferReport, ambient_levels, impose, nearest_slice_per_layer, release_columns,
-};
-use crate::model::inject::{Delivered, cell_at, inject_ash};
+pub use crate::model::books::CouplingBudget;
+use crate::model::column::ColumnSlice;
+use crate::model::inject::cell_at;
+use crate::model::step::{AirSide, AmbientRequest, AshParcel, CoupledColumn};
 
 /// Public sets of the coupling, so games can order their own systems against the transfers.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -46,26 +47,6 @@ impl Default for CouplingSettings {
     fn default() -> Self {
         Self { air_to_plume: true, plume_to_air: true, ash: true }
     }
-}
-
-/// Books of one atmosphere's coupling (kg for ash, g for water): ash received from columns =
-/// airborne in the layers + deposited + outflow.
-#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
-#[reflect(Component)]
-pub struct CouplingBudget {
-    /// Ash handed to this atmosphere by slices and umbrella spheres (kg).
-    pub ash_received_kg: f64,
-    /// Ash that settled onto the ground (kg), whether or not a terrain was there to show it.
-    pub ash_deposited_kg: f64,
-    /// Ash that left through the rim, or was handed over outside the grid (kg).
-    pub ash_outflow_kg: f64,
-    /// Of the deposited ash, what fell off every terrain's map (kg).
-    pub ash_off_terrain_kg: f64,
-    /// Net water the plume → air transfer wrote into the layers (g).
-    pub water_written_g: f64,
-    /// The last plume → air transfer.
-    #[reflect(ignore)]
-    pub last_transfer: TransferReport,
 }
 
 /// Ash released by expiring umbrella spheres since the last weather step, in message order.
@@ -177,8 +158,9 @@ fn column_of(volcano: Entity, slices: &[(Entity, &PlumeSlice)]) -> Vec<ColumnSli
         .collect()
 }
 
-/// Plume → air, just before a weather step: impose each layer's nearest slice, then hand the
-/// shed ash of slices, umbrella spheres and expired spheres to the layers.
+/// Plume → air, just before a weather step: gathers each atmosphere's layers, the columns of
+/// the volcanoes over it and the ash their slices, umbrella spheres and expired spheres shed,
+/// and runs [`crate::model::step::plume_to_air`].
 #[allow(clippy::type_complexity)]
 fn plume_to_air(
     mut inbox: ResMut<AshInbox>,
@@ -194,32 +176,25 @@ fn plume_to_air(
     for (atmo, grid) in grids.iter().copied() {
         let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
         let Some(mut g) = Gathered::new(atmo, &mut layer_query, grid.n) else { continue };
-        release_columns(&mut g.layers);
-        // Heat and moisture, volcano by volcano (entity order).
-        let mut coupled: Vec<(Entity, Vec3)> = volcanoes
+        // The volcanoes over this atmosphere (entity order) and their columns.
+        let mut coupled: Vec<Entity> = volcanoes
             .iter()
             .filter(|(_, vent, _)| {
                 atmosphere_over(&grids, vent.0.x, vent.0.z).is_some_and(|(a, _)| a == atmo)
             })
-            .map(|(e, vent, _)| (e, vent.0))
+            .map(|(e, ..)| e)
             .collect();
-        coupled.sort_by_key(|(e, _)| *e);
-        {
+        coupled.sort();
+        let columns: Vec<Vec<ColumnSlice>> = {
             let all: Vec<(Entity, &PlumeSlice)> = slices.iter().collect();
-            for &(volcano, _) in &coupled {
-                if !settings_of(volcano).is_some_and(|s| s.plume_to_air) {
-                    continue;
-                }
-                let column = column_of(volcano, &all);
-                let nearest = nearest_slice_per_layer(&g.layers, &column);
-                let r = impose(&mut g.layers, grid, &column, &nearest);
-                budget.water_written_g += r.water_written_g;
-                budget.last_transfer = r;
-            }
-        }
+            coupled
+                .iter()
+                .filter(|v| settings_of(**v).is_some_and(|s| s.plume_to_air))
+                .map(|v| column_of(*v, &all))
+                .collect()
+        };
         // Ash: slices (emission order), umbrella spheres (id order), expired spheres.
-        let wants_ash =
-            |v: Entity| settings_of(v).is_some_and(|s| s.ash) && coupled.iter().any(|(c, _)| *c == v);
+        let wants_ash = |v: Entity| settings_of(v).is_some_and(|s| s.ash) && coupled.contains(&v);
         let mut parcels: Vec<((u64, u64), Vec3, f64)> = Vec::new();
         for (_, mut s) in slices.iter_mut() {
             if s.ash_pending > 0.0 && wants_ash(s.volcano) {
@@ -239,22 +214,16 @@ fn plume_to_air(
         let (mine, others): (Vec<AshReleased>, Vec<AshReleased>) =
             inbox.0.drain(..).partition(|m| wants_ash(m.volcano));
         inbox.0 = others;
-        for m in mine {
-            parcels.push(((m.volcano.to_bits(), u64::MAX), m.position, m.mass));
-        }
-        for (_, at, kg) in parcels {
-            budget.ash_received_kg += kg;
-            let to = inject_ash(
-                &mut g.layers,
-                ground.0.ash.data_mut(),
-                grid,
-                (at.x as f64, at.y as f64, at.z as f64),
-                kg * 1e3,
-            );
-            if to == Delivered::Outside {
-                budget.ash_outflow_kg += kg;
-            }
-        }
+        parcels.extend(mine.into_iter().map(|m| ((m.volcano.to_bits(), u64::MAX), m.position, m.mass)));
+        let parcels: Vec<AshParcel> = parcels
+            .into_iter()
+            .map(|(_, at, kg)| AshParcel { at: DVec3::new(at.x as f64, at.y as f64, at.z as f64), kg })
+            .collect();
+        let columns: Vec<CoupledColumn> =
+            columns.iter().map(|c| CoupledColumn { slices: c, plume_to_air: true }).collect();
+        let mut air =
+            AirSide { grid, layers: &mut g.layers, ground_ash: ground.0.ash.data_mut(), books: &mut budget };
+        crate::model::step::plume_to_air(&mut air, &columns, &parcels);
         g.restore();
     }
     // Released ash no atmosphere took (its volcano is under none, or does not hand over ash):
@@ -267,7 +236,9 @@ fn plume_to_air(
 }
 
 /// Air → plume and the ash books, just after a weather step (or on the first tick a coupled
-/// volcano has no ambient yet).
+/// volcano has no ambient yet): gathers each atmosphere's layers and the columns asking for
+/// their ambient, runs [`crate::model::step::air_to_plume`] (the fallen ash goes onto the
+/// deposit of the first terrain under each cell), and inserts each column's ambient.
 #[allow(clippy::too_many_arguments, clippy::type_complexity)]
 fn air_to_plume(
     mut commands: Commands,
@@ -314,38 +285,50 @@ fn air_to_plume(
     let bulk = volcanoes.iter().next().map_or(1_000.0, |(_, _, e, ..)| e.pyroclastic.deposit_density);
     for (atmo, grid) in grids.iter().copied() {
         let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
-        if stepped_now {
-            // Ash fallen this step: into the books and the terrain's deposit.
-            let area = grid.dx * grid.dx;
-            for (k, a) in ground.0.ash.data_mut().iter_mut().enumerate() {
-                if *a > 0.0 {
-                    let kg = *a * area * 1e-3;
-                    *a = 0.0;
-                    budget.ash_deposited_kg += kg;
-                    let (x, z) = grid.centre(k);
-                    // Onto the deposit of the terrain under the cell (the first that holds it).
-                    let (x, z) = (x as f32, z as f32);
-                    let on = grounds
-                        .iter_mut()
-                        .find(|(t, _)| t.contains(x, z))
-                        .is_some_and(|(t, mut deposit)| deposit.add_on(t, Vec2::new(x, z), kg, bulk));
-                    if !on {
-                        budget.ash_off_terrain_kg += kg;
-                    }
-                }
-            }
-        }
+        // Ash fallen this step: onto the deposit of the terrain under the cell (the first that
+        // holds it).
+        let mut deposit = |x: f64, z: f64, kg: f64| {
+            let (x, z) = (x as f32, z as f32);
+            grounds
+                .iter_mut()
+                .find(|(t, _)| t.contains(x, z))
+                .is_some_and(|(t, mut deposit)| deposit.add_on(t, Vec2::new(x, z), kg, bulk))
+        };
         let mine: Vec<Entity> = by_atmo.iter().filter(|(a, _)| *a == atmo).map(|(_, v)| *v).collect();
-        if mine.is_empty() {
+        let gathered = if mine.is_empty() { None } else { Gathered::new(atmo, &mut layer_query, grid.n) };
+        let Some(mut g) = gathered else {
+            // No column to serve here (or no usable layers): only the fallen ash.
+            if stepped_now {
+                let mut air = AirSide {
+                    grid,
+                    layers: &mut [],
+                    ground_ash: ground.0.ash.data_mut(),
+                    books: &mut budget,
+                };
+                crate::model::step::air_to_plume(&mut air, true, &[], &mut deposit);
+            }
             continue;
-        }
-        let Some(g) = Gathered::new(atmo, &mut layer_query, grid.n) else { continue };
-        for v in mine {
-            let Ok((_, vent, eruption, ..)) = volcanoes.get(v) else { continue };
-            let column = column_of(v, &all);
-            let nearest = nearest_slice_per_layer(&g.layers, &column);
-            let centre = DVec2::new(vent.0.x as f64, vent.0.z as f64);
-            let levels = ambient_levels(&g.layers, grid, &column, &nearest, centre, eruption.params.r0);
+        };
+        let requests: Vec<(Entity, &Eruption, Vec<ColumnSlice>, DVec2)> = mine
+            .iter()
+            .filter_map(|&v| volcanoes.get(v).ok())
+            .map(|(v, vent, eruption, ..)| {
+                (v, eruption, column_of(v, &all), DVec2::new(vent.0.x as f64, vent.0.z as f64))
+            })
+            .collect();
+        let asks: Vec<AmbientRequest> = requests
+            .iter()
+            .map(|(_, eruption, column, vent)| AmbientRequest {
+                slices: column,
+                vent: *vent,
+                r0: eruption.params.r0,
+            })
+            .collect();
+        let mut air =
+            AirSide { grid, layers: &mut g.layers, ground_ash: ground.0.ash.data_mut(), books: &mut budget };
+        let report = crate::model::step::air_to_plume(&mut air, stepped_now, &asks, &mut deposit);
+        for ((v, eruption, ..), levels) in requests.iter().zip(report.ambients) {
+            let v = *v;
             match LayeredAmbient::new(eruption.params.atmosphere, levels) {
                 Ok(a) => {
                     commands.entity(v).insert(PlumeAmbient(a));
