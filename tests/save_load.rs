@@ -110,3 +110,43 @@ fn a_saved_eruption_continues_bit_for_bit() {
         }
     }
 }
+
+/// Entity ids held inside the coupling's ash inbox (ash released since the last weather step,
+/// with the volcano it came from) and in a lava source's status (the field it feeds) are
+/// mapped like every other reference when a saved world is written into another one, where
+/// the same ids mean other entities.
+#[test]
+fn references_in_the_ash_inbox_and_lava_sources_are_mapped() {
+    use volcano::coupling::plugin::AshInbox;
+    use volcano::lava::LavaSourceStatus;
+    use volcano::plume::AshReleased;
+    let mut a = app();
+    a.update();
+    let world = a.world_mut();
+    let volcano = world.spawn(Name::new("volcano")).id();
+    let field = world.spawn(Name::new("field")).id();
+    let source = world.spawn((Name::new("source"), LavaSourceStatus::Active(field))).id();
+    world.resource_mut::<AshInbox>().0.push(AshReleased { volcano, position: Vec3::ONE, mass: 2.0 });
+    let saved = {
+        let registry = world.resource::<AppTypeRegistry>().read();
+        DynamicWorldBuilder::from_world(world, &registry)
+            .extract_entities([volcano, field, source].into_iter())
+            .extract_resources()
+            .build()
+    };
+    let mut b = app();
+    b.update();
+    // Occupy the ids the saved entities had, so a reference left unmapped points elsewhere.
+    for _ in 0..8 {
+        b.world_mut().spawn(Name::new("the game's own"));
+    }
+    let mut map = Default::default();
+    saved.write_to_world(b.world_mut(), &mut map).unwrap();
+    let world = b.world_mut();
+    let inbox = &world.resource::<AshInbox>().0;
+    assert_eq!(inbox.len(), 1);
+    assert_eq!(inbox[0].volcano, map[&volcano], "the inbox names the copied volcano");
+    assert_eq!(world.get::<Name>(inbox[0].volcano).map(|n| n.as_str()), Some("volcano"));
+    let status = world.get::<LavaSourceStatus>(map[&source]).unwrap();
+    assert_eq!(*status, LavaSourceStatus::Active(map[&field]), "the source feeds the copied field");
+}

@@ -7,6 +7,7 @@
 //! Systems gather slices, spheres and layers, call the coupling's two steps
 //! ([`crate::model::step`]), write back.
 
+use bevy::ecs::entity::MapEntities;
 use bevy::math::{DVec2, DVec3};
 use bevy::prelude::*;
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
@@ -50,10 +51,10 @@ impl Default for CouplingSettings {
 }
 
 /// Ash released by expiring umbrella spheres since the last weather step, in message order.
-#[derive(Resource, Debug, Clone, Default, Reflect)]
+#[derive(Resource, Debug, Clone, Default, Reflect, MapEntities)]
 #[reflect(opaque)]
 #[reflect(Resource, Default)]
-pub struct AshInbox(pub Vec<AshReleased>);
+pub struct AshInbox(#[entities] pub Vec<AshReleased>);
 
 /// Weather steps the air → plume transfer has seen, so it acts once per weather step. A
 /// resource rather than a system's `Local`, so a saved and reloaded world continues the same.

@@ -139,7 +139,7 @@ impl LavaSource {
 #[reflect(Component)]
 pub enum LavaSourceStatus {
     /// Feeding this field entity.
-    Active(Entity),
+    Active(#[entities] Entity),
     /// Not feeding; why.
     Rejected(String),
 }

@@ -2,15 +2,20 @@
 //! including terrain collision and clustering (≤ 5 ms). What the plugin does per tick: the
 //! particle step on the task pool in fixed chunks (`par_map_ordered`), then the grid
 //! clustering of the buoyant ones, over particles spread on the flanks of the procedural
-//! volcano, a quarter of them buoyant. The sequential step is measured too, for the ratio.
+//! volcano, a quarter of them buoyant. The sequential step is measured too, for the ratio, and
+//! the whole domain step (`model::flows::step`: the same particles, their deposits, books, cap
+//! and lift-off) as the plugin calls it, without the ECS gathering and write-back.
 
 use bevy::math::{DVec2, DVec3};
 use criterion::{Criterion, criterion_group, criterion_main};
 use rand::RngExt;
 use std::hint::black_box;
 use volcano_core::StratovolcanoParams;
+use volcano_core::VolcanoRng;
 use volcano_core::rng::derive_stream;
-use volcano_plume::model::flows::par_map_ordered;
+use volcano_plume::model::flows::{
+    FlowInputs, FlowParticle, FlowsState, VolcanoFlows, VolcanoInputs, par_map_ordered, step as flows_step,
+};
 use volcano_plume::model::params::PlumeParams;
 use volcano_plume::model::pyroclastic::{Particle, PyroclasticParams, find_clusters, step_particle};
 use volcano_plume::model::slice::SliceEnv;
@@ -59,6 +64,43 @@ fn bench(c: &mut Criterion) {
                 let clusters = find_clusters(&list, &all, params.cluster_radius, params.min_cluster as usize);
                 black_box((deposited, clusters.members.len()))
             },
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    // The domain step on plain data: one volcano at the terrain's centre, no collapse handed over.
+    let vent = bevy::math::Vec3::new(0.0, vent_y as f32, 0.0);
+    let mut state = FlowsState {
+        volcanoes: vec![VolcanoFlows {
+            particles: base
+                .iter()
+                .zip(&buoyant)
+                .enumerate()
+                .map(|(k, (&particle, &buoyant))| FlowParticle { id: k as u64, vent, particle, buoyant })
+                .collect(),
+            ..Default::default()
+        }],
+        grounds: vec![Default::default()],
+    };
+    let rng = VolcanoRng::new(1);
+    let volcanoes =
+        [VolcanoInputs { plume: &p, pyroclastic: &params, rng: &rng, ground: Some(0), collapsed: &[] }];
+    let inputs = FlowInputs {
+        dt: 0.02,
+        relax_deposit: false,
+        max_particles: 1_000_000,
+        max_secondary_per_step: 1_000,
+        volcanoes: &volcanoes,
+        terrains: &[&terrain],
+    };
+    // The deposit map exists after the first step (an empty one creates it).
+    let mut first =
+        FlowsState { volcanoes: vec![VolcanoFlows::default()], grounds: vec![Default::default()] };
+    flows_step(&mut first, &inputs);
+    state.grounds = first.grounds;
+    c.bench_function("pyroclastic domain step, model only: 50k particles", |b| {
+        b.iter_batched_ref(
+            || state.clone(),
+            |s| black_box(flows_step(s, &inputs).volcanoes[0].kept.len()),
             criterion::BatchSize::LargeInput,
         )
     });

@@ -1,6 +1,6 @@
 //! Components and messages of the plume plugin.
 
-use bevy::ecs::entity::Entity;
+use bevy::ecs::entity::{Entity, MapEntities};
 use bevy::prelude::{Component, Message, ReflectComponent, Vec3};
 use bevy::reflect::Reflect;
 use volcano_core::error::ConfigError;
@@ -240,9 +240,10 @@ pub struct Umbrella {
 
 /// An expiring umbrella sphere released the ash it still held (sent once per sphere; the
 /// coupling puts it into the air layer at `position`).
-#[derive(Message, Debug, Clone, Copy, PartialEq)]
+#[derive(Message, Debug, Clone, Copy, PartialEq, MapEntities)]
 pub struct AshReleased {
     /// Emitting volcano.
+    #[entities]
     pub volcano: Entity,
     /// World position.
     pub position: Vec3,
