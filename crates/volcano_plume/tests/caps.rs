@@ -2,10 +2,9 @@
 //! Plinian column under a cap of 16 live slices, a collapsing column under a cap of 150
 //! particles, and flows limited to one secondary column per step.
 
-use std::time::Duration;
+mod common;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
 use volcano_plume::pyroclastic::airborne_mass;
 use volcano_plume::*;
@@ -27,33 +26,13 @@ fn count(
 }
 
 fn app(eruption: Eruption, caps: PlumeCaps, ticks_per_update: u32) -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
-        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
-        .insert_resource(caps)
-        .init_resource::<Seen>()
-        .add_systems(FixedUpdate, count.in_set(SimSystems::End));
-    // A shallow crater, so a collapse spills onto the flanks (as in tests/pyroclastic_plugin.rs).
-    let terrain = StratovolcanoParams {
-        resolution: 128,
-        cell: 100.0,
-        crater_radius: 80.0,
-        crater_depth: 10.0,
-        ..Default::default()
-    }
-    .generate()
-    .unwrap();
-    app.world_mut().spawn(terrain);
-    app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), eruption, Transform::default()));
+    let mut app = common::plume_app(ticks_per_update);
+    app.insert_resource(caps).init_resource::<Seen>().add_systems(FixedUpdate, count.in_set(SimSystems::End));
+    common::spawn_collapsing_cone(&mut app, eruption);
     app
 }
 
-fn run(app: &mut App, ticks: u64) {
-    while app.world().resource::<SimTick>().0 < ticks {
-        app.update();
-    }
-}
+use common::run;
 
 fn live_slices(world: &mut World) -> usize {
     world.query::<&PlumeSlice>().iter(world).count()

@@ -3,10 +3,11 @@
 //! same particles, books and deposit bit for bit after 40 s of a collapsing column on a cone;
 //! and a game system ordered after `PyroclasticSystems::Step` sees each step's result.
 
+mod common;
+
 use std::time::Duration;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
 use volcano_plume::model::flows::{self, Collapsed, FlowInputs, FlowsState, VolcanoFlows, VolcanoInputs};
 use volcano_plume::*;
@@ -34,37 +35,21 @@ fn after_step(particles: Query<&PyroParticle>, mut seen: ResMut<Seen>) {
 }
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
-        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * 5))
-        .init_resource::<Steps>()
+    let mut app = common::plume_app(5);
+    app.init_resource::<Steps>()
         .init_resource::<Seen>()
         .add_systems(PyroclasticStep, record.in_set(PyroclasticSystems::Prepare))
         .add_systems(PyroclasticStep, after_step.after(PyroclasticSystems::Step));
-    // A shallow crater, so the collapse spills onto the flanks (as in tests/pyroclastic_plugin.rs).
-    let terrain = StratovolcanoParams {
-        resolution: 128,
-        cell: 100.0,
-        crater_radius: 80.0,
-        crater_depth: 10.0,
-        ..Default::default()
-    }
-    .generate()
-    .unwrap();
-    app.world_mut().spawn(terrain);
     let mut eruption = Eruption::pyroclastic();
     eruption.active = true;
-    app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), eruption, Transform::default()));
+    common::spawn_collapsing_cone(&mut app, eruption);
     app
 }
 
 #[test]
 fn the_model_step_alone_equals_the_plugin() {
     let mut app = app();
-    while app.world().resource::<SimTick>().0 < 50 * 40 {
-        app.update();
-    }
+    common::run(&mut app, 50 * 40);
     let world = app.world_mut();
     let terrain = world.query::<&Terrain>().single(world).unwrap().clone();
     let (eruption, rng, budget) =

@@ -2,10 +2,9 @@
 //! over to particles that stay on the terrain, run down, deposit, close the mass budget, lift
 //! off as secondary columns, and do so identically at any frame rate.
 
-use std::time::Duration;
+mod common;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
 use volcano_plume::pyroclastic::airborne_mass;
 use volcano_plume::*;
@@ -26,34 +25,15 @@ fn count(
 }
 
 fn app(ticks_per_update: u32) -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, PlumePlugin))
-        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
-        .init_resource::<Seen>()
-        .add_systems(FixedUpdate, count.in_set(SimSystems::End));
-    // A shallow crater, so the collapse (≈200 m wide) spills onto the flanks instead of pooling.
-    let terrain = StratovolcanoParams {
-        resolution: 128,
-        cell: 100.0,
-        crater_radius: 80.0,
-        crater_depth: 10.0,
-        ..Default::default()
-    }
-    .generate()
-    .unwrap();
-    app.world_mut().spawn(terrain);
+    let mut app = common::plume_app(ticks_per_update);
+    app.init_resource::<Seen>().add_systems(FixedUpdate, count.in_set(SimSystems::End));
     let mut eruption = Eruption::pyroclastic();
     eruption.active = true;
-    app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), eruption, Transform::default()));
+    common::spawn_collapsing_cone(&mut app, eruption);
     app
 }
 
-fn run(app: &mut App, ticks: u64) {
-    while app.world().resource::<SimTick>().0 < ticks {
-        app.update();
-    }
-}
+use common::run;
 
 #[test]
 fn collapse_runs_down_deposits_and_closes_the_budget() {
