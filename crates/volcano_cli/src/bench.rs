@@ -1,7 +1,9 @@
 //! `volcano bench`: a scene's whole simulation headless, one base tick per app update, timed
 //! on the main thread (the frame-budget issue's whole-scene numbers). Writes `DIR/bench.json`:
 //! the main thread's time per base tick (p50, p99, max), the mean on ticks where a weather step
-//! started or was written back beside the mean on the others, and each domain's mean per tick.
+//! started or was written back beside the mean on the others, each domain's mean per tick, and
+//! the same split by domain on weather ticks and on the others (where a weather tick's extra
+//! time goes; `rest` is what ran outside the domains' sets).
 //!
 //! The domains are timed by stamps between the chained `SimSystems` sets (a system ordered
 //! after one set and before the next), so a domain's time is everything its set ran on the
@@ -73,6 +75,11 @@ pub struct BenchReport {
     /// Mean ms per base tick of each domain's set (`coupling` = the sets just before and after
     /// the weather).
     pub domains: std::collections::BTreeMap<&'static str, f64>,
+    /// Each domain's mean ms on the ticks where a weather step started or was written back,
+    /// and `rest`: the tick's time outside the domains' sets.
+    pub weather_tick_domains: std::collections::BTreeMap<&'static str, f64>,
+    /// The same on the other ticks.
+    pub other_tick_domains: std::collections::BTreeMap<&'static str, f64>,
     /// Wall time of the whole run (s).
     pub wall_s: f64,
     /// The quality level, if one was set.
@@ -159,6 +166,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     }
     app.world_mut().resource_mut::<Stamps>().total = Default::default();
     let (mut all, mut weather_ms, mut other_ms) = (Vec::new(), Vec::new(), Vec::new());
+    // Summed set times (ms) on weather ticks and on the others.
+    let (mut weather_sets, mut other_sets) = ([0.0; SETS.len()], [0.0; SETS.len()]);
     let first = tick(&app);
     let mut soak = match opts.report_every_ticks {
         0 => None,
@@ -173,6 +182,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let mut next_report = first + 3_000;
     while tick(&app) < first + ticks {
         let before = (tick(&app), weather(&mut app));
+        let sets_before = app.world().resource::<Stamps>().total;
         let t0 = Instant::now();
         app.update();
         let ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -181,10 +191,15 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             continue;
         }
         all.push(ms);
-        if after.1 != before.1 {
-            weather_ms.push(ms)
+        let sets_after = app.world().resource::<Stamps>().total;
+        let (list, sums) = if after.1 != before.1 {
+            (&mut weather_ms, &mut weather_sets)
         } else {
-            other_ms.push(ms)
+            (&mut other_ms, &mut other_sets)
+        };
+        list.push(ms);
+        for (sum, (a, b)) in sums.iter_mut().zip(sets_after.iter().zip(&sets_before)) {
+            *sum += (*a - *b).as_secs_f64() * 1e3;
         }
         if let Some(s) = soak.as_mut()
             && let Err(e) = s.tick(&mut app, after.0, ms, started.elapsed().as_secs_f64())
@@ -203,6 +218,19 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let mut sorted = all.clone();
     sorted.sort_by(f64::total_cmp);
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
+    // Per domain on one kind of tick: set sums over `n` ticks of `tick_ms` mean.
+    let split = |sets: &[f64; SETS.len()], n: usize, tick_ms: f64| {
+        let n = n.max(1) as f64;
+        let d = [
+            ("plume", sets[1] / n),
+            ("pyroclastic", sets[2] / n),
+            ("coupling", (sets[3] + sets[5]) / n),
+            ("weather", sets[4] / n),
+            ("lava", sets[6] / n),
+        ];
+        let rest = tick_ms - d.iter().map(|x| x.1).sum::<f64>();
+        d.into_iter().chain([("rest", rest)]).collect::<std::collections::BTreeMap<_, _>>()
+    };
     let report = BenchReport {
         scene: scene.to_string(),
         ticks: tick(&app) - first,
@@ -224,6 +252,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         ]
         .into_iter()
         .collect(),
+        weather_tick_domains: split(&weather_sets, weather_ms.len(), mean(&weather_ms)),
+        other_tick_domains: split(&other_sets, other_ms.len(), mean(&other_ms)),
         wall_s: started.elapsed().as_secs_f64(),
         quality: opts.quality.map(|q| format!("{q:?}")),
         soak: soak.map(|s| s.rows).unwrap_or_default(),

@@ -249,6 +249,25 @@ fn once_per_second_work_inside_a_domain_at_50_60_and_64_hz() {
 }
 
 #[test]
+fn work_at_quarter_seconds_offset_by_an_eighth_never_falls_on_a_whole_second() {
+    use volcano_core::clock::{crossed_period, crossings};
+    let (quarter, eighth) = (Duration::from_millis(250), Duration::from_millis(125));
+    for hz in [50u32, 64] {
+        let dt = Duration::from_nanos(1_000_000_000 / hz as u64);
+        let n = |k: u32| crossings(dt * k, dt, quarter, eighth);
+        // Four a second, whatever the rate, and none on the tick a whole second is crossed.
+        assert_eq!((1..=10 * hz).map(&n).sum::<u64>(), 40, "{hz} Hz");
+        assert!((1..=10 * hz).all(|k| n(k) == 0 || !crossed_period(dt * k, dt, Duration::from_secs(1))));
+        // The first falls on the tick ending at or just after 0.125 s.
+        let first = (1..=hz).find(|&k| n(k) > 0).unwrap();
+        assert!(dt * first >= eighth && dt * (first - 1) < eighth, "{hz} Hz: tick {first}");
+    }
+    // A long step crosses several; a zero period none.
+    assert_eq!(crossings(Duration::from_secs(1), Duration::from_secs(1), quarter, eighth), 4);
+    assert_eq!(crossings(Duration::from_secs(1), Duration::from_secs(1), Duration::ZERO, eighth), 0);
+}
+
+#[test]
 fn speed_scales_the_simulation_not_the_games_clocks() {
     let mut app = logging_app(1);
     app.world_mut().resource_mut::<SimControl>().set_speed(2.0).unwrap();

@@ -86,7 +86,7 @@ fn bench(c: &mut Criterion) {
         [VolcanoInputs { plume: &p, pyroclastic: &params, rng: &rng, ground: Some(0), collapsed: &[] }];
     let inputs = FlowInputs {
         dt: 0.02,
-        relax_deposit: false,
+        relax_passes: 0,
         max_particles: 1_000_000,
         max_secondary_per_step: 1_000,
         volcanoes: &volcanoes,

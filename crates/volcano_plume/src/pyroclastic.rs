@@ -191,11 +191,13 @@ fn step_flows(
         &mut state,
         &FlowInputs {
             dt: time.delta_secs_f64(),
-            relax_deposit: volcano_core::clock::crossed_period(
+            relax_passes: volcano_core::clock::crossings(
                 time.elapsed(),
                 time.delta(),
-                std::time::Duration::from_secs(1),
-            ),
+                flows::RELAX_PERIOD.0,
+                flows::RELAX_PERIOD.1,
+            )
+            .min(64) as u32,
             max_particles: caps.max_particles as usize,
             max_secondary_per_step: caps.max_secondary_per_step as usize,
             volcanoes: &inputs,

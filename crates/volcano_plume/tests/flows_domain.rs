@@ -5,24 +5,23 @@
 
 mod common;
 
-use std::time::Duration;
-
 use bevy::prelude::*;
 use volcano_core::prelude::*;
 use volcano_plume::model::flows::{self, Collapsed, FlowInputs, FlowsState, VolcanoFlows, VolcanoInputs};
 use volcano_plume::*;
 
-/// What the pyroclastic domain read in each of its steps: the collapsed slices, and whether
-/// the deposit relaxed (a whole second crossed). Recorded before the step.
+/// What the pyroclastic domain read in each of its steps: the collapsed slices, and the
+/// deposit's relaxation passes due. Recorded before the step.
 #[derive(Resource, Default)]
-struct Steps(Vec<(Vec<Collapsed>, bool)>);
+struct Steps(Vec<(Vec<Collapsed>, u32)>);
 
 fn record(time: Res<Time>, mut collapsed: MessageReader<SliceCollapsed>, mut steps: ResMut<Steps>) {
     let slices = collapsed
         .read()
         .map(|SliceCollapsed(s)| Collapsed { index: s.index, vent: s.vent, state: s.state.clone() })
         .collect();
-    let relax = volcano_core::clock::crossed_period(time.elapsed(), time.delta(), Duration::from_secs(1));
+    let (period, offset) = flows::RELAX_PERIOD;
+    let relax = volcano_core::clock::crossings(time.elapsed(), time.delta(), period, offset) as u32;
     steps.0.push((slices, relax));
 }
 
@@ -85,7 +84,7 @@ fn the_model_step_alone_equals_the_plugin() {
             &mut state,
             &FlowInputs {
                 dt: 0.02,
-                relax_deposit: *relax,
+                relax_passes: *relax,
                 max_particles: caps.max_particles as usize,
                 max_secondary_per_step: caps.max_secondary_per_step as usize,
                 volcanoes: &volcanoes,

@@ -206,6 +206,22 @@ pub fn crossed_period(elapsed: Duration, delta: Duration, period: Duration) -> b
     elapsed.as_nanos() / p != elapsed.saturating_sub(delta).as_nanos() / p
 }
 
+/// How many of the instants `offset + n·period` (n = 0, 1, …) a step that ended at `elapsed`
+/// after lasting `delta` crossed (those in `(elapsed − delta, elapsed]`): for periodic work
+/// inside a domain that should not fall on the ticks of other periodic work (the deposit's
+/// relaxation runs a pass at 1/8, 3/8, 5/8 and 7/8 of each second, never on the tick of the
+/// once-per-second weather step). Over any run it counts one per `period` of domain time,
+/// whatever the step length; 0 for a zero period.
+pub fn crossings(elapsed: Duration, delta: Duration, period: Duration, offset: Duration) -> u64 {
+    let (p, o) = (period.as_nanos(), offset.as_nanos());
+    if p == 0 {
+        return 0;
+    }
+    // Instants at or before `x`.
+    let upto = |x: u128| if x < o { 0 } else { (x - o) / p + 1 };
+    (upto(elapsed.as_nanos()) - upto(elapsed.saturating_sub(delta).as_nanos())) as u64
+}
+
 /// Chained system sets in `FixedUpdate`: every base tick runs them in this order, so coupling
 /// is causal (plume, then transfers into the weather, the weather step, transfers back, lava).
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]

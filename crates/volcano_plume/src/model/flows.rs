@@ -15,8 +15,9 @@
 //! 3. **Particle cap** (bookkeeping, the rule is `crate::caps`'): beyond
 //!    [`FlowInputs::max_particles`] (all volcanoes together), the oldest particles (lowest id;
 //!    ties in the volcanoes' order) settle where they are.
-//! 4. **Deposit**: on a step that [`FlowInputs::relax_deposit`] marks, every terrain's deposit
-//!    relaxes to its angle of repose ([`DepositMap::relax`](super::ground::DepositMap::relax)).
+//! 4. **Deposit**: every terrain's deposit relaxes toward its angle of repose by
+//!    [`FlowInputs::relax_passes`] Jacobi passes
+//!    ([`DepositMap::relax`](super::ground::DepositMap::relax)).
 //! 5. **Lift-off** (§3.6): per volcano, buoyant particles in id order gather into clusters
 //!    ([`find_clusters`]) that become rising slices ([`secondary_column`]); buoyant particles no
 //!    cluster took that have risen more than `cluster_radius` above the ground lift off with
@@ -51,8 +52,12 @@ use super::spheres::SphereParams;
 /// the thesis' sphere sizes; the cap only matters for extreme edits).
 pub const MAX_PARTICLES_PER_SLICE: usize = 2_000;
 
-/// Jacobi passes of one relaxation of a deposit to its angle of repose.
-const RELAX_PASSES: usize = 4;
+/// The plugin's deposit relaxation: one Jacobi pass per `RELAX_PERIOD.0` of domain time, at
+/// `RELAX_PERIOD.1` past each multiple (a pass at 1/8, 3/8, 5/8, 7/8 s: four a second, as the
+/// four passes once per second before, but spread, and off the whole seconds where the weather
+/// steps, so the two costs never fall on one tick).
+pub const RELAX_PERIOD: (std::time::Duration, std::time::Duration) =
+    (std::time::Duration::from_millis(250), std::time::Duration::from_millis(125));
 
 /// Advances every volcano's pyroclastic flows by one step of `inputs.dt` seconds (see the
 /// module docs). Volcanoes and terrains are matched with the inputs by position; entries
@@ -87,9 +92,9 @@ pub fn step(state: &mut FlowsState, inputs: &FlowInputs) -> FlowsReport {
         step_particles(state, inputs, terrains, (v, grounds[v]), &mut alive[v], &mut report);
     }
     cap_particles(state, terrains, &grounds, inputs.max_particles, &mut alive, &mut report);
-    if inputs.relax_deposit {
+    if inputs.relax_passes > 0 {
         for (g, terrain) in terrains.iter().enumerate() {
-            report.grounds_changed[g] |= state.grounds[g].relax(terrain, RELAX_PASSES);
+            report.grounds_changed[g] |= state.grounds[g].relax(terrain, inputs.relax_passes as usize);
         }
     }
     for v in 0..n {

@@ -14,7 +14,7 @@ use crate::model::deposit;
 
 /// Ash deposited on one terrain, per terrain node (kg, f64). Every `Terrain` gets one (the
 /// plume plugin makes it a required component). Particles run over `surface` (terrain +
-/// deposit), and the deposit relaxes to its angle of repose once per second
+/// deposit), and the deposit relaxes toward its angle of repose four passes a second
 /// ([`crate::model::deposit`]).
 #[derive(Component, Debug, Clone, Default, Reflect)]
 #[reflect(opaque)]

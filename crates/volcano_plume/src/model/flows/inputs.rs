@@ -41,10 +41,13 @@ pub struct VolcanoInputs<'a> {
 pub struct FlowInputs<'a> {
     /// Step length (s): the pyroclastic domain's step (one base tick).
     pub dt: f64,
-    /// Relax every deposit to its angle of repose in this step: the plugin sets it on the step
-    /// whose domain time crosses a whole second (`volcano_core::clock::crossed_period`), once
-    /// per simulated second at any tick rate.
-    pub relax_deposit: bool,
+    /// Jacobi passes of every deposit's relaxation to its angle of repose in this step
+    /// ([`DepositMap::relax`](crate::model::ground::DepositMap::relax)): the plugin gives one
+    /// per quarter second of domain time, on the steps crossing 1/8, 3/8, 5/8 and 7/8 of a
+    /// second ([`RELAX_PERIOD`](super::RELAX_PERIOD), `volcano_core::clock::crossings`), so
+    /// four a second at any tick rate, spread out, and never on the tick of the
+    /// once-per-second weather step.
+    pub relax_passes: u32,
     /// Most live particles, all volcanoes together (`PlumeCaps::max_particles`, validated).
     pub max_particles: usize,
     /// Most secondary columns one volcano forms per step (`PlumeCaps::max_secondary_per_step`).

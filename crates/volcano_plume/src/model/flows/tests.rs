@@ -67,7 +67,7 @@ fn a_collapse_runs_down_and_closes_its_books() {
             &mut state,
             &FlowInputs {
                 dt: 0.02,
-                relax_deposit: tick % 50 == 49,
+                relax_passes: if tick % 50 == 49 { 4 } else { 0 },
                 max_particles: 1_000_000,
                 max_secondary_per_step: 1_000,
                 volcanoes: &volcanoes,
@@ -124,7 +124,7 @@ fn the_particle_cap_settles_the_oldest_of_every_volcano() {
         &mut state,
         &FlowInputs {
             dt: 0.02,
-            relax_deposit: false,
+            relax_passes: 0,
             max_particles: 2,
             max_secondary_per_step: 1_000,
             volcanoes: &volcanoes,
@@ -158,7 +158,7 @@ fn a_volcano_without_ground_loses_what_it_hands_over() {
         &mut state,
         &FlowInputs {
             dt: 0.02,
-            relax_deposit: true,
+            relax_passes: 4,
             max_particles: 1_000_000,
             max_secondary_per_step: 1,
             volcanoes: &volcanoes,
