@@ -64,8 +64,10 @@ macro_rules! with_stencil {
     };
 }
 
-/// Grids at least this wide run their sweeps with rows in parallel.
-const PARALLEL_FROM: usize = 128;
+/// Grids at least this wide run their sweeps with rows in parallel. Below, a sweep is a few
+/// tens of microseconds, no more than handing its bands to the pool costs (and the layers'
+/// solves already run in parallel); the bands do not change the result.
+const PARALLEL_FROM: usize = 256;
 
 /// A raw pointer that may be shared between the threads of one red-black colour pass.
 #[derive(Clone, Copy)]
@@ -152,29 +154,40 @@ fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rh
     }
 }
 
-/// `res = rhs − ∇·(a∇φ)` (rows in parallel on large grids).
-pub(super) fn residual(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
-    with_stencil!(faces, |s| residual_with(n, h2, s, phi, rhs, res))
+/// Sum of the squared residual `rhs − ∇·(a∇φ)` over the grid, never stored: each fixed band
+/// of rows sums its cells in order while computing them (bands in parallel on large grids),
+/// and the band sums are added in band order, so the result does not depend on the thread
+/// count.
+pub(super) fn residual_sum_sq(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64]) -> f64 {
+    with_stencil!(faces, |s| residual_sum_sq_with(n, h2, s, phi, rhs))
 }
 
-fn residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64], res: &mut [f64]) {
+fn residual_sum_sq_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64]) -> f64 {
+    assert_eq!(phi.len(), n * n);
+    assert_eq!(rhs.len(), n * n);
     let mask = n - 1;
     let inv = 1.0 / h2;
-    let row_pass = |(j, out): (usize, &mut [f64])| {
-        let row = j * n;
-        let up = ((j + 1) & mask) * n;
-        let down = ((j + n - 1) & mask) * n;
-        for (i, r) in out.iter_mut().enumerate() {
-            let left = (i + n - 1) & mask;
-            let right = (i + 1) & mask;
-            let lap = s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv;
-            *r = rhs[row + i] - lap;
+    let band = |rows: std::ops::Range<usize>| {
+        let mut sum = 0.0;
+        for j in rows {
+            let row = j * n;
+            let up = ((j + 1) & mask) * n;
+            let down = ((j + n - 1) & mask) * n;
+            for i in 0..n {
+                let left = (i + n - 1) & mask;
+                let right = (i + 1) & mask;
+                let lap = s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv;
+                let r = rhs[row + i] - lap;
+                sum += r * r;
+            }
         }
+        sum
     };
+    let bands = parallel::Bands::DEFAULT;
     if n >= PARALLEL_FROM {
-        parallel::for_each_row(res, n, |j, row| row_pass((j, row)));
+        bands.map_ranges(n, band).into_iter().fold(0.0, |a, b| a + b)
     } else {
-        res.chunks_mut(n).enumerate().for_each(row_pass);
+        (0..bands.count(n)).map(|b| band(bands.range(b, n))).fold(0.0, |a, b| a + b)
     }
 }
 
