@@ -206,8 +206,13 @@ impl Poisson {
         remove_mean(phi);
     }
 
-    /// Runs V-cycles until the RMS residual falls below `tol_abs` or `max_cycles` ran.
+    /// Runs V-cycles until the RMS residual falls below `tol_abs` or `max_cycles` ran. The
+    /// mean (the null space, which changes no residual) is removed once at the end rather than
+    /// after every cycle.
     pub fn solve(&mut self, phi: &mut [f64], rhs: &[f64], max_cycles: u32, tol_abs: f64) -> SolveReport {
+        let n = self.n;
+        assert_eq!(phi.len(), n * n, "phi has the wrong size");
+        assert_eq!(rhs.len(), n * n, "rhs has the wrong size");
         let initial = self.residual_rms(phi, rhs);
         let mut report = SolveReport {
             cycles: 0,
@@ -217,9 +222,12 @@ impl Poisson {
         };
         let mut r = initial;
         while report.cycles < max_cycles && r > tol_abs {
-            self.v_cycle(phi, rhs);
+            cycle(n, self.h2, self.faces.as_ref(), phi, rhs, &mut self.coarse);
             report.cycles += 1;
             r = self.residual_rms(phi, rhs);
+        }
+        if report.cycles > 0 {
+            remove_mean(phi);
         }
         report.finish(r);
         report
