@@ -253,7 +253,7 @@ pub fn ground_exchange(
     // (and reads the heights and every layer's condensed water and σ, which nothing here
     // writes), so the cells are updated in place, bands of rows in parallel.
     let mut columns = Vec::with_capacity(state.layers.len());
-    let mut air: Vec<(&mut [f32], &mut [f64])> = Vec::with_capacity(state.layers.len());
+    let mut air: Vec<AirRows> = Vec::with_capacity(state.layers.len());
     for l in state.layers.iter_mut() {
         let LayerFields { t, h, w, sigma, thickness, pi, .. } = l;
         // Evaporation's relaxation over a full free column, the same for every open cell.
@@ -264,7 +264,7 @@ pub fn ground_exchange(
     let Ground { height, cover, t: ground_t, water, sunlit, lowest, .. } = &mut state.ground;
     let (heights, cover, sunlit, lowest) = (height.data(), cover.data(), sunlit.data(), &lowest[..]);
     let band = parallel::BAND_ROWS * n;
-    let mut items: Vec<(&mut [f32], &mut [f64], Vec<(&mut [f32], &mut [f64])>)> = ground_t
+    let mut items: Vec<GroundBand> = ground_t
         .data_mut()
         .chunks_mut(band)
         .zip(water.data_mut().chunks_mut(band))
@@ -347,6 +347,12 @@ pub fn ground_exchange(
     });
     moved.into_iter().flatten().fold(0.0, |sum, g| sum + g)
 }
+
+/// A layer's temperature and humidity (rows of one band, or the whole grid).
+type AirRows<'a> = (&'a mut [f32], &'a mut [f64]);
+
+/// One band of the ground exchange: the ground's temperature and water, every layer's air.
+type GroundBand<'a> = (&'a mut [f32], &'a mut [f64], Vec<AirRows<'a>>);
 
 /// What the ground exchange reads of one layer.
 struct Column<'a> {
