@@ -366,13 +366,16 @@ fn fused_flux_step(src: &[&[f64]], dst: &mut [&mut [f64]], w: &Faces, c: f64) {
                 let kn = jp * n + i;
                 let (vw, ve) = ((u[k] * ax[k]) as f64, (u[ke] * ax[ke]) as f64);
                 let (vs, vn) = ((v[k] * ay[k]) as f64, (v[kn] * ay[kn]) as f64);
+                // `x / 1` is `x`: open cells skip the division.
+                let open = s == 1.0;
                 for (o, q) in out.iter_mut().zip(src) {
                     let fw = vw * if vw > 0.0 { q[kw] } else { q[k] };
                     let fe = ve * if ve > 0.0 { q[k] } else { q[ke] };
                     let fs = vs * if vs > 0.0 { q[ks] } else { q[k] };
                     let fn_ = vn * if vn > 0.0 { q[k] } else { q[kn] };
                     let net = fw - fe + fs - fn_;
-                    o[r + i] = (q[k] + c * net / s as f64).max(0.0);
+                    let gain = if open { c * net } else { c * net / s as f64 };
+                    o[r + i] = (q[k] + gain).max(0.0);
                 }
             }
         }
