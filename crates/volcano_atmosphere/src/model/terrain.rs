@@ -13,7 +13,7 @@
 use volcano_core::parallel;
 use volcano_core::{LandCover, Terrain};
 
-use super::fields::{AtmosphereState, GridSpec, LayerFields, cover_props};
+use super::fields::{AtmosphereState, GridSpec, Ground, LayerFields, cover_props};
 use super::params::AtmosphereParams;
 use super::sun::{SunPosition, air_mass};
 use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
@@ -249,95 +249,119 @@ pub fn ground_exchange(
     }
     let cos_zenith = sun.direction[2];
     let mask = n - 1;
-    let ground = &state.ground;
-    let layers = &state.layers;
-    let heights = ground.height.data();
-    // Per-cell updates computed in parallel from the old state, applied in order below.
-    let cell = |k: usize| {
-        let li = ground.lowest[k];
-        if li == u8::MAX {
-            return None;
-        }
-        let layer: &LayerFields = &layers[li as usize];
-        let cover = ground.cover.data()[k];
-        let props = cover_props(cover);
-        let cap = heat_capacity_per_m2(cover, params);
-        let (i, j) = (k % n, k / n);
-        // Surface normal from central differences on the torus.
-        let hx =
-            (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64 / (2.0 * dx);
-        let hy =
-            (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64 / (2.0 * dx);
-        let norm = (hx * hx + hy * hy + 1.0).sqrt();
-        let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
-        let lit = ground.sunlit.data()[k] as f64;
-        let tg = ground.t.data()[k] as f64;
-        let ta = layer.t.data()[k] as f64;
-        let sigma = layer.sigma.data()[k] as f64;
-        let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
-        // Cloud shading: the column's condensed water above the ground.
-        let lwp: f64 = layers.iter().map(|l| l.w.data()[k] * l.sigma.data()[k] as f64 * l.thickness).sum();
-        let absorbed = lit
-            * cloud_transmission(lwp)
-            * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
-        let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
-        let (tg_heat, ta_new) = ground_heat_step(
-            tg,
-            ta,
-            absorbed + back,
-            props.emissivity as f64,
-            params.sensible_heat_coefficient,
-            cap,
-            air_cap,
-            dt,
-        );
-        // Water exchange (4.12): toward saturation at the ground temperature.
-        let vol = sigma * layer.thickness;
-        let hum = layer.h.data()[k];
-        let target = saturation_humidity(tg_heat, layer.pi);
-        // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
-        let relax = 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp();
-        let slope = (saturation_humidity(tg_heat + 0.5, layer.pi)
-            - saturation_humidity(tg_heat - 0.5, layer.pi))
-        .max(0.0);
-        // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
-        // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
-        let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
-        let grams = (relax * (target - hum) * vol / implicit).clamp(-hum * vol, ground.water.data()[k]);
-        let tg_new = tg_heat - grams * L_V_PER_G / cap;
-        Some(CellUpdate {
-            layer: li,
-            tg: tg_new as f32,
-            ta: ta_new as f32,
-            h: (hum + grams / vol).max(0.0),
-            grams,
-        })
-    };
-    let updates: Vec<Option<CellUpdate>> = parallel::Bands::DEFAULT
-        .map_ranges(n, |rows| (rows.start * n..rows.end * n).map(cell).collect::<Vec<_>>())
-        .into_iter()
-        .flatten()
-        .collect();
-    let mut moved = 0.0;
-    for (k, u) in updates.into_iter().enumerate() {
-        let Some(u) = u else { continue };
-        let layer = &mut state.layers[u.layer as usize];
-        layer.t.data_mut()[k] = u.ta;
-        layer.h.data_mut()[k] = u.h;
-        state.ground.t.data_mut()[k] = u.tg;
-        state.ground.water.data_mut()[k] -= u.grams;
-        moved += u.grams * dx * dx;
+    // Each cell reads and writes only its own cell of the ground and of its lowest free layer
+    // (and reads the heights and every layer's condensed water and σ, which nothing here
+    // writes), so the cells are updated in place, bands of rows in parallel.
+    let mut columns = Vec::with_capacity(state.layers.len());
+    let mut air: Vec<AirRows> = Vec::with_capacity(state.layers.len());
+    for l in state.layers.iter_mut() {
+        let LayerFields { t, h, w, sigma, thickness, pi, .. } = l;
+        // Evaporation's relaxation over a full free column, the same for every open cell.
+        let open = 1.0 - (-params.ground_evaporation_velocity * dt / *thickness).exp();
+        columns.push(Column { w: w.data(), sigma: sigma.data(), thickness: *thickness, pi: *pi, open });
+        air.push((t.data_mut(), h.data_mut()));
     }
-    moved
+    let Ground { height, cover, t: ground_t, water, sunlit, lowest, .. } = &mut state.ground;
+    let (heights, cover, sunlit, lowest) = (height.data(), cover.data(), sunlit.data(), &lowest[..]);
+    let band = parallel::BAND_ROWS * n;
+    let mut items: Vec<GroundBand> = ground_t
+        .data_mut()
+        .chunks_mut(band)
+        .zip(water.data_mut().chunks_mut(band))
+        .map(|(tg, wg)| (tg, wg, Vec::with_capacity(air.len())))
+        .collect();
+    for (t, h) in air {
+        for (item, rows) in items.iter_mut().zip(t.chunks_mut(band).zip(h.chunks_mut(band))) {
+            item.2.push(rows);
+        }
+    }
+    let columns = &columns[..];
+    // Grams moved from ground to air per m² × area, per band in cell order.
+    let moved: Vec<Vec<f64>> = parallel::par_map(items, |b, (tg_rows, water_rows, mut air_rows)| {
+        let mut moved = Vec::new();
+        for (r, (tg_cell, ground_water)) in tg_rows.iter_mut().zip(water_rows.iter_mut()).enumerate() {
+            let k = b * band + r;
+            let li = lowest[k];
+            if li == u8::MAX {
+                continue;
+            }
+            let layer = &columns[li as usize];
+            let (t_rows, h_rows) = &mut air_rows[li as usize];
+            let cover = cover[k];
+            let props = cover_props(cover);
+            let cap = heat_capacity_per_m2(cover, params);
+            let (i, j) = (k % n, k / n);
+            // Surface normal from central differences on the torus.
+            let hx = (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64
+                / (2.0 * dx);
+            let hy = (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64
+                / (2.0 * dx);
+            let norm = (hx * hx + hy * hy + 1.0).sqrt();
+            let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
+            let lit = sunlit[k] as f64;
+            let tg = *tg_cell as f64;
+            let ta = t_rows[r] as f64;
+            let sigma = layer.sigma[k] as f64;
+            let air_cap = air_density(layer.pi, ta) * CP_AIR * sigma * layer.thickness;
+            // Cloud shading: the column's condensed water above the ground.
+            let lwp: f64 = columns.iter().map(|l| l.w[k] * l.sigma[k] as f64 * l.thickness).sum();
+            let absorbed = lit
+                * cloud_transmission(lwp)
+                * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
+            let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
+            let (tg_heat, ta_new) = ground_heat_step(
+                tg,
+                ta,
+                absorbed + back,
+                props.emissivity as f64,
+                params.sensible_heat_coefficient,
+                cap,
+                air_cap,
+                dt,
+            );
+            // Water exchange (4.12): toward saturation at the ground temperature.
+            let vol = sigma * layer.thickness;
+            let hum = h_rows[r];
+            let target = saturation_humidity(tg_heat, layer.pi);
+            // g/m² this step (+ = evaporation), at most what relaxes the air to saturation.
+            let relax = if sigma == 1.0 {
+                layer.open
+            } else {
+                1.0 - (-params.ground_evaporation_velocity * dt / vol).exp()
+            };
+            let slope = (saturation_humidity(tg_heat + 0.5, layer.pi)
+                - saturation_humidity(tg_heat - 0.5, layer.pi))
+            .max(0.0);
+            // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
+            // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
+            let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
+            let grams = (relax * (target - hum) * vol / implicit).clamp(-hum * vol, *ground_water);
+            let tg_new = tg_heat - grams * L_V_PER_G / cap;
+            t_rows[r] = ta_new as f32;
+            h_rows[r] = (hum + grams / vol).max(0.0);
+            *tg_cell = tg_new as f32;
+            *ground_water -= grams;
+            moved.push(grams * dx * dx);
+        }
+        moved
+    });
+    moved.into_iter().flatten().fold(0.0, |sum, g| sum + g)
 }
 
-/// One cell's ground-exchange result.
-struct CellUpdate {
-    layer: u8,
-    tg: f32,
-    ta: f32,
-    h: f64,
-    grams: f64,
+/// A layer's temperature and humidity (rows of one band, or the whole grid).
+type AirRows<'a> = (&'a mut [f32], &'a mut [f64]);
+
+/// One band of the ground exchange: the ground's temperature and water, every layer's air.
+type GroundBand<'a> = (&'a mut [f32], &'a mut [f64], Vec<AirRows<'a>>);
+
+/// What the ground exchange reads of one layer.
+struct Column<'a> {
+    w: &'a [f64],
+    sigma: &'a [f32],
+    thickness: f64,
+    pi: f64,
+    /// `1 − exp(−v_e Δt / h)`: the evaporation relaxation of a cell with σ = 1.
+    open: f64,
 }
 
 #[cfg(test)]

@@ -116,6 +116,8 @@ pub fn vertical_velocity(
             *g = (gx / (2.0 * dx), gy / (2.0 * dx));
         }
     });
+    // One buffer for the MSE differences of every interface.
+    let mut diff = vec![0.0f64; if nl > 1 { cells } else { 0 }];
     for i in 0..nl {
         if i + 1 == nl {
             let top = &mut layers[i];
@@ -127,15 +129,17 @@ pub fn vertical_velocity(
         let (lo, hi) = layers.split_at_mut(i + 1);
         let (a, b) = (&mut lo[i], &hi[0]);
         let open = |k: usize| a.sigma.data()[k] > 0.0 && b.sigma.data()[k] > 0.0;
-        // MSE difference per cell (f64), its mass-weighted (σ) mean over open cells.
-        let mut diff = vec![0.0f64; cells];
+        // MSE difference per cell (f64, 0 where closed), its mass-weighted (σ) mean over open
+        // cells.
         parallel::for_each_row(diff.as_mut_slice(), n, |j, row| {
             for (i, x) in row.iter_mut().enumerate() {
                 let k = j * n + i;
-                if open(k) {
-                    *x = moist_static_energy(a.t.data()[k] as f64, a.altitude, a.h.data()[k], a.pi)
-                        - moist_static_energy(b.t.data()[k] as f64, b.altitude, b.h.data()[k], b.pi);
-                }
+                *x = if open(k) {
+                    moist_static_energy(a.t.data()[k] as f64, a.altitude, a.h.data()[k], a.pi)
+                        - moist_static_energy(b.t.data()[k] as f64, b.altitude, b.h.data()[k], b.pi)
+                } else {
+                    0.0
+                };
             }
         });
         let (sum, mass) = (0..cells).filter(|&k| open(k)).fold((0.0, 0.0), |(s, m), k| {

@@ -1,0 +1,284 @@
+//! The sweeps of the multigrid V-cycle ([`super`]): red-black Gauss–Seidel smoothing, the
+//! residual, its restriction to the coarse grid and the bilinear prolongation, each
+//! monomorphised for the plain and the face-weighted 5-point stencil; rows in parallel on
+//! large grids (fixed bands, results independent of the thread count).
+
+use volcano_core::parallel;
+
+use super::Faces;
+
+/// The 5-point operator of one level: the plain Laplacian or the face-weighted one. Each
+/// sweep is monomorphised for both, so the inner loops carry no per-cell branch on the kind.
+pub(super) trait Stencil: Copy + Sync {
+    /// `h² ∇·(a∇φ)` at cell `k` (its west/east/south/north neighbours given).
+    fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64;
+    /// The Gauss–Seidel update of cell `k` (east and north neighbours `right`, `up`) from its
+    /// neighbours' values `[west, east, north, south]` and `h² rhs`; `None` for a cell with
+    /// every face closed (left alone).
+    fn relax(self, k: usize, right: usize, up: usize, nb: [f64; 4], h2r: f64) -> Option<f64>;
+}
+
+/// All faces open: the plain 5-point Laplacian.
+#[derive(Clone, Copy)]
+pub(super) struct Plain;
+
+impl Stencil for Plain {
+    #[inline(always)]
+    fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64 {
+        phi[left] + phi[right] + phi[up] + phi[down] - 4.0 * phi[k]
+    }
+    #[inline(always)]
+    fn relax(self, _: usize, _: usize, _: usize, [pl, pr, pu, pd]: [f64; 4], h2r: f64) -> Option<f64> {
+        Some(0.25 * (pl + pr + pu + pd - h2r))
+    }
+}
+
+impl Stencil for &Faces {
+    #[inline(always)]
+    fn apply(self, phi: &[f64], k: usize, left: usize, right: usize, down: usize, up: usize) -> f64 {
+        let c = phi[k];
+        let (aw, ae, as_, an) = self.around(k, right, up);
+        aw * (phi[left] - c) + ae * (phi[right] - c) + as_ * (phi[down] - c) + an * (phi[up] - c)
+    }
+    #[inline(always)]
+    fn relax(self, k: usize, right: usize, up: usize, [pl, pr, pu, pd]: [f64; 4], h2r: f64) -> Option<f64> {
+        let (aw, ae, as_, an) = self.around(k, right, up);
+        let diag = aw + ae + as_ + an;
+        let num = aw * pl + ae * pr + as_ * pd + an * pu - h2r;
+        // Dividing by 4 and multiplying by 0.25 round the same exact value: every face open
+        // (most cells) skips the division.
+        if diag == 4.0 { Some(num * 0.25) } else { (diag > 0.0).then(|| num / diag) }
+    }
+}
+
+/// Runs `body` with the level's stencil as a concrete type.
+macro_rules! with_stencil {
+    ($faces:expr, |$s:ident| $body:expr) => {
+        match $faces {
+            None => {
+                let $s = Plain;
+                $body
+            }
+            Some(f) => {
+                let $s = f;
+                $body
+            }
+        }
+    };
+}
+
+/// Over-relaxation of the red-black smoother: each cell moves `ω` times its Gauss–Seidel
+/// update. Red-black SOR with ω a little above 1 is a better smoother of the 5-point
+/// Laplacian than plain Gauss–Seidel (I. Yavneh, "On red-black SOR smoothing in multigrid",
+/// SIAM J. Sci. Comput. 1996). The value is chosen by measurement at 512², V-cycles per step
+/// (all layers) to the same residual criterion with ω = 1 / 1.15 / 1.2 / 1.3: convection
+/// 12 / 9 / 9 / 12, mixed 34 / 28 / 28 / 31–35, orographic 20 / 17 / 17–18 / –,
+/// sea-breeze 12 / 7–8 / 9–10 / –.
+pub(super) const OMEGA: f64 = 1.15;
+
+/// Grids at least this wide run their sweeps with rows in parallel. Below, a sweep is a few
+/// tens of microseconds, no more than handing its bands to the pool costs (and the layers'
+/// solves already run in parallel); the bands do not change the result.
+const PARALLEL_FROM: usize = 256;
+
+/// A raw pointer that may be shared between the threads of one red-black colour pass.
+#[derive(Clone, Copy)]
+struct SharedRows(*mut f64);
+// SAFETY: used only in `rb_gauss_seidel`, where the threads of one pass write disjoint rows
+// of one colour and read only cells that no thread writes in that pass (see there).
+unsafe impl Send for SharedRows {}
+unsafe impl Sync for SharedRows {}
+
+/// One red-black Gauss–Seidel sweep of `∇·(a∇φ) = rhs` (5-point stencil, toroidal; `a = 1`
+/// without face weights; a cell with all faces closed is skipped): every red cell
+/// (`(i + j)` even) from the old black ones, then every black cell from the new red ones.
+///
+/// The two colours run in one pass over the rows, black lagging one row behind red, so each
+/// row is read while it is in cache: a black cell needs only the red cells of its own and the
+/// two neighbouring rows, so black row `j − 1` is final once red row `j` is, while red row `j`
+/// still sees the old black rows `j ± 1`. Every cell gets the same inputs as in two separate
+/// colour passes (bit for bit). Large grids cut the rows into fixed bands run in parallel;
+/// the black rows at the ends of the bands (whose red neighbours belong to another band) are
+/// updated in a second parallel pass after every red row. The result does not depend on the
+/// thread count.
+pub(super) fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64]) {
+    with_stencil!(faces, |s| rb_gauss_seidel_with(n, h2, s, phi, rhs))
+}
+
+fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rhs: &[f64]) {
+    assert_eq!(phi.len(), n * n);
+    assert_eq!(rhs.len(), n * n);
+    let mask = n - 1;
+    let base = SharedRows(phi.as_mut_ptr());
+    // Relaxes the cells of colour `colour` (0 red, 1 black) in row `j`.
+    let row_pass = |j: usize, colour: usize| {
+        let p = base;
+        let row = j * n;
+        let up = ((j + 1) & mask) * n;
+        let down = ((j + n - 1) & mask) * n;
+        let mut i = (colour + j) & 1;
+        while i < n {
+            let left = (i + n - 1) & mask;
+            let right = (i + 1) & mask;
+            // SAFETY: all indices are < n² (masked; `rhs` has n² values, asserted), so inside
+            // `phi` and `rhs`. A cell's four neighbours have the other colour (the ±1 changes
+            // the parity also across the torus seam because n is even). In the first pass a
+            // band writes the red cells of its rows and the black cells of its inner rows
+            // (not its first and last); it reads black cells of its rows and of the last row
+            // of the band before and the first row of the band after — rows no band writes
+            // black cells of in this pass — and red cells of its own rows only. In the second
+            // pass each band writes the black cells of its first and last rows and reads only
+            // red cells, which no one writes any more. So no cell is read and written
+            // concurrently.
+            unsafe {
+                let (pl, pr) = (*p.0.add(row + left), *p.0.add(row + right));
+                let (pu, pd) = (*p.0.add(up + i), *p.0.add(down + i));
+                let h2r = h2 * *rhs.get_unchecked(row + i);
+                if let Some(x) = s.relax(row + i, row + right, up + i, [pl, pr, pu, pd], h2r) {
+                    let old = *p.0.add(row + i);
+                    *p.0.add(row + i) = old + OMEGA * (x - old);
+                }
+            }
+            i += 2;
+        }
+    };
+    // Red rows of a band, black rows lagging one behind, except the band's first and last.
+    let inner = |rows: std::ops::Range<usize>| {
+        for j in rows.clone() {
+            row_pass(j, 0);
+            if j >= rows.start + 2 {
+                row_pass(j - 1, 1);
+            }
+        }
+    };
+    // Black cells of a band's first and last rows.
+    let ends = |rows: std::ops::Range<usize>| {
+        row_pass(rows.start, 1);
+        if rows.end - rows.start >= 2 {
+            row_pass(rows.end - 1, 1);
+        }
+    };
+    if n >= PARALLEL_FROM {
+        parallel::Bands::DEFAULT.map_ranges(n, inner);
+        parallel::Bands::DEFAULT.map_ranges(n, ends);
+    } else {
+        inner(0..n);
+        ends(0..n);
+    }
+}
+
+/// Sum of the squared residual `rhs − ∇·(a∇φ)` over the grid, never stored: each fixed band
+/// of rows sums its cells in a fixed order while computing them (bands in parallel on large grids),
+/// and the band sums are added in band order, so the result does not depend on the thread
+/// count.
+pub(super) fn residual_sum_sq(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64]) -> f64 {
+    with_stencil!(faces, |s| residual_sum_sq_with(n, h2, s, phi, rhs))
+}
+
+fn residual_sum_sq_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64]) -> f64 {
+    assert_eq!(phi.len(), n * n);
+    assert_eq!(rhs.len(), n * n);
+    let mask = n - 1;
+    let inv = 1.0 / h2;
+    // Four running sums (cells i mod 4; n is a power of two ≥ 16), so the additions do not
+    // wait on each other.
+    debug_assert!(n.is_multiple_of(4));
+    let band = |rows: std::ops::Range<usize>| {
+        let mut sum = [0.0f64; 4];
+        for j in rows {
+            let row = j * n;
+            let up = ((j + 1) & mask) * n;
+            let down = ((j + n - 1) & mask) * n;
+            for i0 in (0..n).step_by(4) {
+                for (lane, acc) in sum.iter_mut().enumerate() {
+                    let i = i0 + lane;
+                    let left = (i + n - 1) & mask;
+                    let right = (i + 1) & mask;
+                    let lap = s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv;
+                    let r = rhs[row + i] - lap;
+                    *acc += r * r;
+                }
+            }
+        }
+        (sum[0] + sum[1]) + (sum[2] + sum[3])
+    };
+    let bands = parallel::Bands::DEFAULT;
+    if n >= PARALLEL_FROM {
+        bands.map_ranges(n, band).into_iter().fold(0.0, |a, b| a + b)
+    } else {
+        (0..bands.count(n)).map(|b| band(bands.range(b, n))).fold(0.0, |a, b| a + b)
+    }
+}
+
+/// Residual `rhs − ∇·(a∇φ)` of the fine (n × n) grid restricted to the coarse one (mean of
+/// the four children), computed on the fly (coarse rows in parallel on large grids).
+pub(super) fn restrict_residual(
+    n: usize,
+    h2: f64,
+    faces: Option<&Faces>,
+    phi: &[f64],
+    rhs: &[f64],
+    coarse: &mut [f64],
+) {
+    with_stencil!(faces, |s| restrict_residual_with(n, h2, s, phi, rhs, coarse))
+}
+
+fn restrict_residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
+    let m = n / 2;
+    let mask = n - 1;
+    let inv = 1.0 / h2;
+    let r = |i: usize, j: usize| {
+        let row = j * n;
+        let up = ((j + 1) & mask) * n;
+        let down = ((j + n - 1) & mask) * n;
+        let left = (i + n - 1) & mask;
+        let right = (i + 1) & mask;
+        rhs[row + i] - s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv
+    };
+    let row_pass = |(jc, out): (usize, &mut [f64])| {
+        for (ic, c) in out.iter_mut().enumerate() {
+            let (i, j) = (2 * ic, 2 * jc);
+            *c = 0.25 * (r(i, j) + r(i + 1, j) + r(i, j + 1) + r(i + 1, j + 1));
+        }
+    };
+    if n >= PARALLEL_FROM {
+        parallel::for_each_row(coarse, m, |j, row| row_pass((j, row)));
+    } else {
+        coarse.chunks_mut(m).enumerate().for_each(row_pass);
+    }
+}
+
+/// Coarse (m × m) correction added to fine (2m × 2m) by cell-centred bilinear interpolation;
+/// with face weights, only from coarse cells with an open face (weights renormalised), so a
+/// coarse cell inside the terrain (whose value means nothing) does not drag its neighbours.
+pub(super) fn prolong_add(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64]) {
+    let n = 2 * m;
+    let mask = m - 1;
+    let row_pass = |(jf, out): (usize, &mut [f64])| {
+        let jc = jf / 2;
+        let jn = if jf & 1 == 0 { (jc + m - 1) & mask } else { (jc + 1) & mask };
+        for (i_f, x) in out.iter_mut().enumerate() {
+            let ic = i_f / 2;
+            let in_ = if i_f & 1 == 0 { (ic + m - 1) & mask } else { (ic + 1) & mask };
+            let (k, kx, ky, kxy) = (jc * m + ic, jc * m + in_, jn * m + ic, jn * m + in_);
+            match faces {
+                None => {
+                    *x += 0.5625 * coarse[k] + 0.1875 * (coarse[kx] + coarse[ky]) + 0.0625 * coarse[kxy];
+                }
+                Some(f) => {
+                    let (w, wx, wy, wxy) =
+                        (0.5625 * f.live[k], 0.1875 * f.live[kx], 0.1875 * f.live[ky], 0.0625 * f.live[kxy]);
+                    let sum = w + wx + wy + wxy;
+                    if sum > 0.0 {
+                        *x += (w * coarse[k] + wx * coarse[kx] + wy * coarse[ky] + wxy * coarse[kxy]) / sum;
+                    }
+                }
+            }
+        }
+    };
+    if n >= PARALLEL_FROM {
+        parallel::for_each_row(fine, n, |j, row| row_pass((j, row)));
+    } else {
+        fine.chunks_mut(n).enumerate().for_each(row_pass);
+    }
+}
