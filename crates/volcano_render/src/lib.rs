@@ -44,7 +44,7 @@ pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolu
 pub use camera::{
     GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
 };
-pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
+pub use clouds::{CloudDraw, CloudMaterial, CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,
