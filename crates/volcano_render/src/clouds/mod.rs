@@ -18,7 +18,7 @@ pub mod material;
 mod rebuild;
 
 pub use crate::fog_volume::{
-    bounding_radius, density_factor, density_image, density_texels, texel, volume_transform,
+    bounding_radius, density_factor, density_image, density_texels, smooth_density, texel, volume_transform,
 };
 pub use material::{CloudMaterial, CloudUniform, box_transform, volume_bounds};
 pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
@@ -46,6 +46,9 @@ pub struct CloudRenderSettings {
     pub voxels_xy: u32,
     /// Voxels vertically (4–256).
     pub voxels_z: u32,
+    /// Passes of [`smooth_density`] over the volume before it is encoded (0–8): rounds the
+    /// blocks that atmosphere cells of several voxels make.
+    pub smoothing_passes: u32,
     /// Condensed water (g/m³) at which the texel reaches 1 − 1/e (see [`texel`]); the shader
     /// decodes texels back to g/m³.
     pub density_scale: f32,
@@ -98,6 +101,7 @@ impl Default for CloudRenderSettings {
             enabled: true,
             voxels_xy: 256,
             voxels_z: 96,
+            smoothing_passes: 2,
             density_scale: 0.15,
             extinction_per_gram: 0.05,
             albedo: 0.98,
@@ -111,7 +115,7 @@ impl Default for CloudRenderSettings {
             step_count: 128,
             sun_steps: 6,
             sun_distance_m: 3_000.0,
-            shadow_strength: 0.8,
+            shadow_strength: 0.6,
             shadow_floor_m: -500.0,
             clusters: 8,
             fragmentation: 0.3,
@@ -125,6 +129,7 @@ impl CloudRenderSettings {
     pub fn validate(&self) -> Result<(), ConfigError> {
         in_range("voxels_xy", self.voxels_xy as f64, 8.0, 512.0)?;
         in_range("voxels_z", self.voxels_z as f64, 4.0, 256.0)?;
+        in_range("smoothing_passes", self.smoothing_passes as f64, 0.0, 8.0)?;
         in_range("density_scale", self.density_scale as f64, 1e-4, 100.0)?;
         in_range("extinction_per_gram", self.extinction_per_gram as f64, 1e-6, 10.0)?;
         in_range("albedo", self.albedo as f64, 0.0, 1.0)?;
@@ -234,8 +239,9 @@ pub fn build_cloud_image(
 ) -> Result<(Image, Transform, f32), ConfigError> {
     settings.validate()?;
     let spec = volume_spec(state, settings);
-    let density =
+    let mut density =
         cloud_density(state, cloud_threshold, settings.clusters, settings.fragmentation, memory, &spec);
+    smooth_density(&mut density, spec.nxy, spec.nz, settings.smoothing_passes)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image
         .data
