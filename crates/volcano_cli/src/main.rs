@@ -364,17 +364,21 @@ fn cloud_report(
         mine.sort_by_key(|l| l.index);
         for l in mine {
             let w = l.fields.w.data();
-            let (mut all, mut near, mut cloudy) = (0.0f64, 0.0f64, 0usize);
+            let (mut all, mut near, mut cloudy, mut sum) = (0.0f64, 0.0f64, 0usize, [0.0f64; 3]);
             for (k, &v) in w.iter().enumerate() {
                 let (x, y) = shell.grid.centre(k);
                 all = all.max(v);
                 if x.hypot(y) <= 3_000.0 {
                     near = near.max(v);
                 }
-                cloudy += usize::from(v >= atmo.params.cloud_threshold);
+                if v >= atmo.params.cloud_threshold {
+                    cloudy += 1;
+                    sum = [sum[0] + v * x, sum[1] + v * y, sum[2] + v];
+                }
             }
+            let (cx, cy) = if sum[2] > 0.0 { (sum[0] / sum[2], sum[1] / sum[2]) } else { (0.0, 0.0) };
             out.push(format!(
-                "clouds: layer {} at {:.0} m: max condensed water {all:.3} g/m³ ({near:.3} within 3 km of the centre), {cloudy} cells ≥ {} g/m³",
+                "clouds: layer {} at {:.0} m: max condensed water {all:.3} g/m³ ({near:.3} within 3 km of the centre), {cloudy} cells ≥ {} g/m³, their water's centroid at x {cx:.0} m, grid y {cy:.0} m",
                 l.index, l.fields.altitude, atmo.params.cloud_threshold
             ));
         }
