@@ -61,18 +61,20 @@ pub fn smooth_density(density: &mut [f32], nxy: usize, nz: usize, passes: u32) -
     }
     let mut line = Vec::new();
     for _ in 0..passes {
-        // (stride, count, number of lines, start of line i)
-        let axes: [(usize, usize, usize, &dyn Fn(usize) -> usize); 3] = [
-            (1, nxy, nxy * nz, &|i| i * nxy),
-            (nxy, nxy, nxy * nz, &|i| (i / nxy) * nxy * nxy + i % nxy),
-            (nxy * nxy, nz, nxy * nxy, &|i| i),
-        ];
-        for (stride, count, lines, start) in axes {
+        // (axis, stride, count, number of lines)
+        for (axis, stride, count, lines) in
+            [(0, 1, nxy, nxy * nz), (1, nxy, nxy, nxy * nz), (2, nxy * nxy, nz, nxy * nxy)]
+        {
             if count < 2 {
                 continue;
             }
             for i in 0..lines {
-                let s0 = start(i);
+                // First element of line i.
+                let s0 = match axis {
+                    0 => i * nxy,
+                    1 => (i / nxy) * nxy * nxy + i % nxy,
+                    _ => i,
+                };
                 line.clear();
                 line.extend((0..count).map(|k| density[s0 + k * stride]));
                 for k in 0..count {

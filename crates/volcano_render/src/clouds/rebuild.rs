@@ -157,6 +157,10 @@ pub(super) fn start_cloud_builds(
     }
 }
 
+/// The asset stores a rebuild writes to: density images, cloud materials, box meshes.
+type CloudAssets<'w> =
+    (ResMut<'w, Assets<Image>>, ResMut<'w, Assets<CloudMaterial>>, ResMut<'w, Assets<Mesh>>);
+
 /// Applies every finished rebuild: replaces the density image and the material (or spawns
 /// the box for a new atmosphere), hands the clustering memory back to the [`CloudVolume`].
 pub(super) fn apply_cloud_builds(
@@ -164,9 +168,7 @@ pub(super) fn apply_cloud_builds(
     mut status: ResMut<CloudBuildStatus>,
     mut atmospheres: Query<(Entity, &mut CloudBuild, Option<&mut CloudVolume>)>,
     mut draws: Query<&mut Transform, With<CloudDraw>>,
-    mut images: ResMut<Assets<Image>>,
-    mut materials: ResMut<Assets<CloudMaterial>>,
-    mut meshes: ResMut<Assets<Mesh>>,
+    (mut images, mut materials, mut meshes): CloudAssets,
     mut removed: RemovedComponents<Atmosphere>,
     orphans: Query<(Entity, &CloudDraw)>,
 ) {
