@@ -112,7 +112,7 @@ impl Default for CloudRenderSettings {
             backward_weight: 0.5,
             powder: 0.6,
             powder_length_m: 60.0,
-            step_count: 128,
+            step_count: 192,
             sun_steps: 6,
             sun_distance_m: 3_000.0,
             shadow_strength: 0.6,
