@@ -351,6 +351,41 @@ pub(crate) fn sim_app() -> App {
     app
 }
 
+/// One line per air layer: its largest condensed water (g/m³) over the grid and within 3 km
+/// of the grid's centre (the vent in the scenes), and its cells above the cloud threshold.
+fn cloud_report(
+    atmos: &Query<(Entity, &volcano::atmosphere::Atmosphere)>,
+    layers: &Query<&volcano::atmosphere::AirLayer>,
+) -> Vec<String> {
+    let mut out = Vec::new();
+    for (entity, atmo) in atmos {
+        let Ok(shell) = atmo.state_shell() else { continue };
+        let mut mine: Vec<_> = layers.iter().filter(|l| l.atmosphere == entity).collect();
+        mine.sort_by_key(|l| l.index);
+        for l in mine {
+            let w = l.fields.w.data();
+            let (mut all, mut near, mut cloudy, mut sum) = (0.0f64, 0.0f64, 0usize, [0.0f64; 3]);
+            for (k, &v) in w.iter().enumerate() {
+                let (x, y) = shell.grid.centre(k);
+                all = all.max(v);
+                if x.hypot(y) <= 3_000.0 {
+                    near = near.max(v);
+                }
+                if v >= atmo.params.cloud_threshold {
+                    cloudy += 1;
+                    sum = [sum[0] + v * x, sum[1] + v * y, sum[2] + v];
+                }
+            }
+            let (cx, cy) = if sum[2] > 0.0 { (sum[0] / sum[2], sum[1] / sum[2]) } else { (0.0, 0.0) };
+            out.push(format!(
+                "clouds: layer {} at {:.0} m: max condensed water {all:.3} g/m³ ({near:.3} within 3 km of the centre), {cloudy} cells ≥ {} g/m³, their water's centroid at x {cx:.0} m, grid y {cy:.0} m",
+                l.index, l.fields.altitude, atmo.params.cloud_threshold
+            ));
+        }
+    }
+    out
+}
+
 fn render(
     scene: &str,
     ticks: u32,
@@ -437,7 +472,20 @@ fn render(
         eprintln!("error: {e}");
         return ExitCode::from(2);
     }
+    // What the rendered clouds are made of: condensed water per layer at the last update.
+    let clouds: std::sync::Arc<std::sync::Mutex<Vec<String>>> = Default::default();
+    let sink = clouds.clone();
+    app.add_systems(
+        Last,
+        move |atmos: Query<(Entity, &volcano::atmosphere::Atmosphere)>,
+              layers: Query<&volcano::atmosphere::AirLayer>| {
+            *sink.lock().unwrap() = cloud_report(&atmos, &layers);
+        },
+    );
     let exit = app.run();
+    for line in clouds.lock().unwrap().iter() {
+        println!("{line}");
+    }
     if !exit.is_success() || !out.exists() {
         eprintln!("error: rendering failed ({exit:?}); is a Vulkan driver installed (mesa-vulkan-drivers)?");
         return ExitCode::FAILURE;

@@ -11,8 +11,8 @@ use bevy::prelude::*;
 
 use crate::sky::{SkySettings, VolcanoSkyCamera, sky_camera_components};
 
-/// Marks the camera the volcano is watched from: the ash billboards face it, the clouds add
-/// `VolumetricFog` to it (only while an atmosphere has clouds), [`crate::HeadlessCapturePlugin`]
+/// Marks the camera the volcano is watched from: the ash billboards face it, the ash fall adds
+/// `VolumetricFog` to it (only while an ash-fall volume exists), [`crate::HeadlessCapturePlugin`]
 /// renders it, and the debug panels pick the terrain through it. A game tags its own camera;
 /// without one the plume and clouds still simulate, they are just drawn for no viewer.
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]
@@ -158,8 +158,9 @@ fn wrap_angle(a: f32) -> f32 {
 
 /// Components of a scene camera: [`Camera3d`] with a perspective projection for kilometre
 /// scenes, tonemapping and exposure ([`sky_camera_components`]), [`VolcanoViewer`],
-/// [`VolcanoSkyCamera`] (so `VolcanoSkyPlugin`, when added, gives it the skybox and fog) and the
-/// orbit with its transform.
+/// [`VolcanoSkyCamera`] (so `VolcanoSkyPlugin`, when added, gives it the skybox and fog), a
+/// `DepthPrepass` (the clouds stop at the opaque scene and shade it, [`crate::clouds`]) and
+/// the orbit with its transform.
 pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
     let near = 1.0;
     let projection = Projection::Perspective(PerspectiveProjection {
@@ -178,6 +179,8 @@ pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
         VolcanoSkyCamera,
         // The instanced ash draw issues direct (not indirect) draws.
         bevy::render::view::NoIndirectDrawing,
+        // The cloud march stops at the opaque scene and shades it by the clouds' shadow.
+        bevy::core_pipeline::prepass::DepthPrepass,
         orbit.transform(),
         orbit,
     )

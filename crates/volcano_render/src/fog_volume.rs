@@ -46,6 +46,47 @@ pub fn density_texels(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result
     Ok(out)
 }
 
+/// Smooths a density volume (`nxy × nxy × nz`, x fastest, then grid y, then altitude) in
+/// place with `passes` passes of the [1, 2, 1] / 4 kernel along each axis (edges clamped).
+/// The volume samples the nearest atmosphere cell per voxel column, so cells of several voxels
+/// show as blocks with vertical walls; a pass or two rounds them without moving mass
+/// (interior sums are kept). Errors if the length does not match.
+pub fn smooth_density(density: &mut [f32], nxy: usize, nz: usize, passes: u32) -> Result<(), ConfigError> {
+    if nxy == 0 || nz == 0 || density.len() != nxy * nxy * nz {
+        return Err(ConfigError::InvalidParameter {
+            name: "cloud density volume",
+            value: density.len() as f64,
+            reason: format!("expected {nxy}×{nxy}×{nz} values"),
+        });
+    }
+    let mut line = Vec::new();
+    for _ in 0..passes {
+        // (axis, stride, count, number of lines)
+        for (axis, stride, count, lines) in
+            [(0, 1, nxy, nxy * nz), (1, nxy, nxy, nxy * nz), (2, nxy * nxy, nz, nxy * nxy)]
+        {
+            if count < 2 {
+                continue;
+            }
+            for i in 0..lines {
+                // First element of line i.
+                let s0 = match axis {
+                    0 => i * nxy,
+                    1 => (i / nxy) * nxy * nxy + i % nxy,
+                    _ => i,
+                };
+                line.clear();
+                line.extend((0..count).map(|k| density[s0 + k * stride]));
+                for k in 0..count {
+                    let (a, c) = (line[k.saturating_sub(1)], line[(k + 1).min(count - 1)]);
+                    density[s0 + k * stride] = 0.25 * a + 0.5 * line[k] + 0.25 * c;
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// A 3D `R8Unorm` image (`nxy × nz × nxy`, linear filtering, clamped) from [`density_texels`].
 pub fn density_image(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<Image, ConfigError> {
     let data = density_texels(density, nxy, nz, d0)?;
@@ -129,6 +170,22 @@ mod tests {
         assert_eq!(t.iter().filter(|&&v| v > 0).count(), 2);
         assert!(density_texels(&d[1..], nxy, nz, 0.1).is_err());
         assert!(density_texels(&d, nxy, nz, 0.0).is_err());
+    }
+
+    #[test]
+    fn smoothing_spreads_a_voxel_along_every_axis_and_keeps_its_mass() {
+        let (nxy, nz) = (8, 6);
+        let idx = |x: usize, y: usize, z: usize| (z * nxy + y) * nxy + x;
+        let mut d = vec![0.0f32; nxy * nxy * nz];
+        d[idx(4, 3, 2)] = 64.0;
+        smooth_density(&mut d, nxy, nz, 1).unwrap();
+        assert!((d.iter().sum::<f32>() - 64.0).abs() < 1e-3);
+        assert!((d[idx(4, 3, 2)] - 8.0).abs() < 1e-4, "{}", d[idx(4, 3, 2)]);
+        for n in [idx(3, 3, 2), idx(5, 3, 2), idx(4, 2, 2), idx(4, 4, 2), idx(4, 3, 1), idx(4, 3, 3)] {
+            assert!((d[n] - 4.0).abs() < 1e-4, "{}", d[n]);
+        }
+        assert_eq!(d[idx(6, 3, 2)], 0.0);
+        assert!(smooth_density(&mut d[1..], nxy, nz, 1).is_err());
     }
 
     #[test]

@@ -4,8 +4,8 @@
 //! ([`sky`]) and windowless offscreen capture for tests and the CLI ([`headless`]).
 //!
 //! [`VolcanoRenderPlugins`] draws the simulation and touches nothing of the game's lighting or
-//! cameras, except that the camera tagged [`VolcanoViewer`] gets `VolumetricFog` while clouds
-//! exist (and a camera the game tags [`GlowCamera`] is HDR with bloom). Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
+//! cameras, except that the camera tagged [`VolcanoViewer`] gets `VolumetricFog` while an ash-fall volume
+//! exists (and a camera the game tags [`GlowCamera`] is HDR with bloom). Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
 //! with [`camera_bundle`] (a [`VolcanoViewer`] and [`VolcanoSkyCamera`]); the same scene code
 //! renders to a window (with `DefaultPlugins`) or to a PNG (with [`headless_default_plugins`]
 //! and [`HeadlessCapturePlugin`]). Any member of the group can be left out:
@@ -44,7 +44,7 @@ pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolu
 pub use camera::{
     GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
 };
-pub use clouds::{CloudRenderPlugin, CloudRenderSettings, CloudVolume};
+pub use clouds::{CloudDraw, CloudMaterial, CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use headless::{
     CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
     rgb_region_mean, rgb_stddev, write_png_rgb,

@@ -1,8 +1,8 @@
 //! The volumetric clouds draw: an atmosphere whose western half (the left of the view) holds
 //! a dense cumulonimbus wall in every layer is rendered from the south with the sun behind
 //! the camera, so without clouds the sky would be left–right symmetric. The left half of the
-//! sky band must differ clearly from the right half (clear sky); if the fog volume, its
-//! density image or the camera's volumetric fog were missing, both halves would match.
+//! sky band must differ clearly from the right half (clear sky); if the cloud box, its
+//! material or its density image were missing, both halves would match.
 
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};

@@ -1,26 +1,33 @@
-//! Volumetric clouds of the layered atmosphere (thesis §4.2.6) with Bevy's volumetric fog:
-//! each [`Atmosphere`] gets one [`FogVolume`] over its footprint whose 3D density image is the
-//! crate's cloud density volume (`volcano_atmosphere::view::cloud_density`: Table 4.3 forms,
-//! k-means++ coherence, type-keyed noise), rebuilt when the weather steps or a layer is
-//! edited, not every frame, on the async compute task pool from a snapshot of the layers
-//! (module `rebuild`: same content as a main-thread build, only when it appears varies). [`VolcanoViewer`] cameras get [`VolumetricFog`] and [`Sun`]s
-//! [`VolumetricLight`] while a cloud volume exists, so scenes without an atmosphere pay nothing
-//! (a game lighting the clouds with its own `DirectionalLight` adds `VolumetricLight` to it).
+//! Volumetric clouds of the layered atmosphere (thesis §4.2.6), lit by a ray-marching pass of
+//! our own: each [`Atmosphere`] gets one box mesh with a [`CloudMaterial`] over its footprint
+//! whose 3D density image is the crate's cloud density volume
+//! (`volcano_atmosphere::view::cloud_density`: Table 4.3 forms, k-means++ coherence,
+//! type-keyed noise), rebuilt when the weather steps or a layer is edited, not every frame, on
+//! the async compute task pool from a snapshot of the layers (module `rebuild`: same content as
+//! a main-thread build, only when it appears varies). The shader marches toward the sun from
+//! each sample (Beer–Lambert, multiple-scattering octaves, two-lobe Henyey–Greenstein phase,
+//! powder), adds ambient sky light, and shades the opaque scene behind by the clouds' shadow
+//! (module [`material`]). It reads the first `DirectionalLight` and the ambient light of the
+//! view, so it follows a game's own sun; it adds nothing to cameras or lights.
 //!
-//! Bevy's fog shader attenuates the sunlight reaching a sample by
-//! `exp(−density · bounding_radius · extinction)` with the volume's bounding radius (tens of
-//! kilometres here), so the peak extinction is chosen from that radius
-//! ([`CloudRenderSettings::light_depth`]): dense cores stay grey, edges bright.
+//! [`volumetric_views`] still gives [`VolcanoViewer`] cameras Bevy's `VolumetricFog` (and suns
+//! `VolumetricLight`) while a [`VolcanoFogVolume`](crate::fog_volume::VolcanoFogVolume) exists:
+//! the ash fall uses Bevy's `FogVolume`; the clouds no longer do.
 
+pub mod material;
 mod rebuild;
 
 pub use crate::fog_volume::{
-    bounding_radius, density_factor, density_image, density_texels, texel, volume_transform,
+    bounding_radius, density_factor, density_image, density_texels, smooth_density, texel, volume_transform,
 };
+pub use material::{CloudMaterial, CloudUniform, box_transform, volume_bounds};
 pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 
-use bevy::light::{FogVolume, VolumetricFog, VolumetricLight};
+use bevy::asset::embedded_asset;
+use bevy::light::{VolumetricFog, VolumetricLight};
+use bevy::pbr::MaterialPlugin;
 use bevy::prelude::*;
+use bevy::render::RenderApp;
 use volcano_atmosphere::view::{AtmosphereState, ClusterMemory, VolumeSpec, cloud_density};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
@@ -29,7 +36,7 @@ use volcano_core::error::in_range;
 use crate::camera::VolcanoViewer;
 use crate::sky::Sun;
 
-/// How clouds are turned into fog (a resource; edits rebuild the volumes).
+/// How clouds are built and lit (a resource; edits rebuild the volumes and their material).
 #[derive(Resource, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Resource, Debug, Default)]
 pub struct CloudRenderSettings {
@@ -39,18 +46,45 @@ pub struct CloudRenderSettings {
     pub voxels_xy: u32,
     /// Voxels vertically (4–256).
     pub voxels_z: u32,
-    /// Condensed water (g/m³) at which the texel reaches 1 − 1/e (see [`texel`]).
+    /// Passes of [`smooth_density`] over the volume before it is encoded (0–8): rounds the
+    /// blocks that atmosphere cells of several voxels make.
+    pub smoothing_passes: u32,
+    /// Condensed water (g/m³) at which the texel reaches 1 − 1/e (see [`texel`]); the shader
+    /// decodes texels back to g/m³.
     pub density_scale: f32,
-    /// Optical depth of the light path at full density over the bounding radius (see the
-    /// module docs): peak extinction = `light_depth / bounding_radius`.
-    pub light_depth: f32,
-    /// Multiplier of the in-scattered sunlight (compensates the shader's light attenuation).
-    pub light_intensity: f32,
-    /// Henyey–Greenstein asymmetry (clouds scatter forward, but a strong lobe hides them when
-    /// the sun is behind the camera).
-    pub scattering_asymmetry: f32,
-    /// Ray-march steps per pixel.
+    /// Extinction (1/m) per g/m³ of condensed water, ≈ 3 / (2 ρ_w r_eff): 0.15 for 10 µm
+    /// droplets, 0.05 for 30 µm. Lower than the physical value softens the edges of the
+    /// 100 m voxels.
+    pub extinction_per_gram: f32,
+    /// Single-scattering albedo (cloud water ≈ 1).
+    pub albedo: f32,
+    /// Multiplier of the sun's light in the clouds: stands for the multiple scattering that
+    /// the shader's three octaves miss (with 1, a thick sunlit cloud is several times darker
+    /// than sunlit ground seen from the side; real ones are brighter).
+    pub sun_gain: f32,
+    /// Multiplier of the view's ambient light as sky light in the clouds.
+    pub ambient_gain: f32,
+    /// Henyey–Greenstein asymmetry of the forward lobe (silver lining), 0–0.99.
+    pub forward_g: f32,
+    /// Asymmetry of the backward lobe, −0.99–0.
+    pub backward_g: f32,
+    /// Weight of the backward lobe (0–1).
+    pub backward_weight: f32,
+    /// Powder term strength (0 = off, 1 = full): dark thin edges facing away from the sun.
+    pub powder: f32,
+    /// Path length (m) over which the powder term saturates.
+    pub powder_length_m: f32,
+    /// Ray-march steps per pixel along the view ray (8–1024).
     pub step_count: u32,
+    /// Steps of the march toward the sun per sample (1–32).
+    pub sun_steps: u32,
+    /// Length (m) of the march toward the sun.
+    pub sun_distance_m: f32,
+    /// How much of the ground's light a fully shadowing cloud removes (0–1; the sun's share).
+    pub shadow_strength: f32,
+    /// The drawn box reaches down to this altitude (m) when the volume starts higher, so the
+    /// ground under the lowest layer receives cloud shadows.
+    pub shadow_floor_m: f32,
     /// k-means clusters for the coherence pass (over the cloudy cells of all layers).
     pub clusters: usize,
     /// Fraction of the cloudy cells bordering another form in their layer that triggers k-means.
@@ -67,11 +101,22 @@ impl Default for CloudRenderSettings {
             enabled: true,
             voxels_xy: 256,
             voxels_z: 96,
+            smoothing_passes: 2,
             density_scale: 0.15,
-            light_depth: 6.0,
-            light_intensity: 18.0,
-            scattering_asymmetry: 0.5,
+            extinction_per_gram: 0.05,
+            albedo: 0.98,
+            sun_gain: 3.0,
+            ambient_gain: 1.0,
+            forward_g: 0.7,
+            backward_g: -0.2,
+            backward_weight: 0.5,
+            powder: 0.6,
+            powder_length_m: 60.0,
             step_count: 192,
+            sun_steps: 6,
+            sun_distance_m: 3_000.0,
+            shadow_strength: 0.6,
+            shadow_floor_m: -500.0,
             clusters: 8,
             fragmentation: 0.3,
             off_thread: true,
@@ -84,25 +129,38 @@ impl CloudRenderSettings {
     pub fn validate(&self) -> Result<(), ConfigError> {
         in_range("voxels_xy", self.voxels_xy as f64, 8.0, 512.0)?;
         in_range("voxels_z", self.voxels_z as f64, 4.0, 256.0)?;
+        in_range("smoothing_passes", self.smoothing_passes as f64, 0.0, 8.0)?;
         in_range("density_scale", self.density_scale as f64, 1e-4, 100.0)?;
-        in_range("light_depth", self.light_depth as f64, 1e-3, 50.0)?;
-        in_range("light_intensity", self.light_intensity as f64, 0.0, 1e4)?;
-        in_range("scattering_asymmetry", self.scattering_asymmetry as f64, -0.99, 0.99)?;
+        in_range("extinction_per_gram", self.extinction_per_gram as f64, 1e-6, 10.0)?;
+        in_range("albedo", self.albedo as f64, 0.0, 1.0)?;
+        in_range("sun_gain", self.sun_gain as f64, 0.0, 100.0)?;
+        in_range("ambient_gain", self.ambient_gain as f64, 0.0, 100.0)?;
+        in_range("forward_g", self.forward_g as f64, 0.0, 0.99)?;
+        in_range("backward_g", self.backward_g as f64, -0.99, 0.0)?;
+        in_range("backward_weight", self.backward_weight as f64, 0.0, 1.0)?;
+        in_range("powder", self.powder as f64, 0.0, 1.0)?;
+        in_range("powder_length_m", self.powder_length_m as f64, 1.0, 10_000.0)?;
         in_range("step_count", self.step_count as f64, 8.0, 1024.0)?;
+        in_range("sun_steps", self.sun_steps as f64, 1.0, 32.0)?;
+        in_range("sun_distance_m", self.sun_distance_m as f64, 10.0, 100_000.0)?;
+        in_range("shadow_strength", self.shadow_strength as f64, 0.0, 1.0)?;
+        in_range("shadow_floor_m", self.shadow_floor_m as f64, -20_000.0, 20_000.0)?;
         in_range("clusters", self.clusters as f64, 1.0, 64.0)?;
         in_range("fragmentation", self.fragmentation, 0.0, 1.0)?;
         Ok(())
     }
 }
 
-/// On an [`Atmosphere`] entity: its fog volume entity and density image.
+/// On an [`Atmosphere`] entity: its cloud box entity, density image and material.
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(Component, Debug)]
 pub struct CloudVolume {
-    /// The [`FogVolume`] entity.
-    pub fog: Entity,
+    /// The drawn box ([`CloudDraw`]).
+    pub draw: Entity,
     /// The 3D density image.
     pub image: Handle<Image>,
+    /// The box's material.
+    pub material: Handle<CloudMaterial>,
     /// Weather time (s) the image was built for.
     pub built_at_s: f64,
     /// Fraction of non-empty texels in the last build (diagnostics, tests).
@@ -114,11 +172,10 @@ pub struct CloudVolume {
     pub settings: CloudRenderSettings,
 }
 
-/// Marks the fog volume entity of an atmosphere's clouds.
+/// Marks the box entity drawing an atmosphere's clouds.
 #[derive(Component, Debug, Clone, Copy, Reflect)]
 #[reflect(Component, Debug)]
-#[require(crate::fog_volume::VolcanoFogVolume)]
-pub struct CloudFog {
+pub struct CloudDraw {
     /// The atmosphere it shows.
     pub atmosphere: Entity,
 }
@@ -129,9 +186,17 @@ pub struct CloudRenderPlugin;
 
 impl Plugin for CloudRenderPlugin {
     fn build(&self, app: &mut App) {
+        embedded_asset!(app, "clouds.wgsl");
+        // Without a renderer (headless model tests) only the asset type is needed.
+        if app.get_sub_app(RenderApp).is_some() {
+            app.add_plugins(MaterialPlugin::<CloudMaterial>::default());
+        } else {
+            app.init_asset::<CloudMaterial>();
+        }
         app.register_type::<CloudRenderSettings>()
             .register_type::<CloudVolume>()
-            .register_type::<CloudFog>()
+            .register_type::<CloudDraw>()
+            .register_type::<CloudMaterial>()
             .register_type::<crate::fog_volume::VolcanoFogVolume>()
             .register_type::<CloudBuildStatus>()
             .init_resource::<CloudRenderSettings>()
@@ -174,8 +239,9 @@ pub fn build_cloud_image(
 ) -> Result<(Image, Transform, f32), ConfigError> {
     settings.validate()?;
     let spec = volume_spec(state, settings);
-    let density =
+    let mut density =
         cloud_density(state, cloud_threshold, settings.clusters, settings.fragmentation, memory, &spec);
+    smooth_density(&mut density, spec.nxy, spec.nz, settings.smoothing_passes)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image
         .data
@@ -185,42 +251,38 @@ pub fn build_cloud_image(
     Ok((image, transform, filled))
 }
 
-/// The [`FogVolume`] for a density image in a volume of this transform.
-pub fn cloud_fog(image: Handle<Image>, transform: &Transform, settings: &CloudRenderSettings) -> FogVolume {
-    let (absorption, scattering) = (0.05, 0.95);
-    let sigma_max = settings.light_depth / bounding_radius(transform).max(1.0);
-    FogVolume {
-        fog_color: Color::WHITE,
-        density_factor: density_factor(sigma_max, absorption, scattering).unwrap_or(0.0),
-        density_texture: Some(image),
-        absorption,
-        scattering,
-        scattering_asymmetry: settings.scattering_asymmetry,
-        light_intensity: settings.light_intensity,
-        ..default()
-    }
+/// The [`CloudMaterial`] for a density image in a volume of this transform.
+pub fn cloud_material(
+    image: Handle<Image>,
+    transform: &Transform,
+    settings: &CloudRenderSettings,
+) -> CloudMaterial {
+    let (lo, hi) = volume_bounds(transform);
+    CloudMaterial { uniform: CloudUniform::new(lo, hi, settings), density: image }
 }
 
-/// Fog volumes that need the cameras' volumetric fog: clouds and ash fall.
+/// Steps of the cameras' `VolumetricFog` (the ash fall's fog volumes).
+pub const FOG_STEPS: u32 = 192;
+
+/// Fog volumes that need the cameras' volumetric fog (the ash fall).
 type FogVolumes = With<crate::fog_volume::VolcanoFogVolume>;
 
-/// Adds [`VolumetricFog`] to [`VolcanoViewer`] cameras and [`VolumetricLight`] to suns while cloud
-/// or ash-fall volumes exist, and removes them when none is left.
-fn volumetric_views(
+/// Adds [`VolumetricFog`] to [`VolcanoViewer`] cameras and [`VolumetricLight`] to suns while
+/// ash-fall fog volumes exist, and removes them when none is left.
+pub fn volumetric_views(
     mut commands: Commands,
-    settings: Res<CloudRenderSettings>,
     fogs: Query<(), FogVolumes>,
     cameras: Query<(Entity, Option<&VolumetricFog>), With<VolcanoViewer>>,
     suns: Query<(Entity, Has<VolumetricLight>), With<Sun>>,
 ) {
-    let want = settings.enabled && !fogs.is_empty();
+    let want = !fogs.is_empty();
     for (camera, fog) in &cameras {
         match (want, fog) {
-            (true, Some(f)) if f.step_count == settings.step_count => {}
+            (true, Some(f)) if f.step_count == FOG_STEPS => {}
             (true, _) => {
                 commands.entity(camera).insert(VolumetricFog {
                     ambient_intensity: 0.0,
-                    step_count: settings.step_count,
+                    step_count: FOG_STEPS,
                     // Metres: breaks the banding of thin layers into fine noise.
                     jitter: 300.0,
                     ..default()

@@ -13,7 +13,7 @@
 //! several landed in one frame), so a slow machine may chain the clustering memory through
 //! fewer steps than a fast one. Clouds are render-only: nothing in the simulation reads them.
 
-use bevy::light::FogVolume;
+use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
 use bevy::tasks::futures::check_ready;
 use bevy::tasks::{AsyncComputeTaskPool, Task};
@@ -21,7 +21,11 @@ use volcano_atmosphere::view::{AtmosphereState, ClusterMemory};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 
-use super::{CloudFog, CloudRenderSettings, CloudVolume, build_cloud_image, cloud_fog, cloud_state};
+use super::material::box_transform;
+use super::{
+    CloudDraw, CloudMaterial, CloudRenderSettings, CloudVolume, build_cloud_image, cloud_material,
+    cloud_state,
+};
 
 /// What a rebuild produces, with the memory and inputs it was made from.
 pub struct BuiltClouds {
@@ -97,7 +101,7 @@ pub(super) fn start_cloud_builds(
         Has<CloudStale>,
     )>,
     layers: Query<Ref<AirLayer>>,
-    mut fogs: Query<&mut Visibility, With<CloudFog>>,
+    mut draws: Query<&mut Visibility, With<CloudDraw>>,
 ) {
     for (entity, atmo, mut volume, build, marked) in &mut atmospheres {
         let mine: Vec<Ref<AirLayer>> = layers.iter().filter(|l| l.atmosphere == entity).collect();
@@ -113,7 +117,7 @@ pub(super) fn start_cloud_builds(
             continue;
         }
         if let Some(v) = &volume
-            && let Ok(mut vis) = fogs.get_mut(v.fog)
+            && let Ok(mut vis) = draws.get_mut(v.draw)
         {
             vis.set_if_neq(if settings.enabled { Visibility::Inherited } else { Visibility::Hidden });
         }
@@ -153,16 +157,20 @@ pub(super) fn start_cloud_builds(
     }
 }
 
-/// Applies every finished rebuild: replaces the density image and the fog (or spawns them
-/// for a new atmosphere), hands the clustering memory back to the [`CloudVolume`].
+/// The asset stores a rebuild writes to: density images, cloud materials, box meshes.
+type CloudAssets<'w> =
+    (ResMut<'w, Assets<Image>>, ResMut<'w, Assets<CloudMaterial>>, ResMut<'w, Assets<Mesh>>);
+
+/// Applies every finished rebuild: replaces the density image and the material (or spawns
+/// the box for a new atmosphere), hands the clustering memory back to the [`CloudVolume`].
 pub(super) fn apply_cloud_builds(
     mut commands: Commands,
     mut status: ResMut<CloudBuildStatus>,
     mut atmospheres: Query<(Entity, &mut CloudBuild, Option<&mut CloudVolume>)>,
-    mut fogs: Query<(&mut FogVolume, &mut Transform), With<CloudFog>>,
-    mut images: ResMut<Assets<Image>>,
+    mut draws: Query<&mut Transform, With<CloudDraw>>,
+    (mut images, mut materials, mut meshes): CloudAssets,
     mut removed: RemovedComponents<Atmosphere>,
-    orphans: Query<(Entity, &CloudFog)>,
+    orphans: Query<(Entity, &CloudDraw)>,
 ) {
     for gone in removed.read() {
         for (fog, owner) in &orphans {
@@ -208,9 +216,16 @@ pub(super) fn apply_cloud_builds(
                 if images.insert(v.image.id(), image).is_err() {
                     warn_once!("cloud density image of {entity} could not be replaced");
                 }
-                if let Ok((mut fog, mut t)) = fogs.get_mut(v.fog) {
-                    *fog = cloud_fog(v.image.clone(), &transform, &settings);
-                    *t = transform;
+                // Replacing the material (not only the image) makes the renderer bind the new
+                // image.
+                if materials
+                    .insert(v.material.id(), cloud_material(v.image.clone(), &transform, &settings))
+                    .is_err()
+                {
+                    warn_once!("cloud material of {entity} could not be replaced");
+                }
+                if let Ok(mut t) = draws.get_mut(v.draw) {
+                    *t = box_transform(&transform, settings.shadow_floor_m);
                 }
                 v.built_at_s = time_s;
                 v.filled_fraction = filled;
@@ -219,17 +234,22 @@ pub(super) fn apply_cloud_builds(
             }
             None => {
                 let handle = images.add(image);
-                let fog = commands
+                let material = materials.add(cloud_material(handle.clone(), &transform, &settings));
+                let draw = commands
                     .spawn((
                         Name::new("Clouds"),
-                        CloudFog { atmosphere: entity },
-                        cloud_fog(handle.clone(), &transform, &settings),
-                        transform,
+                        CloudDraw { atmosphere: entity },
+                        Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
+                        MeshMaterial3d(material.clone()),
+                        box_transform(&transform, settings.shadow_floor_m),
+                        NotShadowCaster,
+                        NotShadowReceiver,
                     ))
                     .id();
                 commands.entity(entity).insert(CloudVolume {
-                    fog,
+                    draw,
                     image: handle,
+                    material,
                     built_at_s: time_s,
                     filled_fraction: filled,
                     memory,
@@ -252,6 +272,7 @@ mod tests {
         let mut app = App::new();
         app.add_plugins((MinimalPlugins, AssetPlugin::default()))
             .init_asset::<Image>()
+            .init_asset::<Mesh>()
             .add_plugins(CloudRenderPlugin)
             .insert_resource(CloudRenderSettings { voxels_xy: 24, voxels_z: 8, off_thread, ..default() })
             .add_systems(Startup, |mut commands: Commands| {
@@ -309,7 +330,10 @@ mod tests {
         let got = world.resource::<Assets<Image>>().get(&v.image).unwrap();
         assert_eq!(got.data, want.data, "the worker's image differs from the main thread's");
         assert!(want_f > 0.0, "empty image: the comparison would say nothing");
-        assert_eq!((v.filled_fraction, world.get::<Transform>(v.fog).copied()), (want_f, Some(want_t)));
+        assert_eq!(
+            (v.filled_fraction, world.get::<Transform>(v.draw).copied()),
+            (want_f, Some(box_transform(&want_t, -500.0)))
+        );
         assert_eq!(v.memory, expected.memory, "the clustering memory did not come back");
         let status = *app.world().resource::<CloudBuildStatus>();
         assert_eq!((status.started, status.on_main_thread, status.applied), (1, 0, 1), "{status:?}");

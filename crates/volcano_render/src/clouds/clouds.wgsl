@@ -1,0 +1,200 @@
+// Lit volumetric clouds (module `clouds::material`): the back faces of a box around the
+// atmosphere's cloud density volume, drawn without a depth test, march the view ray through
+// the 3D density texture from the camera (or the box's entry) to the box's exit or the opaque
+// scene (depth prepass, when the camera has one). Per sample: a short march toward the sun
+// (Beer–Lambert), three octaves of approximated multiple scattering, a two-lobe
+// Henyey–Greenstein phase (forward lobe: silver lining), a powder term, and ambient sky light
+// dimmed by the cloud above the sample. Where the view ray meets the opaque scene, a second
+// sun march from that point gives the cloud's shadow, applied by darkening what is behind
+// through the blend (premultiplied alpha: out = cloud + scene · T_view · shadow).
+
+#import bevy_pbr::forward_io::VertexOutput
+#import bevy_pbr::mesh_view_bindings::{view, lights, fog}
+#import bevy_pbr::view_transformations::{position_ndc_to_world, frag_coord_to_uv, uv_to_ndc}
+#import bevy_pbr::pbr_functions::apply_fog
+#import bevy_pbr::prepass_utils
+
+#ifdef TONEMAP_IN_SHADER
+#import bevy_core_pipeline::tonemapping::tone_mapping
+#endif
+
+struct CloudUniform {
+    // Density volume (world, metres) and extinction per g/m³ of condensed water (1/m).
+    volume_min: vec3<f32>,
+    extinction: f32,
+    volume_max: vec3<f32>,
+    // Condensed water (g/m³) at which a texel reaches 1 − 1/e (the image's encoding).
+    density_scale: f32,
+    // x forward HG g, y backward HG g, z backward weight, w powder strength.
+    phase: vec4<f32>,
+    // x view steps, y sun steps, z sun march length (m), w shadow strength on the ground.
+    march: vec4<f32>,
+    // x sun gain, y ambient gain, z single-scattering albedo, w powder length (m).
+    light: vec4<f32>,
+}
+
+@group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> cloud: CloudUniform;
+@group(#{MATERIAL_BIND_GROUP}) @binding(1) var density_texture: texture_3d<f32>;
+@group(#{MATERIAL_BIND_GROUP}) @binding(2) var density_sampler: sampler;
+
+const PI: f32 = 3.141592653589793;
+
+// Ray–box intersection: (t_near, t_far); empty when t_near > t_far.
+fn box_hit(o: vec3<f32>, d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32> {
+    let inv = 1.0 / select(d, vec3(1e-9), abs(d) < vec3(1e-9));
+    let a = (lo - o) * inv;
+    let b = (hi - o) * inv;
+    let t0 = min(a, b);
+    let t1 = max(a, b);
+    return vec2(max(max(t0.x, t0.y), t0.z), min(min(t1.x, t1.y), t1.z));
+}
+
+// Extinction (1/m) at a world position: the texel decoded back to g/m³ times the extinction
+// per g/m³; zero outside the volume.
+fn sigma_at(p: vec3<f32>) -> f32 {
+    let uvw = (p - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
+    if any(uvw < vec3(0.0)) || any(uvw > vec3(1.0)) {
+        return 0.0;
+    }
+    let t = min(textureSampleLevel(density_texture, density_sampler, uvw, 0.0).r, 0.996);
+    return -cloud.density_scale * log(1.0 - t) * cloud.extinction;
+}
+
+// Optical depth from `p` toward the sun `l`, up to the volume's exit or the march length;
+// steps grow quadratically (fine near the sample, coarse far away).
+fn sun_depth(p: vec3<f32>, l: vec3<f32>, jitter: f32) -> f32 {
+    let hit = box_hit(p, l, cloud.volume_min, cloud.volume_max);
+    let len = min(max(hit.y, 0.0), cloud.march.z);
+    if len <= 0.0 || hit.x > hit.y {
+        return 0.0;
+    }
+    let n = max(cloud.march.y, 1.0);
+    var tau = 0.0;
+    var prev = max(hit.x, 0.0);
+    for (var i = 0.0; i < n; i += 1.0) {
+        let t = len * ((i + 1.0) / n) * ((i + 1.0) / n);
+        if t <= prev {
+            continue;
+        }
+        let mid = mix(prev, t, 0.25 + 0.5 * jitter);
+        tau += sigma_at(p + l * mid) * (t - prev);
+        prev = t;
+    }
+    return tau;
+}
+
+fn henyey_greenstein(cos_theta: f32, g: f32) -> f32 {
+    let g2 = g * g;
+    let denom = max(1.0 + g2 - 2.0 * g * cos_theta, 1e-4);
+    return (1.0 - g2) / (4.0 * PI * denom * sqrt(denom));
+}
+
+// Two lobes: forward (silver lining when looking toward the sun) and backward.
+fn phase(cos_theta: f32, scale: f32) -> f32 {
+    let f = henyey_greenstein(cos_theta, cloud.phase.x * scale);
+    let b = henyey_greenstein(cos_theta, cloud.phase.y * scale);
+    return mix(f, b, cloud.phase.z);
+}
+
+fn interleaved_gradient_noise(xy: vec2<f32>) -> f32 {
+    return fract(52.9829189 * fract(dot(xy, vec2(0.06711056, 0.00583715))));
+}
+
+@fragment
+fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
+    let origin = view.world_position.xyz;
+    let ray = normalize(in.world_position.xyz - origin);
+    let hit = box_hit(origin, ray, cloud.volume_min, cloud.volume_max);
+    var t0 = max(hit.x, 0.0);
+    var t1 = hit.y;
+
+    // The opaque scene behind this pixel, when the camera has a depth prepass.
+    var surface = false;
+    var surface_pos = vec3(0.0);
+#ifdef DEPTH_PREPASS
+    let depth = prepass_utils::prepass_depth(in.position, 0u);
+    if depth > 0.0 {
+        let ndc = vec3(uv_to_ndc(frag_coord_to_uv(in.position.xy)), depth);
+        surface_pos = position_ndc_to_world(ndc);
+        surface = true;
+        t1 = min(t1, dot(surface_pos - origin, ray));
+    }
+#endif
+
+    let jitter = interleaved_gradient_noise(in.position.xy);
+    var l = vec3(0.0, 1.0, 0.0);
+    var sun = vec3(0.0);
+    if lights.n_directional_lights > 0u {
+        l = lights.directional_lights[0].direction_to_light;
+        sun = lights.directional_lights[0].color.rgb * view.exposure * cloud.light.x;
+    }
+    let ambient = lights.ambient_color.rgb * view.exposure * cloud.light.y;
+    let cos_theta = dot(ray, l);
+    let albedo = cloud.light.z;
+    // Multiple scattering, three octaves (a, b, c = ½): light deeper in a cloud arrives
+    // through less extinction and a broader phase, so dense cores are not black.
+    let p0 = phase(cos_theta, 1.0);
+    let p1 = phase(cos_theta, 0.5);
+    let p2 = phase(cos_theta, 0.25);
+
+    var transmittance = 1.0;
+    var radiance = vec3(0.0);
+    var weighted_t = 0.0;
+    var weight = 0.0;
+    if t1 > t0 {
+        let n = max(cloud.march.x, 1.0);
+        let dt = (t1 - t0) / n;
+        for (var i = 0.0; i < n; i += 1.0) {
+            let t = t0 + (i + jitter) * dt;
+            let p = origin + ray * t;
+            let sigma = sigma_at(p);
+            if sigma <= 1e-7 {
+                continue;
+            }
+            let tau = sun_depth(p, l, jitter);
+            let direct = p0 * exp(-tau) + 0.5 * p1 * exp(-0.5 * tau) + 0.25 * p2 * exp(-0.25 * tau);
+            // Powder: thin edges facing away from the sun have had little light scattered
+            // into them; fades out toward the sun so the silver lining stays.
+            let powder_on = cloud.phase.w * (0.5 - 0.5 * cos_theta);
+            let powder = mix(1.0, 1.0 - exp(-2.0 * sigma * cloud.light.w), powder_on);
+            // Sky light from above, dimmed by the cloud over the sample (two samples).
+            let up = sigma_at(p + vec3(0.0, 150.0, 0.0)) * 300.0 + sigma_at(p + vec3(0.0, 600.0, 0.0)) * 600.0;
+            let sky = ambient * mix(0.35, 1.0, exp(-up));
+            let source = albedo * (sun * direct * powder + sky);
+            let step_t = exp(-sigma * dt);
+            let gain = transmittance * (1.0 - step_t);
+            // Energy-conserving step (the source integrated over the segment).
+            radiance += source * gain;
+            weighted_t += t * gain;
+            weight += gain;
+            transmittance *= step_t;
+            if transmittance < 0.01 {
+                transmittance = 0.0;
+                break;
+            }
+        }
+    }
+
+    // Cloud shadow on the opaque scene behind the clouds.
+    var shade = 1.0;
+    if surface && l.y > 0.0 && transmittance > 0.0 {
+        let tau = sun_depth(surface_pos + l * 2.0, l, jitter);
+        shade = 1.0 - cloud.march.w * (1.0 - exp(-tau));
+    }
+
+    let alpha = 1.0 - transmittance;
+    var color = vec3(0.0);
+    if alpha > 1e-4 {
+        var c = vec4(radiance / alpha, 1.0);
+#ifdef DISTANCE_FOG
+        let mean_pos = origin + ray * (weighted_t / max(weight, 1e-6));
+        c = apply_fog(fog, c, mean_pos, origin, in.position.xy);
+#endif
+#ifdef TONEMAP_IN_SHADER
+        c = tone_mapping(c, view.color_grading);
+#endif
+        color = c.rgb * alpha;
+    }
+    // Premultiplied blend: color + scene · (1 − a) = color + scene · T_view · shade.
+    return vec4(color, 1.0 - transmittance * shade);
+}

@@ -1,0 +1,151 @@
+//! The lit cloud pass: [`CloudMaterial`] on a box mesh around an atmosphere's cloud density
+//! volume. Its fragment shader (`clouds.wgsl`) ray-marches the 3D density image from the
+//! camera, with a short march toward the sun per sample, and darkens the opaque scene behind
+//! it by the cloud's shadow (see the shader's header and `docs/ARCHITECTURE.md` §5.6).
+//!
+//! The box is drawn back faces only and without a depth test, so the pass runs whether the
+//! camera is outside or inside it; the march stops at the opaque scene when the camera has a
+//! [`DepthPrepass`](bevy::core_pipeline::prepass::DepthPrepass) (scene cameras from
+//! [`crate::camera_bundle`] have one; a game's camera only if it adds one), otherwise it runs to
+//! the box's exit and the clouds draw over the terrain. The box extends below the density
+//! volume down to [`CloudRenderSettings::shadow_floor_m`] so that ground under the lowest layer
+//! is covered and receives the shadows. It sorts before every other transparent item
+//! (clouds are drawn first, the ash over them).
+
+use bevy::asset::Asset;
+use bevy::mesh::MeshVertexBufferLayoutRef;
+use bevy::pbr::{Material, MaterialPipeline, MaterialPipelineKey};
+use bevy::prelude::*;
+use bevy::render::render_resource::{
+    AsBindGroup, CompareFunction, Face, RenderPipelineDescriptor, ShaderType, SpecializedMeshPipelineError,
+};
+use bevy::shader::ShaderRef;
+
+use super::CloudRenderSettings;
+
+/// Asset path of the embedded shader.
+pub const CLOUD_SHADER: &str = "embedded://volcano_render/clouds/clouds.wgsl";
+
+/// The shader's uniform (mirrors `CloudUniform` in `clouds.wgsl`).
+#[derive(ShaderType, Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct CloudUniform {
+    /// Lowest corner of the density volume (world, m).
+    pub volume_min: Vec3,
+    /// Extinction per g/m³ of condensed water (1/m).
+    pub extinction: f32,
+    /// Highest corner of the density volume (world, m).
+    pub volume_max: Vec3,
+    /// Condensed water (g/m³) at which a texel reaches 1 − 1/e (the image's encoding).
+    pub density_scale: f32,
+    /// Forward HG g, backward HG g, backward weight, powder strength.
+    pub phase: Vec4,
+    /// View steps, sun steps, sun march length (m), shadow strength.
+    pub march: Vec4,
+    /// Sun gain, ambient gain, single-scattering albedo, powder length (m).
+    pub light: Vec4,
+}
+
+impl CloudUniform {
+    /// The uniform for a density volume spanning `volume_min..volume_max` under `settings`.
+    pub fn new(volume_min: Vec3, volume_max: Vec3, settings: &CloudRenderSettings) -> Self {
+        let s = settings;
+        Self {
+            volume_min,
+            extinction: s.extinction_per_gram,
+            volume_max,
+            density_scale: s.density_scale,
+            phase: Vec4::new(s.forward_g, s.backward_g, s.backward_weight, s.powder),
+            march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
+            light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, s.powder_length_m),
+        }
+    }
+}
+
+/// The cloud pass's material: the uniform and the 3D density image (`R8Unorm`, u = x,
+/// v = altitude, w = z; [`crate::fog_volume::density_image`]).
+#[derive(Asset, AsBindGroup, Debug, Clone, Reflect)]
+pub struct CloudMaterial {
+    /// Volume, extinction, phase and march settings.
+    #[uniform(0)]
+    pub uniform: CloudUniform,
+    /// The density image.
+    #[texture(1, dimension = "3d")]
+    #[sampler(2)]
+    pub density: Handle<Image>,
+}
+
+impl Material for CloudMaterial {
+    fn fragment_shader() -> ShaderRef {
+        CLOUD_SHADER.into()
+    }
+
+    fn alpha_mode(&self) -> AlphaMode {
+        AlphaMode::Premultiplied
+    }
+
+    /// Far in front of everything else in the back-to-front sort: drawn first.
+    fn depth_bias(&self) -> f32 {
+        -1.0e9
+    }
+
+    fn enable_prepass() -> bool {
+        false
+    }
+
+    fn enable_shadows() -> bool {
+        false
+    }
+
+    fn specialize(
+        _pipeline: &MaterialPipeline,
+        descriptor: &mut RenderPipelineDescriptor,
+        _layout: &MeshVertexBufferLayoutRef,
+        _key: MaterialPipelineKey<Self>,
+    ) -> Result<(), SpecializedMeshPipelineError> {
+        // Back faces: the far side of the box covers every pixel the volume can affect, also
+        // with the camera inside it. No depth test: the shader stops at the scene's depth.
+        descriptor.primitive.cull_mode = Some(Face::Front);
+        if let Some(depth) = descriptor.depth_stencil.as_mut() {
+            depth.depth_compare = Some(CompareFunction::Always);
+            depth.depth_write_enabled = Some(false);
+        }
+        Ok(())
+    }
+}
+
+/// Transform of the drawn box (a unit cube mesh): the density volume's `transform` extended
+/// down to `floor` (m) when that is lower than its bottom.
+pub fn box_transform(transform: &Transform, floor: f32) -> Transform {
+    let bottom = transform.translation.y - 0.5 * transform.scale.y;
+    let top = transform.translation.y + 0.5 * transform.scale.y;
+    let bottom = bottom.min(floor);
+    let mut t = *transform;
+    t.translation.y = 0.5 * (bottom + top);
+    t.scale.y = (top - bottom).max(1.0);
+    t
+}
+
+/// World corners (lowest, highest) of a unit cube placed by `transform` (no rotation).
+pub fn volume_bounds(transform: &Transform) -> (Vec3, Vec3) {
+    let half = 0.5 * transform.scale.abs();
+    (transform.translation - half, transform.translation + half)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_box_reaches_down_to_the_floor_and_keeps_its_top() {
+        let t = crate::fog_volume::volume_transform(1000.0, 500.0, 2500.0);
+        let b = box_transform(&t, -200.0);
+        let (lo, hi) = volume_bounds(&b);
+        assert!((lo.y + 200.0).abs() < 1e-3 && (hi.y - 2500.0).abs() < 1e-3, "{lo} {hi}");
+        assert!((lo.x + 500.0).abs() < 1e-3 && (hi.z - 500.0).abs() < 1e-3, "{lo} {hi}");
+        // A floor above the bottom changes nothing.
+        assert_eq!(box_transform(&t, 800.0), t);
+        let (lo, hi) = volume_bounds(&t);
+        let u = CloudUniform::new(lo, hi, &CloudRenderSettings::default());
+        assert_eq!((u.volume_min.y, u.volume_max.y), (500.0, 2500.0));
+    }
+}
