@@ -88,3 +88,23 @@ fn substep_cap_regression_keeps_water_exact() {
     assert!(r.summary.valid);
     assert!(r.summary.water_total_rel_error < 1e-12, "drift {}", r.summary.water_total_rel_error);
 }
+
+/// A case proptest found in CI on 2026-11-25 (one V-cycle per step, a 1,313 s step, weak
+/// temperature relaxation): the state became invalid.
+#[test]
+fn one_cycle_long_step_regression_keeps_the_state_valid() {
+    let mut s = volcano_atmosphere::Scenario::builtin("orographic").unwrap();
+    s.params.convective_coupling = 0.23811716142107545;
+    s.params.uplift_coupling = 9.897881557681725;
+    s.params.phase_rate = 45.98628821132328;
+    s.params.ground_evaporation_velocity = 0.913507706268909;
+    s.params.solar_constant = 0.0;
+    s.params.sensible_heat_coefficient = 0.0;
+    s.params.soil_depth = 0.01;
+    s.params.temperature_relaxation_s = 2326936.3643335043;
+    s.params.multigrid_cycles = 1;
+    s.params.sky_emissivity = 0.0;
+    let r = volcano_atmosphere::model::run::run(&s, Some(12), Some(1312.91051029756), Some(16)).unwrap();
+    assert!(r.summary.valid, "state became invalid: {:?}", r.summary);
+    assert!(r.summary.water_total_rel_error < 1e-9, "drift {}", r.summary.water_total_rel_error);
+}

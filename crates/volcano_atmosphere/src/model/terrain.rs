@@ -335,7 +335,26 @@ pub fn ground_exchange(
             // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
             // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
             let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
-            let grams = (relax * (target - hum) * vol / implicit).clamp(-hum * vol, *ground_water);
+            let mut grams = relax * (target - hum) * vol / implicit;
+            let linear_end = tg_heat - grams * L_V_PER_G / cap;
+            if (saturation_humidity(linear_end, layer.pi) - hum) * (target - hum) < 0.0 {
+                // The linearisation overshot the temperature where the flux vanishes (a
+                // long step over a thin soil: dew heated it hundreds of kelvin, or
+                // evaporation cooled it below absolute zero, the next step). Solve the
+                // implicit balance T = T_heat − relax·vol·(H_sat(T) − H)·L/c exactly instead,
+                // by bisection between the two ends (it is monotone in T).
+                let balance = |t: f64| {
+                    t - tg_heat + relax * vol * (saturation_humidity(t, layer.pi) - hum) * L_V_PER_G / cap
+                };
+                let (mut lo, mut hi) =
+                    if linear_end < tg_heat { (linear_end, tg_heat) } else { (tg_heat, linear_end) };
+                for _ in 0..60 {
+                    let mid = 0.5 * (lo + hi);
+                    if balance(mid) > 0.0 { hi = mid } else { lo = mid }
+                }
+                grams = (tg_heat - 0.5 * (lo + hi)) * cap / L_V_PER_G;
+            }
+            let grams = grams.clamp(-hum * vol, *ground_water);
             let tg_new = tg_heat - grams * L_V_PER_G / cap;
             t_rows[r] = ta_new as f32;
             h_rows[r] = (hum + grams / vol).max(0.0);
