@@ -51,60 +51,82 @@ proptest! {
         kappa in 0.0f64..1000.0, soil in 0.01f64..100.0, relax in 1.0f64..1e7,
         cycles in 1u32..8, dt in 1.0f64..3600.0, sky in 0.0f64..1.0,
     ) {
-        let mut s = volcano_atmosphere::Scenario::builtin("orographic").unwrap();
-        s.params.convective_coupling = lambda;
-        s.params.uplift_coupling = nu;
-        s.params.phase_rate = gamma;
-        s.params.ground_evaporation_velocity = evap;
-        s.params.solar_constant = solar;
-        s.params.sensible_heat_coefficient = kappa;
-        s.params.soil_depth = soil;
-        s.params.temperature_relaxation_s = relax;
-        s.params.multigrid_cycles = cycles;
-        s.params.sky_emissivity = sky;
-        s.params.validate().unwrap();
-        let r = volcano_atmosphere::model::run::run(&s, Some(12), Some(dt), Some(16)).unwrap();
-        prop_assert!(r.summary.valid, "state became invalid");
-        prop_assert!(r.summary.water_total_rel_error < 1e-9, "water drift {}", r.summary.water_total_rel_error);
+        let c = Coefficients { lambda, nu, gamma, evap, solar, kappa, soil, relax, cycles, sky };
+        let summary = orographic(&c, dt);
+        prop_assert!(summary.valid, "state became invalid");
+        prop_assert!(summary.water_total_rel_error < 1e-9, "water drift {}", summary.water_total_rel_error);
     }
+}
+
+/// The coefficients the property test varies (the fields of `AtmosphereParams` it sets).
+struct Coefficients {
+    lambda: f64,
+    nu: f64,
+    gamma: f64,
+    evap: f64,
+    solar: f64,
+    kappa: f64,
+    soil: f64,
+    relax: f64,
+    cycles: u32,
+    sky: f64,
+}
+
+/// The orographic scenario with `c` (validated), 12 steps of `dt` s on a 16² grid.
+fn orographic(c: &Coefficients, dt: f64) -> volcano_atmosphere::AtmosphereSummary {
+    let mut s = volcano_atmosphere::Scenario::builtin("orographic").unwrap();
+    s.params.convective_coupling = c.lambda;
+    s.params.uplift_coupling = c.nu;
+    s.params.phase_rate = c.gamma;
+    s.params.ground_evaporation_velocity = c.evap;
+    s.params.solar_constant = c.solar;
+    s.params.sensible_heat_coefficient = c.kappa;
+    s.params.soil_depth = c.soil;
+    s.params.temperature_relaxation_s = c.relax;
+    s.params.multigrid_cycles = c.cycles;
+    s.params.sky_emissivity = c.sky;
+    s.params.validate().unwrap();
+    volcano_atmosphere::model::run::run(&s, Some(12), Some(dt), Some(16)).unwrap().summary
 }
 
 /// The case proptest found before the donor limiter existed: a 2,767 s step with strong
 /// uplift hit the 256-substep cap and the clamp at zero created water (drift 1.8e-9).
 #[test]
 fn substep_cap_regression_keeps_water_exact() {
-    let mut s = volcano_atmosphere::Scenario::builtin("orographic").unwrap();
-    s.params.convective_coupling = 0.0;
-    s.params.uplift_coupling = 7.466619247877709;
-    s.params.phase_rate = 78.0077694986079;
-    s.params.ground_evaporation_velocity = 0.023271021668145;
-    s.params.solar_constant = 0.0;
-    s.params.sensible_heat_coefficient = 0.0;
-    s.params.soil_depth = 87.29544783755267;
-    s.params.temperature_relaxation_s = 1.0;
-    s.params.multigrid_cycles = 4;
-    s.params.sky_emissivity = 0.0;
-    let r = volcano_atmosphere::model::run::run(&s, Some(12), Some(2766.874965108243), Some(16)).unwrap();
-    assert!(r.summary.valid);
-    assert!(r.summary.water_total_rel_error < 1e-12, "drift {}", r.summary.water_total_rel_error);
+    let c = Coefficients {
+        lambda: 0.0,
+        nu: 7.466619247877709,
+        gamma: 78.0077694986079,
+        evap: 0.023271021668145,
+        solar: 0.0,
+        kappa: 0.0,
+        soil: 87.29544783755267,
+        relax: 1.0,
+        cycles: 4,
+        sky: 0.0,
+    };
+    let summary = orographic(&c, 2766.874965108243);
+    assert!(summary.valid);
+    assert!(summary.water_total_rel_error < 1e-12, "drift {}", summary.water_total_rel_error);
 }
 
-/// A case proptest found in CI on 2026-11-25 (one V-cycle per step, a 1,313 s step, weak
-/// temperature relaxation): the state became invalid.
+/// A case proptest found in CI on 2026-11-25 (one V-cycle per step, a 1,313 s step, a 1 cm
+/// soil): the ground's latent heat overshot and the state became invalid.
 #[test]
 fn one_cycle_long_step_regression_keeps_the_state_valid() {
-    let mut s = volcano_atmosphere::Scenario::builtin("orographic").unwrap();
-    s.params.convective_coupling = 0.23811716142107545;
-    s.params.uplift_coupling = 9.897881557681725;
-    s.params.phase_rate = 45.98628821132328;
-    s.params.ground_evaporation_velocity = 0.913507706268909;
-    s.params.solar_constant = 0.0;
-    s.params.sensible_heat_coefficient = 0.0;
-    s.params.soil_depth = 0.01;
-    s.params.temperature_relaxation_s = 2326936.3643335043;
-    s.params.multigrid_cycles = 1;
-    s.params.sky_emissivity = 0.0;
-    let r = volcano_atmosphere::model::run::run(&s, Some(12), Some(1312.91051029756), Some(16)).unwrap();
-    assert!(r.summary.valid, "state became invalid: {:?}", r.summary);
-    assert!(r.summary.water_total_rel_error < 1e-9, "drift {}", r.summary.water_total_rel_error);
+    let c = Coefficients {
+        lambda: 0.23811716142107545,
+        nu: 9.897881557681725,
+        gamma: 45.98628821132328,
+        evap: 0.913507706268909,
+        solar: 0.0,
+        kappa: 0.0,
+        soil: 0.01,
+        relax: 2326936.3643335043,
+        cycles: 1,
+        sky: 0.0,
+    };
+    let summary = orographic(&c, 1312.91051029756);
+    assert!(summary.valid, "state became invalid: {summary:?}");
+    assert!(summary.water_total_rel_error < 1e-9, "drift {}", summary.water_total_rel_error);
 }
