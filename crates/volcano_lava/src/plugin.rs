@@ -190,18 +190,26 @@ fn step_fields(
     }
 }
 
-/// Writes each field's new frozen lava into the terrain it was built on once per simulated
-/// second of the lava clock, whatever the fixed rate (fields in entity order), and one
-/// [`TerrainChanged`] per terrain whose heights moved. The terrain's change detection is
-/// bypassed: readers of `Changed<Terrain>` would otherwise redo the whole terrain each second
-/// for a few nodes.
+/// When frozen lava is written into the terrain: once per simulated second of the lava clock,
+/// at half past each second ([`IMPRINT_OFFSET`]).
+pub const IMPRINT_PERIOD: std::time::Duration = std::time::Duration::from_secs(1);
+/// Half a second: the write-back never falls on the base tick of the once-per-second weather
+/// step (started and applied on whole seconds), so the two costs do not add up on one tick
+/// (the frame-budget target: weather ticks ≤ 1.5 × the others).
+pub const IMPRINT_OFFSET: std::time::Duration = std::time::Duration::from_millis(500);
+
+/// Writes each field's new frozen lava into the terrain it was built on once per
+/// [`IMPRINT_PERIOD`] of the lava clock at [`IMPRINT_OFFSET`], whatever the fixed rate (fields
+/// in entity order), and one [`TerrainChanged`] per terrain whose heights moved. The terrain's
+/// change detection is bypassed: readers of `Changed<Terrain>` would otherwise redo the whole
+/// terrain each second for a few nodes.
 fn imprint_terrain(
     time: Res<Time>,
     mut terrains: Query<&mut Terrain>,
     mut fields: Query<(Entity, &mut LavaState)>,
     mut changed: MessageWriter<TerrainChanged>,
 ) {
-    if !volcano_core::clock::crossed_period(time.elapsed(), time.delta(), std::time::Duration::from_secs(1)) {
+    if volcano_core::clock::crossings(time.elapsed(), time.delta(), IMPRINT_PERIOD, IMPRINT_OFFSET) == 0 {
         return;
     }
     let mut order: Vec<Entity> = fields.iter().map(|(e, _)| e).collect();

@@ -70,8 +70,8 @@ fn flank_patches_conserve_volume_and_the_terrain_gains_exactly_the_frozen_lava()
     let fine = patch(&mut app, Vec2::new(52.3, 17.9), 40, 1.0, (0.4, 1274.0));
     // Coarser than the terrain (4.5 m cells), off the lattice, on the other flank.
     let coarse = patch(&mut app, Vec2::new(-38.6, -47.2), 12, 4.5, (2.0, 1276.0));
-    // 30 s: a whole multiple of the 1 s write-back.
-    run(&mut app, 1500);
+    // 30.5 s: the write-back's tick (once a second, at half past).
+    run(&mut app, 1525);
 
     let w = app.world();
     let mut frozen_total = 0.0;

@@ -161,8 +161,8 @@ fn frozen_lava_is_written_back_into_the_terrain() {
     state.flow.place_volume(Vec2::new(0.0, -4.0), 3.0, 3.0, 1273.2).unwrap();
     // Cells span [−16, 16] m: the footprints of nodes −16..16 m.
     assert!(state.imprint.as_ref().is_some_and(|l| l.imprint.len() == 33 * 33), "nodes −16..16 m");
-    // To tick 250: the last one writes back (once every 50).
-    run(&mut app, 249);
+    // To tick 225: the last one writes back (once a second at half past: ticks 25, 75, …).
+    run(&mut app, 224);
     let after = terrain_heights(&mut app);
     let state = app.world().get::<LavaState>(field).unwrap();
     let frozen = state.flow.budget().solidified;
@@ -197,8 +197,8 @@ fn despawning_a_patch_removes_its_lava_and_keeps_what_froze_in_the_terrain() {
     // 3 m³ just above the solidus beside the live source: it freezes within seconds.
     let mut state = app.world_mut().get_mut::<LavaState>(field).unwrap();
     state.flow.place_volume(Vec2::new(0.0, 4.0), 3.0, 3.0, 1273.2).unwrap();
-    // To tick 250: the last one writes back (once every 50).
-    run(&mut app, 249);
+    // To tick 225: the last one writes back (once a second at half past: ticks 25, 75, …).
+    run(&mut app, 224);
     let terrain = |app: &mut App| {
         let w = app.world_mut();
         let t = w.query::<&Terrain>().single(w).unwrap();
@@ -209,7 +209,7 @@ fn despawning_a_patch_removes_its_lava_and_keeps_what_froze_in_the_terrain() {
     assert!(app.world().resource::<Probe>().0.is_some(), "lava under the probe before the despawn");
 
     app.world_mut().entity_mut(field).despawn();
-    // Past two more write-back ticks (300, 350).
+    // Past two more write-back ticks (275, 325).
     run(&mut app, 120);
     let w = app.world_mut();
     assert_eq!(w.query::<&LavaState>().iter(w).count(), 0, "no lava state survives its patch");
