@@ -15,8 +15,9 @@ use bevy::render::render_resource::{
 /// Display brightness of a sky texel of 1.0 (after exposure), shared by the skybox and the fog.
 pub const SKY_GAIN: f32 = 1.2;
 
-/// Gains on the horizon colour for the fog colour (see [`GradientSky::fog`]).
-pub const FOG_MATCH: Vec3 = Vec3::new(1.23, 1.44, 1.87);
+/// Gains on the horizon colour for the fog colour of an LDR camera (see [`GradientSky::fog`]).
+/// An HDR camera needs none: its skybox goes through the same tonemapping pass as the fog.
+pub const FOG_MATCH: Vec3 = Vec3::new(1.20, 1.55, 2.7);
 
 /// Texels per side of each cubemap face.
 pub const FACE_SIZE: u32 = 64;
@@ -114,16 +115,23 @@ impl GradientSky {
     }
 
     /// Distance fog fading terrain into the horizon colour (squared exponential, so the near
-    /// field stays clear and the far land meets the sky), with sun-side in-scattering.
-    pub fn fog(&self) -> DistanceFog {
+    /// field stays clear and the far land meets the sky), with sun-side in-scattering, for a
+    /// camera with (`hdr`) or without `Hdr`.
+    pub fn fog(&self, hdr: bool) -> DistanceFog {
         let visibility = if self.visibility.is_finite() { self.visibility.max(100.0) } else { 90_000.0 };
         DistanceFog {
-            // Fog is mixed into the lit colour before tonemapping, whose shoulder dims and
-            // desaturates it more than the skybox's horizon: per-channel gains measured so
-            // that fully fogged land meets the default horizon on screen (eruption scene,
-            // llvmpipe, ACES fitted, EV100 13: fog at 1.0× showed (162, 178, 197) against a
-            // sky of (177, 201, 233), at 1.2× (175, 189, 206)).
-            color: Color::from(LinearRgba::from_vec3(self.horizon.to_vec3() * FOG_MATCH)),
+            // On an LDR camera the fog is mixed into the lit colour before the shader's
+            // tonemapping, whose shoulder dims and desaturates it, while the skybox's horizon
+            // is not tonemapped: per-channel gains measured so that fully fogged land meets
+            // the default horizon on screen (llvmpipe, ACES fitted, EV100 13: fog at 1.0×
+            // showed (162, 178, 197) against a sky of (177, 201, 233); the gains were set
+            // with `tests/headless_horizon.rs`, where the far ring's edge shows (183, 203, 234)
+            // against a sky of (179, 203, 236)). On an HDR camera both go through the
+            // tonemapping pass and meet at 1.0× ((160, 175, 193) against (159, 175, 194); the
+            // LDR gains there showed (180, 200, 232), a bright band under the horizon).
+            color: Color::from(LinearRgba::from_vec3(
+                self.horizon.to_vec3() * if hdr { Vec3::ONE } else { FOG_MATCH },
+            )),
             directional_light_color: Color::linear_rgba(1.0, 0.9, 0.7, 0.04),
             directional_light_exponent: 12.0,
             falloff: FogFalloff::from_visibility_squared(visibility),

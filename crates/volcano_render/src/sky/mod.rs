@@ -23,7 +23,7 @@
 
 pub mod gradient;
 
-use bevy::camera::Exposure;
+use bevy::camera::{Exposure, Hdr};
 use bevy::core_pipeline::tonemapping::Tonemapping;
 use bevy::light::atmosphere::ScatteringMedium;
 use bevy::light::light_consts::lux;
@@ -280,13 +280,20 @@ fn update_sky_cameras(
     settings: Res<SkySettings>,
     active: Res<ActiveSky>,
     suns: Query<Ref<Sun>>,
-    new_cameras: Query<(), Added<VolcanoSkyCamera>>,
-    mut cameras: Query<(Entity, Option<&mut Exposure>), With<VolcanoSkyCamera>>,
+    new_cameras: Query<(), Or<(Added<VolcanoSkyCamera>, Added<Hdr>)>>,
+    mut removed_hdr: RemovedComponents<Hdr>,
+    mut cameras: Query<(Entity, Option<&mut Exposure>, Has<Hdr>), With<VolcanoSkyCamera>>,
     mut images: ResMut<Assets<Image>>,
     mut sky_image: Local<SkyImage>,
 ) {
     let sun_changed = suns.iter().any(|s| s.is_changed());
-    if !(settings.is_changed() || active.is_changed() || sun_changed || !new_cameras.is_empty()) {
+    let hdr_removed = removed_hdr.read().count() > 0;
+    if !(settings.is_changed()
+        || active.is_changed()
+        || sun_changed
+        || hdr_removed
+        || !new_cameras.is_empty())
+    {
         return;
     }
     let gradient = active.0 == SkyMode::Gradient;
@@ -304,7 +311,7 @@ fn update_sky_cameras(
     } else {
         None
     };
-    for (entity, exposure) in &mut cameras {
+    for (entity, exposure, hdr) in &mut cameras {
         let mut e = commands.entity(entity);
         match exposure {
             Some(mut x) if x.ev100 != settings.exposure_ev100 => x.ev100 = settings.exposure_ev100,
@@ -317,7 +324,7 @@ fn update_sky_cameras(
             Some(h) => {
                 e.remove::<AtmosphereSettings>().insert((
                     GradientSky::skybox(h.clone(), settings.exposure_ev100),
-                    settings.gradient.fog(),
+                    settings.gradient.fog(hdr),
                 ));
             }
             None => {
