@@ -19,7 +19,7 @@ fn run(grid: usize, seconds: u64, off_thread: bool) {
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, AtmospherePlugin::default()))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
         .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
-        .insert_resource(WeatherPipelineSettings { off_thread });
+        .insert_resource(WeatherPipelineSettings { off_thread, ..default() });
     let scenario = Scenario::builtin("convection").expect("built-in scenario");
     app.add_systems(Startup, move |mut commands: Commands| {
         spawn_scenario(&mut commands, &scenario, Some(grid)).expect("valid scenario");

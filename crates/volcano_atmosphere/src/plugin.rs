@@ -6,6 +6,7 @@
 
 mod components;
 pub mod pipeline;
+mod shared;
 mod snapshot;
 mod spawn;
 
@@ -19,6 +20,7 @@ pub use components::{
 pub use pipeline::{
     AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,
 };
+pub use shared::SharedFields;
 pub use spawn::{spawn_atmosphere, spawn_scenario, spawn_scenario_with};
 
 /// The layered atmosphere: systems in [`WeatherStep`] and [`WeatherSystems`], and the messages

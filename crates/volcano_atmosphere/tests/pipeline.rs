@@ -31,7 +31,7 @@ fn app(cadence: u32, ticks_per_update: u32, off_thread: bool) -> App {
     ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update))
     .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
-    .insert_resource(WeatherPipelineSettings { off_thread })
+    .insert_resource(WeatherPipelineSettings { off_thread, ..default() })
     .init_resource::<Stepped>()
     .add_systems(Last, record);
     app
@@ -48,7 +48,7 @@ fn run(app: &mut App, ticks: u64) {
 fn components(app: &mut App) -> (Vec<LayerFields>, f64, f64) {
     let world = app.world_mut();
     let mut layers: Vec<(usize, LayerFields)> =
-        world.query::<&AirLayer>().iter(world).map(|l| (l.index, l.fields.clone())).collect();
+        world.query::<&AirLayer>().iter(world).map(|l| (l.index, (*l.fields).clone())).collect();
     layers.sort_by_key(|l| l.0);
     let atmo = world.query::<&Atmosphere>().single(world).unwrap();
     (layers.into_iter().map(|l| l.1).collect(), atmo.time_s, atmo.precipitated)

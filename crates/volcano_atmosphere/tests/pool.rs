@@ -45,7 +45,7 @@ fn run_app() -> WeatherPipelineStatus {
     ))
     .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
     .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
-    .insert_resource(WeatherPipelineSettings { off_thread: true })
+    .insert_resource(WeatherPipelineSettings { off_thread: true, ..default() })
     .add_systems(FixedUpdate, (busy, busy, busy));
     let scenario = Scenario::builtin("mixed").unwrap();
     app.add_systems(Startup, move |mut commands: Commands| {

@@ -76,6 +76,12 @@ pub struct BenchReport {
     /// not paced to real time (ticks follow each other as fast as they run), so the worker has
     /// less wall time than in a game, where a weather step has a whole second.
     pub weather_waits: u64,
+    /// Mean main-thread ms of starting a weather step (`WeatherPipelineStatus::last_start_ms`:
+    /// copying the ground, sharing the layers, spawning the task) and of writing one back
+    /// (`last_apply_ms`, the join included), over the timed weather ticks.
+    pub weather_start_ms_mean: f64,
+    /// See `weather_start_ms_mean`.
+    pub weather_apply_ms_mean: f64,
     /// Mean ms per base tick of each domain's set (`coupling` = the sets just before and after
     /// the weather).
     pub domains: std::collections::BTreeMap<&'static str, f64>,
@@ -164,6 +170,13 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         let mut q = world.query::<&WeatherPipelineStatus>();
         q.iter(world).fold((0, 0, 0), |(a, b, c), s| (a + s.started, b + s.applied, c + s.waited))
     };
+    // The main-thread cost of the last start and write-back, summed over every atmosphere.
+    let pipeline_ms = |app: &mut App| {
+        let world = app.world_mut();
+        let mut q = world.query::<&WeatherPipelineStatus>();
+        q.iter(world).fold((0.0, 0.0), |(a, b), s| (a + s.last_start_ms, b + s.last_apply_ms))
+    };
+    let (mut start_ms, mut apply_ms) = (Vec::new(), Vec::new());
     // Startup (terrain, pre-spin) and the zero-delta first update are not timed.
     app.update();
     while tick(&app) < warmup {
@@ -198,6 +211,12 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         }
         all.push(ms);
         let sets_after = app.world().resource::<Stamps>().total;
+        if after.1.0 != before.1.0 {
+            start_ms.push(pipeline_ms(&mut app).0);
+        }
+        if after.1.1 != before.1.1 {
+            apply_ms.push(pipeline_ms(&mut app).1);
+        }
         let (list, sums) = if after.1 != before.1 {
             (&mut weather_ms, &mut weather_sets)
         } else {
@@ -251,6 +270,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         weather_tick_ms_mean: mean(&weather_ms),
         other_tick_ms_mean: mean(&other_ms),
         weather_waits,
+        weather_start_ms_mean: mean(&start_ms),
+        weather_apply_ms_mean: mean(&apply_ms),
         domains: [
             ("plume", ms(1)),
             ("pyroclastic", ms(2)),

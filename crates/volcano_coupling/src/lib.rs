@@ -20,6 +20,6 @@ pub mod plugin;
 pub use model::books::CouplingBudget;
 pub use model::column::{ColumnSlice, TransferReport};
 pub use model::step::{
-    AirSide, AirToPlumeReport, AmbientRequest, AshParcel, CoupledColumn, PlumeToAirReport,
+    AirReadSide, AirSide, AirToPlumeReport, AmbientRequest, AshParcel, CoupledColumn, PlumeToAirReport,
 };
 pub use plugin::{AshLedger, CouplingPlugin, CouplingSettings, CouplingSystems, ash_ledger};

@@ -21,7 +21,7 @@ use volcano_plume::{
 pub use crate::model::books::CouplingBudget;
 use crate::model::column::ColumnSlice;
 use crate::model::inject::cell_at;
-use crate::model::step::{AirSide, AmbientRequest, AshParcel, CoupledColumn};
+use crate::model::step::{AirReadSide, AirSide, AmbientRequest, AshParcel, CoupledColumn};
 
 /// Public sets of the coupling, so games can order their own systems against the transfers.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -116,14 +116,31 @@ impl<'a> Gathered<'a> {
         if handles.len() < 2 || handles.iter().any(|l| l.fields.t.nx() != n) {
             return None;
         }
-        let layers = handles.iter_mut().map(|l| std::mem::take(&mut l.fields)).collect();
+        // Moved out of their shared cells in place: the plume → air transfer runs before a
+        // weather step starts, when no step holds them (no copy).
+        let layers = handles.iter_mut().map(|l| std::mem::take(&mut *l.fields)).collect();
         Some(Self { handles, layers })
     }
     fn restore(mut self) {
         for (h, f) in self.handles.iter_mut().zip(self.layers.drain(..)) {
-            h.fields = f;
+            *h.fields = f;
         }
     }
+}
+
+/// An atmosphere's layers, read in place (sorted by index): the air → plume transfer runs
+/// while the weather step it just started holds them, and only reads them.
+fn layers_read<'a>(
+    atmosphere: Entity,
+    query: &'a Query<&AirLayer>,
+    n: usize,
+) -> Option<Vec<&'a LayerFields>> {
+    let mut mine: Vec<&AirLayer> = query.iter().filter(|l| l.atmosphere == atmosphere).collect();
+    mine.sort_by_key(|l| l.index);
+    if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != n) {
+        return None;
+    }
+    Some(mine.into_iter().map(|l| &*l.fields).collect())
 }
 
 /// Atmospheres by entity order, with their grids.
@@ -247,7 +264,7 @@ fn air_to_plume(
     mut seen_steps: ResMut<WeatherStepsSeen>,
     mut stepped: MessageReader<WeatherStepped>,
     mut atmospheres: Query<(Entity, &Atmosphere, &mut AtmosphereGround, &mut CouplingBudget)>,
-    mut layer_query: Query<&mut AirLayer>,
+    layer_query: Query<&AirLayer>,
     volcanoes: Query<(Entity, &VentPosition, &Eruption, Option<&CouplingSettings>, Has<PlumeAmbient>)>,
     slices: Query<(Entity, &PlumeSlice)>,
     mut grounds: Query<(&Terrain, &mut DepositMap)>,
@@ -296,13 +313,13 @@ fn air_to_plume(
                 .is_some_and(|(t, mut deposit)| deposit.add_on(t, Vec2::new(x, z), kg, bulk))
         };
         let mine: Vec<Entity> = by_atmo.iter().filter(|(a, _)| *a == atmo).map(|(_, v)| *v).collect();
-        let gathered = if mine.is_empty() { None } else { Gathered::new(atmo, &mut layer_query, grid.n) };
-        let Some(mut g) = gathered else {
+        let gathered = if mine.is_empty() { None } else { layers_read(atmo, &layer_query, grid.n) };
+        let Some(layers) = gathered else {
             // No column to serve here (or no usable layers): only the fallen ash.
             if stepped_now {
-                let mut air = AirSide {
+                let mut air = AirReadSide {
                     grid,
-                    layers: &mut [],
+                    layers: &[],
                     ground_ash: ground.0.ash.data_mut(),
                     books: &mut budget,
                 };
@@ -326,7 +343,7 @@ fn air_to_plume(
             })
             .collect();
         let mut air =
-            AirSide { grid, layers: &mut g.layers, ground_ash: ground.0.ash.data_mut(), books: &mut budget };
+            AirReadSide { grid, layers: &layers, ground_ash: ground.0.ash.data_mut(), books: &mut budget };
         let report = crate::model::step::air_to_plume(&mut air, stepped_now, &asks, &mut deposit);
         for ((v, eruption, ..), levels) in requests.iter().zip(report.ambients) {
             let v = *v;
@@ -342,7 +359,6 @@ fn air_to_plume(
                 }
             }
         }
-        g.restore();
     }
 }
 

@@ -147,7 +147,7 @@ fn ash_books_close_and_runs_do_not_depend_on_the_frame_rate_or_the_weather_threa
                 CouplingSettings::default(),
                 per_update,
             );
-            a.insert_resource(WeatherPipelineSettings { off_thread });
+            a.insert_resource(WeatherPipelineSettings { off_thread, ..default() });
             run(&mut a, ticks);
             a
         })

@@ -4,6 +4,7 @@
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::prelude::*;
 
+use super::shared::SharedFields;
 use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::scenario::Event;
@@ -74,8 +75,9 @@ pub struct AirLayer {
     pub atmosphere: Entity,
     /// Position in the stack (0 = lowest).
     pub index: usize,
-    /// The fields.
-    pub fields: LayerFields,
+    /// The fields, shared copy-on-write with the weather step in flight ([`SharedFields`]:
+    /// use them as [`LayerFields`]).
+    pub fields: SharedFields,
 }
 
 /// Ash concentration (g/m³) in the air of `atmosphere` at world position `p` (gameplay: "is
@@ -84,7 +86,7 @@ pub struct AirLayer {
 pub fn air_ash_at<'a>(layers: impl IntoIterator<Item = &'a AirLayer>, atmosphere: Entity, p: Vec3) -> f64 {
     let mut mine: Vec<&AirLayer> = layers.into_iter().filter(|l| l.atmosphere == atmosphere).collect();
     mine.sort_by_key(|l| l.index);
-    let fields: Vec<&LayerFields> = mine.iter().map(|l| &l.fields).collect();
+    let fields: Vec<&LayerFields> = mine.iter().map(|l| &*l.fields).collect();
     crate::model::ash::ash_at(&fields, p.x, p.y as f64, p.z)
 }
 

@@ -1,14 +1,17 @@
 //! Weather steps off the main thread, pipelined deterministically (docs/ARCHITECTURE.md §3.3).
 //!
-//! At a weather tick k the domain schedule ([`WeatherStep`]) copies the components into a
-//! snapshot and starts the model step on it: on Bevy's `AsyncComputeTaskPool` when the pool
-//! exists and [`WeatherPipelineSettings::off_thread`] is set, otherwise at once on the main
-//! thread. The result is written back at the next weather tick (k + k_cadence for
+//! At a weather tick k the domain schedule ([`WeatherStep`]) copies the ground, shares the
+//! layers' fields ([`SharedFields`](super::shared::SharedFields), copy-on-write) and starts the
+//! model step: on Bevy's `AsyncComputeTaskPool` when the pool exists and
+//! [`WeatherPipelineSettings::off_thread`] is set, otherwise at once on the main thread. The
+//! step first copies the shared layers into its own buffers (so that copy, most of a snapshot's
+//! bytes, is off the main thread too), applies the timeline events due, then steps. The result is written back at the next weather tick (k + k_cadence for
 //! `EveryNthTick(k_cadence)`), in [`WeatherSystems::Apply`] before the coupling's transfers;
 //! that join only blocks if the worker has not finished. The components therefore always hold
 //! a complete state one weather step behind the weather clock, and the state at every tick is
 //! the same whichever thread ran the step and whatever the frame rate.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use bevy::prelude::*;
@@ -19,10 +22,12 @@ use volcano_core::prelude::*;
 use super::components::{
     AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped,
 };
-use super::snapshot::{merge_ground, snapshot};
+use super::shared::SharedFields;
+use super::snapshot::{merge_ground, snapshot_ground, snapshot_layers};
 use crate::model::fields::{AtmosphereState, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::run::apply_event;
+use crate::model::scenario::Event;
 use crate::model::step::{StepReport, Workspace, step};
 
 /// The pool the weather step's bands run on: the async compute pool, whose tasks never wait for
@@ -38,11 +43,19 @@ pub struct WeatherPipelineSettings {
     /// as it starts and its result still waits for the next weather tick: the state is
     /// bit-identical either way, only the thread differs.
     pub off_thread: bool,
+    /// Wall-clock time an off-thread step waits before it starts working (default 20 ms).
+    /// Its first work is a burst (copying ~20 MB of layers at full memory bandwidth, a newly
+    /// woken thread) that, started at once, landed on the main thread's busiest tick: on two
+    /// cores the weather tick took 2.3× the others (`volcano bench`, release), 1.15× with a
+    /// delay, the other ticks unchanged. The result is applied at the same base tick whatever
+    /// the delay (the state never depends on it); keep it well under the weather cadence's
+    /// wall time (a second of game time at 50 Hz), or the write-back waits for the step.
+    pub start_delay: std::time::Duration,
 }
 
 impl Default for WeatherPipelineSettings {
     fn default() -> Self {
-        Self { off_thread: true }
+        Self { off_thread: true, start_delay: std::time::Duration::from_millis(20) }
     }
 }
 
@@ -68,10 +81,20 @@ pub struct WeatherPipelineStatus {
     pub last_apply_ms: f64,
 }
 
+/// What a step starts from: the shared layers, buffers to copy them into, the rest of the state
+/// (ground copied, no layers), the timeline events due and the scratch buffers, if any yet.
+struct StepInput {
+    shared: Vec<Arc<LayerFields>>,
+    spare_layers: Option<Vec<LayerFields>>,
+    shell: AtmosphereState,
+    events: Vec<Event>,
+    work: Option<Workspace>,
+}
+
 /// A finished step: its state, the scratch buffers it used and what it reported.
 struct Stepped {
     state: AtmosphereState,
-    work: Workspace,
+    work: Option<Workspace>,
     result: Result<StepReport, ConfigError>,
     /// `state.is_valid()` in debug builds (checked on the worker, asserted on write-back).
     valid: bool,
@@ -139,12 +162,29 @@ impl AtmosphereWork {
     }
 }
 
-/// One model step of the pipeline. Its bands run on the async compute pool, on or off the main
-/// thread alike: a system joins this step one weather step later, and a compute-pool thread
-/// helping with the step's bands could pick up that very system and wait for itself
-/// (`volcano_core::parallel`'s module docs).
-fn run_step(mut state: AtmosphereState, params: &AtmosphereParams, mut work: Workspace, dt: f64) -> Stepped {
-    let result = parallel::on_pool(POOL, || step(&mut state, params, &mut work, dt));
+/// One model step of the pipeline: copies the shared layers (and lets go of them), applies the
+/// events due, steps. Its bands run on the async compute pool, on or off the main thread alike:
+/// a system joins this step one weather step later, and a compute-pool thread helping with the
+/// step's bands could pick up that very system and wait for itself (`volcano_core::parallel`'s
+/// module docs).
+fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64) -> Stepped {
+    let StepInput { shared, spare_layers, shell, events, work } = input;
+    let refs: Vec<&LayerFields> = shared.iter().map(|l| &**l).collect();
+    let layers = snapshot_layers(spare_layers, &refs);
+    drop(refs);
+    // From here on a write into the components no longer copies them.
+    drop(shared);
+    let mut state = AtmosphereState { layers, ..shell };
+    for event in &events {
+        apply_event(&mut state, event);
+    }
+    let (work, result) = match work.map_or_else(|| Workspace::new(&state), Ok) {
+        Ok(mut work) => {
+            let result = parallel::on_pool(POOL, || step(&mut state, params, &mut work, dt));
+            (Some(work), result)
+        }
+        Err(e) => (None, Err(e)),
+    };
     // docs/ARCHITECTURE.md §7.1: debug builds check that the state stays finite and
     // non-negative.
     let valid = !cfg!(debug_assertions) || state.is_valid();
@@ -178,7 +218,7 @@ fn write_back(
     now: u64,
 ) -> Option<WeatherStepped> {
     let Stepped { mut state, work: scratch, result, valid } = done;
-    work.work = Some(scratch);
+    work.work = scratch;
     t.status.in_flight_since = None;
     debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
     let fits = t.layers.len() == state.layers.len()
@@ -191,9 +231,13 @@ fn write_back(
         warn_once!("atmosphere {}: its layers changed during a weather step; the step is dropped", t.entity);
         return None;
     }
-    for (layer, fields) in t.layers.iter_mut().zip(state.layers.iter_mut()) {
-        std::mem::swap(&mut layer.fields, fields);
+    // The result goes in without a copy; the old fields (no longer shared: the worker let
+    // go of them before stepping) become the next step's buffers.
+    let mut spare = Vec::with_capacity(state.layers.len());
+    for (layer, fields) in t.layers.iter_mut().zip(state.layers.drain(..)) {
+        spare.push(std::mem::replace(&mut layer.fields, SharedFields::new(fields)).into_inner());
     }
+    state.layers = spare;
     merge_ground(t.ground, &mut state.ground);
     t.status.applied += 1;
     let message = match result {
@@ -293,30 +337,35 @@ pub(crate) fn start_weather(
         if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != template.grid.n) {
             continue;
         }
-        let fields: Vec<&LayerFields> = mine.iter().map(|l| &l.fields).collect();
-        let mut state = snapshot(work.spare.take(), &fields, &ground.0, template);
-        let scratch = match work.work.take().map_or_else(|| Workspace::new(&state), Ok) {
-            Ok(scratch) => scratch,
-            Err(e) => {
-                warn_once!("atmosphere {entity} not stepped: {e}");
-                continue;
-            }
+        let shared: Vec<Arc<LayerFields>> = mine.iter().map(|l| l.fields.share()).collect();
+        let (spare_layers, spare_ground) = match work.spare.take() {
+            Some(s) => (Some(s.layers), Some(s.ground)),
+            None => (None, None),
         };
-        if let Some(mut timeline) = timeline {
-            let due = timeline.0.iter().take_while(|e| e.at_s <= state.time_s).count();
-            if due > 0 {
-                for event in timeline.0.drain(..due) {
-                    apply_event(&mut state, &event);
-                }
+        let shell = AtmosphereState { ground: snapshot_ground(spare_ground, &ground.0), ..template };
+        let events = match timeline {
+            Some(mut timeline) => {
+                let due = timeline.0.iter().take_while(|e| e.at_s <= shell.time_s).count();
+                if due > 0 { timeline.0.drain(..due).collect() } else { Vec::new() }
             }
-        }
+            None => Vec::new(),
+        };
+        let input = StepInput { shared, spare_layers, shell, events, work: work.work.take() };
         let params = atmo.params.clone();
         let job = match pool {
             Some(pool) => {
                 status.off_thread += 1;
-                Job::Running(pool.spawn(async move { run_step(state, &params, scratch, dt) }))
+                let delay = settings.start_delay;
+                Job::Running(pool.spawn(async move {
+                    // A plain sleep: the task is about to occupy this thread for the whole
+                    // step anyway (see `WeatherPipelineSettings::start_delay`).
+                    if !delay.is_zero() {
+                        std::thread::sleep(delay);
+                    }
+                    run_step(input, &params, dt)
+                }))
             }
-            None => Job::Done(Box::new(run_step(state, &params, scratch, dt))),
+            None => Job::Done(Box::new(run_step(input, &params, dt))),
         };
         work.in_flight = Some(InFlight { started_tick: now, job });
         status.in_flight_since = Some(now);

@@ -43,7 +43,7 @@ pub fn spawn_atmosphere(
     for (index, fields) in layers.into_iter().enumerate() {
         commands.spawn((
             Name::new(format!("Air layer {index} ({} m)", fields.altitude)),
-            AirLayer { atmosphere, index, fields },
+            AirLayer { atmosphere, index, fields: fields.into() },
             ChildOf(atmosphere),
         ));
     }

@@ -1,7 +1,9 @@
 //! Driver systems and the `App` extension that registers a simulation domain.
 
 use bevy::app::{App, FixedUpdate};
-use bevy::ecs::schedule::{IntoScheduleConfigs, LogLevel, ScheduleBuildSettings, ScheduleLabel};
+use bevy::ecs::schedule::{
+    IntoScheduleConfigs, LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleThreadedExecutor,
+};
 use bevy::ecs::world::World;
 use bevy::prelude::{Res, ResMut};
 use bevy::reflect::TypePath;
@@ -13,7 +15,8 @@ use super::{Cadence, DomainClock, SimControl, SimSystems, SimTick};
 pub trait SimDomainAppExt {
     /// Adds domain `D` (its schedule label) stepping with `cadence`, driven inside `set`.
     /// Creates the schedule (with ambiguity detection as an error, so systems added to a
-    /// domain must be ordered and the domain stays deterministic), the clock
+    /// domain must be ordered and the domain stays deterministic; it runs them one after the
+    /// other on the driving thread, see below), the clock
     /// `Time<DomainClock<D>>`, and the driver system. Panics only on a zero cadence, which is
     /// a programming error in plugin code, not user input. The clock is registered for
     /// reflection (a saved world keeps each domain's phase).
@@ -38,6 +41,12 @@ impl SimDomainAppExt for App {
                 ambiguity_detection: LogLevel::Error,
                 ..Default::default()
             });
+            // Its systems are ordered (above), so the multi-threaded executor could run none of
+            // them in parallel; it would only hand each to a compute-pool thread and wait. On a
+            // two-core machine that thread competes with the off-thread weather step, and the
+            // wait cost 2–3 ms on every weather tick (`volcano bench`). The systems' own
+            // parallel loops still use the pool.
+            s.set_executor(SingleThreadedExecutor::new());
         });
         self.add_systems(FixedUpdate, drive_domain::<D>.in_set(set));
         self

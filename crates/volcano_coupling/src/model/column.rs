@@ -4,6 +4,8 @@
 //! §1); a layer's staggered wind `(u, v)` blows toward world `+x` and `+z`. The plume frame has
 //! `y` toward world `−z`, so a layer wind becomes `(u, −v)` for the plume.
 
+use std::borrow::Borrow;
+
 use bevy::math::DVec2;
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
 use volcano_plume::AmbientLevel;
@@ -36,10 +38,14 @@ pub struct TransferReport {
 
 /// For each layer, the index of the slice nearest the layer's altitude among those inside its
 /// altitude range `[bottom, bottom + thickness)`; `None` where no slice is in range.
-pub fn nearest_slice_per_layer(layers: &[LayerFields], slices: &[ColumnSlice]) -> Vec<Option<usize>> {
+pub fn nearest_slice_per_layer<L: Borrow<LayerFields>>(
+    layers: &[L],
+    slices: &[ColumnSlice],
+) -> Vec<Option<usize>> {
     layers
         .iter()
         .map(|l| {
+            let l = l.borrow();
             let (lo, hi) = (l.bottom, l.bottom + l.thickness);
             slices
                 .iter()
@@ -127,8 +133,8 @@ pub fn for_cells_within(grid: GridSpec, p: DVec2, radius: f64, mut f: impl FnMut
 /// where no slice is in the layer), `R` the imposition radius, so the cells the column writes
 /// into are never read back as its surroundings. Winds are returned in the plume frame. Layers
 /// with no free cell in their annulus are skipped.
-pub fn ambient_levels(
-    layers: &[LayerFields],
+pub fn ambient_levels<L: Borrow<LayerFields>>(
+    layers: &[L],
     grid: GridSpec,
     slices: &[ColumnSlice],
     nearest: &[Option<usize>],
@@ -139,6 +145,7 @@ pub fn ambient_levels(
         .iter()
         .zip(nearest)
         .filter_map(|(layer, near)| {
+            let layer = layer.borrow();
             let (centre, r) = near.map_or((vent, r0), |i| (slices[i].centre, slices[i].radius));
             let (r_in, r_out) = annulus_bounds(r, grid.dx);
             let (t, h, w) = annulus_mean(layer, grid, centre, r_in, r_out)?;

@@ -34,6 +34,20 @@ pub struct AirSide<'a> {
     pub books: &'a mut CouplingBudget,
 }
 
+/// What [`air_to_plume`] works on: like [`AirSide`], but it only reads the layers (so the
+/// plugin reads them in place while a weather step holds them, without a copy).
+pub struct AirReadSide<'a> {
+    /// The atmosphere's grid.
+    pub grid: GridSpec,
+    /// Its layers, bottom to top.
+    pub layers: &'a [&'a LayerFields],
+    /// Ash on its ground grid (g/m² per cell, `grid.n²` values): what the weather dropped and
+    /// the coupling has not collected yet.
+    pub ground_ash: &'a mut [f64],
+    /// Its books.
+    pub books: &'a mut CouplingBudget,
+}
+
 /// One volcano's column over the atmosphere: its rising slices in emission order.
 #[derive(Debug, Clone, Copy)]
 pub struct CoupledColumn<'a> {
@@ -117,7 +131,7 @@ pub struct AirToPlumeReport {
 /// `deposit(x, z, kg)` at the cell's centre (world `(x, z)`), which returns whether a terrain
 /// took it. Then each request gets its ambient levels.
 pub fn air_to_plume(
-    air: &mut AirSide,
+    air: &mut AirReadSide,
     collect_ash: bool,
     requests: &[AmbientRequest],
     mut deposit: impl FnMut(f64, f64, f64) -> bool,

@@ -208,11 +208,32 @@ impl Plugin for CloudRenderPlugin {
     }
 }
 
-/// Builds the model state the volume functions read (layers only; the ground is not used).
-pub fn cloud_state(atmo: &Atmosphere, layers: &[&AirLayer]) -> Result<AtmosphereState, ConfigError> {
+/// What a cloud rebuild starts from: the atmosphere's clock and grid, and its layers' fields
+/// shared (not copied: [`volcano_atmosphere::SharedFields`]); [`CloudSnapshot::into_state`]
+/// copies them, on the rebuild's own thread.
+#[derive(Debug, Clone)]
+pub struct CloudSnapshot {
+    shell: AtmosphereState,
+    layers: Vec<std::sync::Arc<volcano_atmosphere::LayerFields>>,
+}
+
+impl CloudSnapshot {
+    /// The model state the volume functions read (layers only; the ground is not used), and
+    /// the shared fields let go of.
+    pub fn into_state(self) -> AtmosphereState {
+        let layers = self.layers.iter().map(|l| (**l).clone()).collect();
+        AtmosphereState { layers, ..self.shell }
+    }
+}
+
+/// Takes a [`CloudSnapshot`] of `atmo` and its `layers` (any order).
+pub fn cloud_state(atmo: &Atmosphere, layers: &[&AirLayer]) -> Result<CloudSnapshot, ConfigError> {
     let mut sorted: Vec<&AirLayer> = layers.to_vec();
     sorted.sort_by_key(|l| l.index);
-    Ok(AtmosphereState { layers: sorted.iter().map(|l| l.fields.clone()).collect(), ..atmo.state_shell()? })
+    Ok(CloudSnapshot {
+        shell: atmo.state_shell()?,
+        layers: sorted.iter().map(|l| l.fields.share()).collect(),
+    })
 }
 
 /// The voxel grid over a state's layers: from the lowest layer's bottom to one thickness

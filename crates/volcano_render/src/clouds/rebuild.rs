@@ -1,7 +1,7 @@
 //! The cloud volume rebuild off the main thread. When an atmosphere's weather time moves (a
 //! weather step was written back), a layer is edited or the [`CloudRenderSettings`] change,
-//! the main thread takes a snapshot of the layers ([`cloud_state`], a copy of their fields)
-//! and the previous k-means clustering, and starts [`build_cloud_image`] on them on Bevy's
+//! the main thread takes a snapshot of the layers ([`cloud_state`]: their fields shared, copied
+//! by the task) and the previous k-means clustering, and starts [`build_cloud_image`] on them on Bevy's
 //! `AsyncComputeTaskPool`. The clustering memory travels with the task and comes back with the
 //! image, which replaces the old one in the first `PostUpdate` after the task has finished.
 //!
@@ -17,14 +17,14 @@ use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
 use bevy::tasks::futures::check_ready;
 use bevy::tasks::{AsyncComputeTaskPool, Task};
-use volcano_atmosphere::view::{AtmosphereState, ClusterMemory};
+use volcano_atmosphere::view::ClusterMemory;
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 
 use super::material::box_transform;
 use super::{
-    CloudDraw, CloudMaterial, CloudRenderSettings, CloudVolume, build_cloud_image, cloud_material,
-    cloud_state,
+    CloudDraw, CloudMaterial, CloudRenderSettings, CloudSnapshot, CloudVolume, build_cloud_image,
+    cloud_material, cloud_state,
 };
 
 /// What a rebuild produces, with the memory and inputs it was made from.
@@ -41,12 +41,13 @@ pub struct BuiltClouds {
 
 /// Builds the clouds of a snapshot (what the task runs; also callable directly).
 pub fn build_clouds(
-    state: AtmosphereState,
+    snapshot: CloudSnapshot,
     settings: CloudRenderSettings,
     cloud_threshold: f64,
     mut memory: ClusterMemory,
     time_s: f64,
 ) -> BuiltClouds {
+    let state = snapshot.into_state();
     let result = build_cloud_image(&state, &settings, cloud_threshold, &mut memory);
     BuiltClouds { result, memory, time_s, settings }
 }
