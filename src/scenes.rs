@@ -9,13 +9,16 @@ use volcano_core::terrain::png_io::HeightmapScale;
 use volcano_core::{StratovolcanoParams, Terrain, VolcanoSpec};
 
 mod atmosphere;
+mod sky;
 pub use atmosphere::SceneAtmosphere;
 pub(crate) use atmosphere::spawn as spawn_atmosphere;
+pub use sky::{SceneRgb, SceneSky};
 
 /// Built-in scenes: (name, RON text).
 pub(crate) const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("eruption_collapse", include_str!("../assets/scenes/eruption_collapse.ron")),
+    ("eruption_night", include_str!("../assets/scenes/eruption_night.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
     ("lava_folds", include_str!("../assets/scenes/lava_folds.ron")),
@@ -232,6 +235,10 @@ pub struct SceneSpec {
     /// a game embedding the plugins gets one only by adding `TerrainHorizon` itself).
     #[serde(default)]
     pub horizon: Option<HorizonSpec>,
+    /// Exposure, ambient light and sky colours other than the default day's, if any (applied
+    /// only with the `render` feature, when the scene spawns its camera).
+    #[serde(default)]
+    pub sky: Option<SceneSky>,
 }
 
 impl SceneSpec {
@@ -268,6 +275,9 @@ impl SceneSpec {
         }
         if let Some(h) = &self.horizon {
             h.validate()?;
+        }
+        if let Some(s) = &self.sky {
+            s.validate()?;
         }
         Ok(())
     }
@@ -407,6 +417,14 @@ fn spawn_view(commands: &mut Commands, spec: &SceneSpec) {
         ..Default::default()
     };
     commands.spawn(camera_bundle(orbit));
+    if let Some(sky) = spec.sky {
+        // The scene plugin added `VolcanoSkyPlugin`, which owns the settings.
+        commands.queue(move |world: &mut World| {
+            if let Some(mut settings) = world.get_resource_mut::<volcano_render::SkySettings>() {
+                sky.apply(&mut settings);
+            }
+        });
+    }
     let s = spec.sun;
     commands
         .spawn(sun_bundle(Sun {

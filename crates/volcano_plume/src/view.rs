@@ -18,7 +18,7 @@
 mod light;
 mod parents;
 
-pub use light::{AshLightError, AshLightSettings, ParentLight, light_parents};
+pub use light::{AshLightError, AshLightSettings, ParentLight, light_parents, vent_light};
 pub use parents::{DrawnParent, plan_parents};
 
 pub use crate::model::spheres::{
@@ -31,7 +31,7 @@ use std::sync::Arc;
 use bevy::ecs::entity::EntityHashMap;
 use bevy::math::{DQuat, DVec3};
 use bevy::prelude::*;
-use volcano_core::VolcanoRng;
+use volcano_core::{VentPosition, VolcanoRng};
 
 use crate::components::{Eruption, PlumeSlice, S1, Umbrella};
 use crate::pyroclastic::PyroParticle;
@@ -67,15 +67,23 @@ pub struct EruptionView {
     pub spheres: SphereParams,
     /// Vent density ρ₀ (kg/m³), the dark end of the density shading.
     pub rho0: f32,
+    /// World position of the vent (`VentPosition`; the origin if the volcano has none yet).
+    pub vent: Vec3,
 }
 
 /// Reads every eruption and first-scale sphere, in a deterministic order.
 pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere>) {
     let mut eruptions: Vec<(Entity, EruptionView)> = world
-        .query::<(Entity, &Eruption, &VolcanoRng)>()
+        .query::<(Entity, &Eruption, &VolcanoRng, Option<&VentPosition>)>()
         .iter(world)
-        .map(|(e, er, rng)| {
-            (e, EruptionView { seed: rng.seed(), spheres: er.spheres.clone(), rho0: er.params.rho0 as f32 })
+        .map(|(e, er, rng, vent)| {
+            let view = EruptionView {
+                seed: rng.seed(),
+                spheres: er.spheres.clone(),
+                rho0: er.params.rho0 as f32,
+                vent: vent.map_or(Vec3::ZERO, |v| v.0),
+            };
+            (e, view)
         })
         .collect();
     eruptions.sort_by_key(|(e, _)| *e);
@@ -449,6 +457,7 @@ mod tests {
             seed: 3,
             spheres: SphereParams { s2_per_s1: s2, ..Default::default() },
             rho0: 200.0,
+            vent: Vec3::ZERO,
         }]
     }
 

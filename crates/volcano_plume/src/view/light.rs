@@ -27,11 +27,19 @@ pub struct AshLightSettings {
     pub extinction: f32,
     /// Most grid cells per axis (the cell size follows from the column's extent).
     pub max_cells_per_axis: u32,
+    /// Distance (m) from the vent at which its incandescent light on the ash has fallen to
+    /// half ([`vent_light`]; > 0).
+    pub vent_reach_m: f32,
 }
 
 impl Default for AshLightSettings {
     fn default() -> Self {
-        Self { sun: Vec3::new(-0.58, 0.57, 0.58), extinction: 0.003, max_cells_per_axis: 64 }
+        Self {
+            sun: Vec3::new(-0.58, 0.57, 0.58),
+            extinction: 0.003,
+            max_cells_per_axis: 64,
+            vent_reach_m: 500.0,
+        }
     }
 }
 
@@ -47,6 +55,9 @@ pub enum AshLightError {
     /// The grid would have fewer than 2 or more than 256 cells per axis.
     #[error("max_cells_per_axis {0} must be in 2..=256")]
     Cells(u32),
+    /// The vent's reach is not a positive finite distance.
+    #[error("vent_reach_m {0} must be finite and > 0")]
+    VentReach(f32),
 }
 
 impl AshLightSettings {
@@ -61,6 +72,9 @@ impl AshLightSettings {
         if !(2..=256).contains(&self.max_cells_per_axis) {
             return Err(AshLightError::Cells(self.max_cells_per_axis));
         }
+        if !self.vent_reach_m.is_finite() || self.vent_reach_m <= 0.0 {
+            return Err(AshLightError::VentReach(self.vent_reach_m));
+        }
         Ok(())
     }
 }
@@ -72,11 +86,13 @@ pub struct ParentLight {
     pub sun: f32,
     /// Skylight from straight above, `exp(−τ_up)` (the ambient-occlusion term).
     pub sky: f32,
+    /// Light from the incandescent vent, relative to a parent at the vent ([`vent_light`]).
+    pub vent: f32,
 }
 
 impl ParentLight {
-    /// Nothing in the way.
-    pub const CLEAR: Self = Self { sun: 1.0, sky: 1.0 };
+    /// Nothing in the way, no vent light.
+    pub const CLEAR: Self = Self { sun: 1.0, sky: 1.0, vent: 0.0 };
 }
 
 /// Sun and sky transmittance of every parent (same order as `parents`), Beer–Lambert
@@ -97,9 +113,29 @@ pub fn light_parents(parents: &[ParentSphere], settings: &AshLightSettings) -> V
             let t = |g: &Option<DepthGrid>, own: &mut Vec<(usize, f32)>| {
                 g.as_ref().map_or(1.0, |g| (-g.depth_at_surface(p, own)).exp())
             };
-            ParentLight { sun: t(&sun, &mut own), sky: t(&up, &mut own) }
+            ParentLight { sun: t(&sun, &mut own), sky: t(&up, &mut own), vent: 0.0 }
         })
         .collect()
+}
+
+/// Light from each parent's vent (same order as `parents`): `1 / (1 + (d / reach)²)`, `d`
+/// the distance from the vent (`vents[parent.eruption]`) to the parent's nearest surface, so
+/// the puffs around the vent get 1 and the light has fallen to half at `reach_m`. The jet
+/// leaves the vent at 1,000 K and more (thesis Table 3.1: 1,100 K), and its incandescence lights
+/// the base of the column from inside; this is a rendering falloff (inverse square past the
+/// reach), not radiative transfer: the ash between the vent and a parent does not dim it.
+/// Parents of an eruption with no vent entry get 0.
+pub fn vent_light(parents: &[ParentSphere], vents: &[Vec3], reach_m: f32, out: &mut [ParentLight]) {
+    let reach = if reach_m.is_finite() && reach_m > 0.0 { reach_m } else { return };
+    for (p, l) in parents.iter().zip(out.iter_mut()) {
+        l.vent = match vents.get(p.eruption) {
+            Some(v) if valid(p) && v.is_finite() => {
+                let d = (p.center.distance(*v) - p.radius).max(0.0) / reach;
+                1.0 / (1.0 + d * d)
+            }
+            _ => 0.0,
+        };
+    }
 }
 
 fn valid(p: &ParentSphere) -> bool {
@@ -335,5 +371,28 @@ mod tests {
         let parents = [sphere(0, Vec3::ZERO, 10.0, 5.0), sphere(1, Vec3::NAN, f32::NAN, f32::NAN)];
         let l = light_parents(&parents, &AshLightSettings::default());
         assert!(l.iter().all(|l| l.sun.is_finite() && l.sky.is_finite()), "{l:?}");
+    }
+
+    #[test]
+    fn the_vent_lights_the_base_of_its_own_column() {
+        let mut a = sphere(0, Vec3::new(0.0, 2_600.0, 0.0), 80.0, 1.0);
+        a.eruption = 0;
+        let mut high = sphere(1, Vec3::new(0.0, 5_000.0, 0.0), 300.0, 1.0);
+        high.eruption = 0;
+        // The same height above its own vent, 10 km away, as `a` above vent 0.
+        let mut other = sphere(2, Vec3::new(10_000.0, 2_600.0, 0.0), 80.0, 1.0);
+        other.eruption = 1;
+        let parents = [a, high, other];
+        let vents = [Vec3::new(0.0, 2_500.0, 0.0), Vec3::new(10_000.0, 2_500.0, 0.0)];
+        let mut light = vec![ParentLight::CLEAR; 3];
+        vent_light(&parents, &vents, 700.0, &mut light);
+        assert!(light[0].vent > 0.95, "{:?}", light[0]);
+        // 2.2 km from its surface to the vent: (2,500 − 300) / 700 = 3.1 reaches.
+        assert!(light[1].vent > 0.08 && light[1].vent < 0.1, "{:?}", light[1]);
+        assert_eq!(light[2].vent, light[0].vent, "each column is lit by its own vent");
+        let mut none = vec![ParentLight::CLEAR; 3];
+        vent_light(&parents, &vents[..1], 700.0, &mut none);
+        assert_eq!(none[2].vent, 0.0, "no vent, no light");
+        assert!(AshLightSettings { vent_reach_m: 0.0, ..default() }.validate().is_err());
     }
 }

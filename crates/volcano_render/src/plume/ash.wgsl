@@ -148,8 +148,9 @@ struct VertexOutput {
     // x: sun transmittance (grid × own parent's body), y: sky transmittance, z: glow,
     // w: 1 for a pyroclastic-current puff.
     @location(2) light: vec4<f32>,
-    // A detail sphere's centre relative to its parent's (parent radii); zero for puffs.
-    @location(3) place: vec3<f32>,
+    // xyz: a detail sphere's centre relative to its parent's (parent radii), zero for puffs;
+    // w: light from the incandescent vent (1 at the vent, half at AshLightSettings::vent_reach_m).
+    @location(3) place: vec4<f32>,
 };
 
 fn sun_direction() -> vec3<f32> {
@@ -194,7 +195,7 @@ fn vertex(v: Vertex) -> VertexOutput {
     out.uv = corner;
     out.params = vec4<f32>(e.params.x, shade, e.params.z, e.params.w);
     out.light = vec4<f32>(packed.x, packed.y, glow, select(0.0, 1.0, flow));
-    out.place = place;
+    out.place = vec4<f32>(place, packed.z);
     return out;
 }
 
@@ -230,6 +231,11 @@ fn fbm(p: vec2<f32>) -> f32 {
 // Linear albedo: sRGB (60, 52, 46), dense brown-grey ash, to 0.9 × sRGB (190, 186, 180),
 // diluted light grey (0.9: the sun-side highlights otherwise saturate under ACES).
 const ASH_DENSE: vec3<f32> = vec3<f32>(0.045, 0.034, 0.027);
+// Light of the incandescent vent on the ash (nits before the falloff, warm; red channel a
+// quarter of the lava's 40,000-nit emissive, volcano_render::lava): the jet is a cloud of hot
+// fragments seen through ash rather than an open melt surface. A rendering choice, tuned on
+// `volcano render --scene eruption_night`.
+const VENT_GLOW: vec3<f32> = vec3<f32>(9000.0, 3300.0, 900.0);
 const ASH_DILUTE: vec3<f32> = vec3<f32>(0.464, 0.442, 0.410);
 
 @fragment
@@ -279,7 +285,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     // A detail sphere on the far side of its parent from the sun looks through the parent's
     // body: Beer–Lambert over the chord (≈ 2 × depth behind the centre plane), darker for
     // denser ash (shade 0).
-    let chord = max(-dot(in.place, l), 0.0) * 2.0;
+    let chord = max(-dot(in.place.xyz, l), 0.0) * 2.0;
     let t_sun = in.light.x * exp(-chord * mix(3.0, 0.8, shade));
     let t_sky = in.light.y;
     // Sun side: Lambert; shadow side: a multiple-scattering floor (dense ash scatters less
@@ -292,7 +298,11 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     let occlusion = t_sky * mix(0.45, 1.0, shade) * (0.6 + 0.4 * max(n_world.y, 0.0));
     let ambient = lights.ambient_color.rgb * view.exposure * occlusion;
     let albedo = mix(ASH_DENSE, ASH_DILUTE, shade);
-    var colour = albedo * (direct + ambient);
+    // The vent's incandescence lights the column's base from below and inside: a warm light
+    // in nits, scaled by the exposure like the sun (a faint warmth by day, the glow of the
+    // column's base at night).
+    let from_vent = VENT_GLOW * view.exposure * in.place.w * (0.6 + 0.4 * max(-n_world.y, 0.0));
+    var colour = albedo * (direct + ambient + from_vent);
     // Incandescent base: orange emission, stronger in the puff's core (seen at any exposure).
     colour = colour + vec3<f32>(1.0, 0.33, 0.07) * (in.light.z * 1.2 * (0.2 + 0.8 * nz));
     return vec4<f32>(colour * alpha, alpha);

@@ -16,7 +16,7 @@ use bevy::prelude::*;
 use volcano_plume::view::{
     AshInstance, AshLightSettings, EruptionView, ParentLight, ParentSphere, PlumeViewSettings,
     PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction, light_parents,
-    plan_parents, s2_key, s3_key,
+    plan_parents, s2_key, s3_key, vent_light,
 };
 
 /// One parent as the renderer's vertex shader reads it (64 bytes, a `std430` storage-buffer
@@ -58,10 +58,11 @@ impl AshParent {
     pub const S3_SHIFT: u32 = 8;
 }
 
-/// The light of a parent as the shader reads it (`unpack4x8unorm`: x = sun, y = sky).
+/// The light of a parent as the shader reads it (`unpack4x8unorm`: x = sun, y = sky,
+/// z = vent).
 pub fn pack_light(light: ParentLight) -> u32 {
     let q = |v: f32| (v.clamp(0.0, 1.0) * 255.0).round() as u32;
-    q(light.sun) | (q(light.sky) << 8)
+    q(light.sun) | (q(light.sky) << 8) | (q(light.vent) << 16)
 }
 
 /// The frame's parents and the prefix sum of their instance counts.
@@ -133,7 +134,12 @@ pub fn update_parents(world: &mut World) {
     let viewpoint = world.resource::<PlumeViewpoint>().0;
     let light_settings = world.get_resource_or_init::<AshLightSettings>().clone();
     let light = match light_settings.validate() {
-        Ok(()) => light_parents(&parents, &light_settings),
+        Ok(()) => {
+            let mut light = light_parents(&parents, &light_settings);
+            let vents: Vec<Vec3> = eruptions.iter().map(|e| e.vent).collect();
+            vent_light(&parents, &vents, light_settings.vent_reach_m, &mut light);
+            light
+        }
         Err(e) => {
             warn_once!("volcano: ash lighting off: {e}");
             Vec::new()
@@ -230,7 +236,7 @@ mod tests {
 
     fn view(s2: u32, s3: u32) -> Vec<EruptionView> {
         let spheres = SphereParams { s2_per_s1: s2, s3_per_s2: s3, ..Default::default() };
-        vec![EruptionView { seed: 0x5eed_0000_0000_0042, spheres, rho0: 200.0 }]
+        vec![EruptionView { seed: 0x5eed_0000_0000_0042, spheres, rho0: 200.0, vent: Vec3::ZERO }]
     }
 
     fn assert_close(a: &AshInstance, b: &AshInstance, scale: f32, what: &str) {
@@ -278,8 +284,9 @@ mod tests {
 
     #[test]
     fn light_packing_is_what_the_shader_unpacks() {
-        assert_eq!(pack_light(ParentLight { sun: 1.0, sky: 0.0 }), 0xff);
-        assert_eq!(pack_light(ParentLight { sun: 0.0, sky: 1.0 }), 0xff00);
-        assert_eq!(pack_light(ParentLight { sun: f32::NAN, sky: 2.0 }) >> 8, 0xff);
+        assert_eq!(pack_light(ParentLight { sun: 1.0, sky: 0.0, vent: 0.0 }), 0xff);
+        assert_eq!(pack_light(ParentLight { sun: 0.0, sky: 1.0, vent: 0.0 }), 0xff00);
+        assert_eq!(pack_light(ParentLight { sun: 0.0, sky: 0.0, vent: 1.0 }), 0xff_0000);
+        assert_eq!(pack_light(ParentLight { sun: f32::NAN, sky: 2.0, vent: 0.0 }) >> 8, 0xff);
     }
 }
