@@ -82,6 +82,9 @@ pub struct BenchReport {
     pub weather_start_ms_mean: f64,
     /// See `weather_start_ms_mean`.
     pub weather_apply_ms_mean: f64,
+    /// The slowest timed tick: its number, whether it was a weather tick, and its split by
+    /// domain (ms, as in `weather_tick_domains`), to tell what a `max` is made of.
+    pub slowest_tick: SlowestTick,
     /// Mean ms per base tick of each domain's set (`coupling` = the sets just before and after
     /// the weather).
     pub domains: std::collections::BTreeMap<&'static str, f64>,
@@ -96,6 +99,19 @@ pub struct BenchReport {
     pub quality: Option<String>,
     /// The soak report (`--report-every`), one row per interval.
     pub soak: Vec<soak::SoakRow>,
+}
+
+/// The slowest tick of a run (see [`BenchReport::slowest_tick`]).
+#[derive(Debug, Default, Serialize)]
+pub struct SlowestTick {
+    /// Base tick number (`SimTick`).
+    pub tick: u64,
+    /// Main-thread ms.
+    pub ms: f64,
+    /// A weather step started or was written back on it.
+    pub weather: bool,
+    /// Ms per domain's set, and `rest`.
+    pub domains: std::collections::BTreeMap<&'static str, f64>,
 }
 
 /// How long and how `volcano bench` runs.
@@ -177,6 +193,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         q.iter(world).fold((0.0, 0.0), |(a, b), s| (a + s.last_start_ms, b + s.last_apply_ms))
     };
     let (mut start_ms, mut apply_ms) = (Vec::new(), Vec::new());
+    // (tick, ms, weather tick, ms per set) of the slowest tick.
+    let mut slowest = (0, 0.0, false, [0.0; SETS.len()]);
     // Startup (terrain, pre-spin) and the zero-delta first update are not timed.
     app.update();
     while tick(&app) < warmup {
@@ -216,6 +234,13 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         }
         if after.1.1 != before.1.1 {
             apply_ms.push(pipeline_ms(&mut app).1);
+        }
+        if ms > slowest.1 {
+            let mut sets = [0.0; SETS.len()];
+            for (x, (a, b)) in sets.iter_mut().zip(sets_after.iter().zip(&sets_before)) {
+                *x = (*a - *b).as_secs_f64() * 1e3;
+            }
+            slowest = (after.0, ms, after.1 != before.1, sets);
         }
         let (list, sums) = if after.1 != before.1 {
             (&mut weather_ms, &mut weather_sets)
@@ -272,6 +297,12 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         weather_waits,
         weather_start_ms_mean: mean(&start_ms),
         weather_apply_ms_mean: mean(&apply_ms),
+        slowest_tick: SlowestTick {
+            tick: slowest.0,
+            ms: slowest.1,
+            weather: slowest.2,
+            domains: split(&slowest.3, 1, slowest.1),
+        },
         domains: [
             ("plume", ms(1)),
             ("pyroclastic", ms(2)),

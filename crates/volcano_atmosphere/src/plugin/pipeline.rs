@@ -5,11 +5,12 @@
 //! model step: on Bevy's `AsyncComputeTaskPool` when the pool exists and
 //! [`WeatherPipelineSettings::off_thread`] is set, otherwise at once on the main thread. The
 //! step first copies the shared layers into its own buffers (so that copy, most of a snapshot's
-//! bytes, is off the main thread too), applies the timeline events due, then steps. The result is written back at the next weather tick (k + k_cadence for
-//! `EveryNthTick(k_cadence)`), in [`WeatherSystems::Apply`] before the coupling's transfers;
-//! that join only blocks if the worker has not finished. The components therefore always hold
-//! a complete state one weather step behind the weather clock, and the state at every tick is
-//! the same whichever thread ran the step and whatever the frame rate.
+//! bytes, is off the main thread too), applies the timeline events due, then steps. The result
+//! is written back at the next weather tick (k + k_cadence for `EveryNthTick(k_cadence)`), in
+//! [`WeatherSystems::Apply`] before the coupling's transfers; that join only blocks if the
+//! worker has not finished. The components therefore always hold a complete state one weather
+//! step behind the weather clock, and the state at every tick is the same whichever thread ran
+//! the step and whatever the frame rate.
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -48,8 +49,9 @@ pub struct WeatherPipelineSettings {
     /// woken thread) that, started at once, landed on the main thread's busiest tick: on two
     /// cores the weather tick took 2.3× the others (`volcano bench`, release), 1.15× with a
     /// delay, the other ticks unchanged. The result is applied at the same base tick whatever
-    /// the delay (the state never depends on it); keep it well under the weather cadence's
-    /// wall time (a second of game time at 50 Hz), or the write-back waits for the step.
+    /// the delay (the state never depends on it), and a join ends the delay at once (several
+    /// steps in one base tick, `join_weather`, `flush_weather`); keep it well under the weather
+    /// cadence's wall time (a second of game time at 50 Hz), or the write-back waits.
     pub start_delay: std::time::Duration,
 }
 
@@ -108,16 +110,20 @@ enum Job {
 struct InFlight {
     started_tick: u64,
     job: Job,
+    /// Dropped to end the task's start delay at once (a join never waits for the delay).
+    wake: Option<std::sync::mpsc::Sender<()>>,
 }
 
 impl InFlight {
     /// Waits for the step if needed; also says whether it had to wait.
     fn join(self) -> (Stepped, bool, u64) {
-        match self.job {
-            Job::Done(s) => (*s, false, self.started_tick),
+        let InFlight { started_tick, job, wake } = self;
+        drop(wake);
+        match job {
+            Job::Done(s) => (*s, false, started_tick),
             Job::Running(task) => {
                 let waited = !task.is_finished();
-                (block_on(task), waited, self.started_tick)
+                (block_on(task), waited, started_tick)
             }
         }
     }
@@ -152,12 +158,13 @@ impl AtmosphereWork {
     }
     /// Waits until the step in flight (if any) has finished, without writing it back.
     fn finish(&mut self) {
-        if let Some(InFlight { started_tick, job }) = self.in_flight.take() {
+        if let Some(InFlight { started_tick, job, wake }) = self.in_flight.take() {
+            drop(wake);
             let job = match job {
                 Job::Running(task) => Job::Done(Box::new(block_on(task))),
                 done => done,
             };
-            self.in_flight = Some(InFlight { started_tick, job });
+            self.in_flight = Some(InFlight { started_tick, job, wake: None });
         }
     }
 }
@@ -352,22 +359,24 @@ pub(crate) fn start_weather(
         };
         let input = StepInput { shared, spare_layers, shell, events, work: work.work.take() };
         let params = atmo.params.clone();
+        let (wake, woken) = std::sync::mpsc::channel::<()>();
         let job = match pool {
             Some(pool) => {
                 status.off_thread += 1;
                 let delay = settings.start_delay;
                 Job::Running(pool.spawn(async move {
-                    // A plain sleep: the task is about to occupy this thread for the whole
-                    // step anyway (see `WeatherPipelineSettings::start_delay`).
+                    // A blocking wait: the task is about to occupy this thread for the whole
+                    // step anyway (`WeatherPipelineSettings::start_delay`). It ends early when
+                    // the step is joined (several steps in one base tick, a flush, the exit).
                     if !delay.is_zero() {
-                        std::thread::sleep(delay);
+                        let _ = woken.recv_timeout(delay);
                     }
                     run_step(input, &params, dt)
                 }))
             }
             None => Job::Done(Box::new(run_step(input, &params, dt))),
         };
-        work.in_flight = Some(InFlight { started_tick: now, job });
+        work.in_flight = Some(InFlight { started_tick: now, job, wake: Some(wake) });
         status.in_flight_since = Some(now);
         status.started += 1;
         status.last_start_ms = clock.elapsed().as_secs_f64() * 1e3;

@@ -274,15 +274,21 @@ fn apply_sun(active: Res<ActiveSky>, mut suns: Query<(Ref<Sun>, &mut Transform, 
 #[derive(Default)]
 struct SkyImage(Option<Handle<Image>>);
 
+/// Sky cameras that are new or just became HDR (their fog colour depends on it).
+type NewSkyCameras<'w, 's> = Query<'w, 's, (), Or<(Added<VolcanoSkyCamera>, Added<Hdr>)>>;
+/// Every sky camera, with its exposure and whether it is HDR.
+type SkyCameras<'w, 's> =
+    Query<'w, 's, (Entity, Option<&'static mut Exposure>, Has<Hdr>), With<VolcanoSkyCamera>>;
+
 #[expect(clippy::too_many_arguments, reason = "one system keeping every camera's sky in step")]
 fn update_sky_cameras(
     mut commands: Commands,
     settings: Res<SkySettings>,
     active: Res<ActiveSky>,
     suns: Query<Ref<Sun>>,
-    new_cameras: Query<(), Or<(Added<VolcanoSkyCamera>, Added<Hdr>)>>,
+    new_cameras: NewSkyCameras,
     mut removed_hdr: RemovedComponents<Hdr>,
-    mut cameras: Query<(Entity, Option<&mut Exposure>, Has<Hdr>), With<VolcanoSkyCamera>>,
+    mut cameras: SkyCameras,
     mut images: ResMut<Assets<Image>>,
     mut sky_image: Local<SkyImage>,
 ) {
