@@ -45,10 +45,10 @@ pub struct WeatherPipelineSettings {
     /// bit-identical either way, only the thread differs.
     pub off_thread: bool,
     /// Wall-clock time an off-thread step waits before it starts working (default 20 ms).
-    /// Its first work is a burst (copying ~20 MB of layers at full memory bandwidth, a newly
-    /// woken thread) that, started at once, landed on the main thread's busiest tick: on two
-    /// cores the weather tick took 2.3× the others (`volcano bench`, release), 1.15× with a
-    /// delay, the other ticks unchanged. The result is applied at the same base tick whatever
+    /// Started at once, its first burst (a newly woken thread copying the layers, 5 MB at
+    /// 128² × 5, at full memory bandwidth) landed on the main thread's busiest tick: in the
+    /// eruption scene on two cores the weather tick took 2.3× the others (`volcano bench`,
+    /// release), 1.15× with the delay, the other ticks unchanged. The result is applied at the same base tick whatever
     /// the delay (the state never depends on it), and a join ends the delay at once (several
     /// steps in one base tick, `join_weather`, `flush_weather`); keep it well under the weather
     /// cadence's wall time (a second of game time at 50 Hz), or the write-back waits.
