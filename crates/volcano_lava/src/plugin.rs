@@ -36,7 +36,11 @@ impl Plugin for LavaPlugin {
             .register_type::<LavaZone>()
             .register_type::<LavaState>()
             .register_type::<BuiltFor>()
-            .add_systems(LavaStep, (build_fields, step_fields, check_zones, imprint_terrain).chain());
+            .add_systems(LavaStep, (build_fields, step_fields, check_zones, imprint_terrain).chain())
+            // Patches spawned with the scene are built while it loads, not on its first tick
+            // (a 256² patch takes ≈ 6 ms to resample its terrain and allocate its layers,
+            // release); patches spawned later are built on their first lava step.
+            .add_systems(PostStartup, build_fields);
         #[cfg(debug_assertions)]
         app.add_systems(PostUpdate, assert_finite_fields);
     }

@@ -235,3 +235,20 @@ fn despawning_a_patch_removes_its_lava_and_keeps_what_froze_in_the_terrain() {
     );
     assert!(ground_after.iter().zip(&ground_before).all(|(a, b)| a >= &(b - 1e-4)));
 }
+
+/// A patch spawned with the scene (at startup) is built while the scene loads, so its first
+/// tick carries no build (≈ 6 ms for a 256² patch in release): after the first update, which
+/// runs the startup schedules and no fixed tick, it already has its state.
+#[test]
+fn a_patch_spawned_at_startup_is_built_before_the_first_tick() {
+    let mut app = app();
+    let placement = Placement { centre: Vec2::ZERO, nx: 64, ny: 64, cell: 0.5 };
+    app.add_systems(Startup, move |mut commands: Commands| {
+        commands.spawn(LavaField::new(placement, LavaParams::default()).unwrap());
+    });
+    app.update();
+    assert_eq!(app.world().resource::<SimTick>().0, 0, "a fixed tick ran in the first update");
+    let w = app.world_mut();
+    let built = w.query::<(&LavaState, &LavaFieldStatus)>().iter(w).count();
+    assert_eq!(built, 1, "the patch is not built before its first tick");
+}
