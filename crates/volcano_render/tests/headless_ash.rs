@@ -3,17 +3,14 @@
 //! parents without billboards, on the right as smoke billboards. If the pipeline, the parent
 //! buffers, the shader's expansion or its fragment stage were broken, the sky would show.
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::Arc;
 
 use bevy::prelude::*;
-use volcano_core::VolcanoCorePlugin;
 use volcano_plume::view::parent_key;
 use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
-use volcano_render::{
-    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
-    headless_default_plugins, read_png_rgb, rgb_region_mean,
-};
+use volcano_render::{OrbitCamera, VolcanoViewer, camera_bundle, headless_default_plugins, rgb_region_mean};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -60,22 +57,10 @@ fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut list: ResMut<P
 
 #[test]
 fn instanced_ash_covers_the_sky() {
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_ash.png");
-    let _ = std::fs::remove_file(&out);
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        .add_systems(Startup, scene)
-        .add_systems(PostUpdate, wall.after(update_parents))
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    let out = common::out_path("headless_ash.png");
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    app.add_systems(Startup, scene).add_systems(PostUpdate, wall.after(update_parents));
+    let (_, _, rgb) = common::run_and_read(app, &out);
     // Top eighth: covered by ash (left: expanded spheres, right: billboards); grey-brown, not
     // sky blue (the sky there is ≈ (118, 150, 215): blue ≫ red). The ash is lit by the sun
     // now, so it is not necessarily dark.

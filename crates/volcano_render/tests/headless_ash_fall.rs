@@ -7,15 +7,14 @@
 //! missing, both sides would match. A second run with the same atmosphere but no ash checks
 //! that the two sides then do match (the asymmetry comes from the ash).
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
-use volcano_core::VolcanoCorePlugin;
 use volcano_render::{
-    AshFallVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins, VolcanoSkyPlugin,
-    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
+    AshFallVolume, OrbitCamera, Sun, camera_bundle, headless_default_plugins, rgb_region_mean, sun_bundle,
 };
 
 const W: u32 = 320;
@@ -59,26 +58,14 @@ fn scene(with_ash: bool) -> impl Fn(Commands) {
 
 /// Renders the scene; returns (left sky band mean, right sky band mean, built volumes' fill).
 fn render(with_ash: bool, name: &str) -> ([f64; 3], [f64; 3], Vec<f32>) {
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_file(&out);
+    let out = common::out_path(name);
     let seen: Arc<Mutex<Vec<f32>>> = Arc::default();
     let sink = seen.clone();
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        .add_systems(Startup, scene(with_ash))
-        .add_systems(Last, move |volumes: Query<&AshFallVolume>| {
-            *sink.lock().unwrap() = volumes.iter().map(|v| v.filled_fraction).collect();
-        })
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    app.add_systems(Startup, scene(with_ash)).add_systems(Last, move |volumes: Query<&AshFallVolume>| {
+        *sink.lock().unwrap() = volumes.iter().map(|v| v.filled_fraction).collect();
+    });
+    let (_, _, rgb) = common::run_and_read(app, &out);
     // Above the horizon, where the rays cross the layers inside the volume.
     let rows = (H / 2 - 50, H / 2 + 10);
     let left = rgb_region_mean(&rgb, W, (16, W / 2 - 24), rows);

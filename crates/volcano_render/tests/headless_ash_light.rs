@@ -8,18 +8,15 @@
 //!    without: sun half 92 against 183. Tried with the transmittance ignored in the shader
 //!    (`t_sun = 1.0 * …`): 183 both times, and this fails.
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::Arc;
 
 use bevy::prelude::*;
-use volcano_core::VolcanoCorePlugin;
 use volcano_plume::view::{AshLightSettings, ParentSphere, light_parents};
 use volcano_render::plume::layout::pack_light;
 use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
-use volcano_render::{
-    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, VolcanoViewer, camera_bundle,
-    headless_default_plugins, read_png_rgb, rgb_region_mean,
-};
+use volcano_render::{OrbitCamera, VolcanoViewer, camera_bundle, headless_default_plugins, rgb_region_mean};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -92,23 +89,12 @@ fn puff(
 /// Renders the puff; returns the mean RGB of its left (shadow) and right (sun) halves.
 fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
     let name = if occluded { "headless_ash_light_occluded.png" } else { "headless_ash_light.png" };
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_file(&out);
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        .insert_resource(Occluded(occluded))
+    let out = common::out_path(name);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    app.insert_resource(Occluded(occluded))
         .add_systems(Startup, scene)
-        .add_systems(PostUpdate, puff.after(update_parents))
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+        .add_systems(PostUpdate, puff.after(update_parents));
+    let (_, _, rgb) = common::run_and_read(app, &out);
     let (cx, cy) = (W / 2, H / 2);
     let left = rgb_region_mean(&rgb, W, (cx - 55, cx - 15), (cy - 20, cy + 20));
     let right = rgb_region_mean(&rgb, W, (cx + 15, cx + 55), (cy - 20, cy + 20));

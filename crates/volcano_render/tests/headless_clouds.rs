@@ -4,15 +4,15 @@
 //! sky band must differ clearly from the right half (clear sky); if the cloud box, its
 //! material or its density image were missing, both halves would match.
 
-use std::path::PathBuf;
+mod common;
+
 use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
-use volcano_core::VolcanoCorePlugin;
 use volcano_render::{
-    CloudRenderSettings, CloudVolume, HeadlessCapturePlugin, OrbitCamera, Sun, VolcanoRenderPlugins,
-    VolcanoSkyPlugin, camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean, sun_bundle,
+    CloudRenderSettings, CloudVolume, OrbitCamera, Sun, camera_bundle, headless_default_plugins,
+    rgb_region_mean, sun_bundle,
 };
 
 const W: u32 = 256;
@@ -43,32 +43,21 @@ fn scene(mut commands: Commands) {
 
 #[test]
 fn a_dense_cloud_wall_hides_the_sky() {
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_clouds.png");
-    let _ = std::fs::remove_file(&out);
+    let out = common::out_path("headless_clouds.png");
     // `App::run` consumes the world: copy the volumes' fill out as the app runs.
     let seen: Arc<Mutex<Vec<f32>>> = Arc::default();
     let sink = seen.clone();
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        // Built in the frame the weather moves, so the capture after 8 updates shows it.
-        .insert_resource(CloudRenderSettings { off_thread: false, ..default() })
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    // Built in the frame the weather moves, so the capture after 8 updates shows it.
+    app.insert_resource(CloudRenderSettings { off_thread: false, ..default() })
         .add_systems(Startup, scene)
         .add_systems(Last, move |volumes: Query<&CloudVolume>| {
             *sink.lock().unwrap() = volumes.iter().map(|v| v.filled_fraction).collect();
-        })
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
+        });
+    let (_, _, rgb) = common::run_and_read(app, &out);
     let filled = seen.lock().unwrap().clone();
     assert_eq!(filled.len(), 1, "one cloud volume");
     assert!(filled[0] > 0.05, "density image nearly empty: {filled:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
     // Just above the horizon (rays cross the cloud layers inside the volume).
     let rows = (H / 2 - 24, H / 2 - 2);
     let left = rgb_region_mean(&rgb, W, (8, W / 2 - 16), rows);

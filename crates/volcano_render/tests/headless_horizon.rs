@@ -4,13 +4,12 @@
 //! the ring's base sinks below the sea level. If the ring mesh, its child entity or its colours
 //! were missing, the three bands would look alike.
 
-use std::path::PathBuf;
+mod common;
 
 use bevy::prelude::*;
-use volcano_core::{Terrain, VolcanoCorePlugin};
+use volcano_core::Terrain;
 use volcano_render::{
-    GlowCamera, HeadlessCapturePlugin, OrbitCamera, TerrainHorizon, VolcanoRenderPlugins, VolcanoSkyPlugin,
-    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean,
+    GlowCamera, OrbitCamera, TerrainHorizon, camera_bundle, headless_default_plugins, rgb_region_mean,
 };
 
 const W: u32 = 320;
@@ -19,42 +18,32 @@ const H: u32 = 240;
 /// Renders the flat terrain with `horizon` from `height` metres over its centre, looking north
 /// `pitch_deg` down, through an HDR camera with bloom when `glow`; returns the frame's RGB.
 fn render(name: &str, horizon: Option<TerrainHorizon>, height: f32, pitch_deg: f32, glow: bool) -> Vec<u8> {
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_file(&out);
-    let exit = App::new()
-        // One app after the other in this process: only the first may set the global logger.
-        .add_plugins(headless_default_plugins().disable::<bevy::log::LogPlugin>())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        .add_systems(Startup, move |mut commands: Commands| {
-            // 1.92 km square at 100 m; the sea level is 0 m.
-            let flat = Terrain::flat(65, 30.0, 100.0).unwrap();
-            let flat = Terrain::new(flat.heights().clone(), flat.cover().clone(), 0.0).unwrap();
-            let mut terrain = commands.spawn(flat);
-            if let Some(h) = horizon.clone() {
-                terrain.insert(h);
-            }
-            let (sin, cos) = pitch_deg.to_radians().sin_cos();
-            let orbit = OrbitCamera {
-                focus: Vec3::new(0.0, height - 20_000.0 * sin, -20_000.0 * cos),
-                yaw: 0.0,
-                pitch: pitch_deg.to_radians(),
-                distance: 20_000.0,
-                ..default()
-            };
-            let mut camera = commands.spawn(camera_bundle(orbit));
-            if glow {
-                camera.insert(GlowCamera);
-            }
-        })
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    let out = common::out_path(name);
+    // One app after the other in this process: only the first may set the global logger.
+    let mut app =
+        common::capture_app(headless_default_plugins().disable::<bevy::log::LogPlugin>(), W, H, &out, 8);
+    app.add_systems(Startup, move |mut commands: Commands| {
+        // 1.92 km square at 100 m; the sea level is 0 m.
+        let flat = Terrain::flat(65, 30.0, 100.0).unwrap();
+        let flat = Terrain::new(flat.heights().clone(), flat.cover().clone(), 0.0).unwrap();
+        let mut terrain = commands.spawn(flat);
+        if let Some(h) = horizon.clone() {
+            terrain.insert(h);
+        }
+        let (sin, cos) = pitch_deg.to_radians().sin_cos();
+        let orbit = OrbitCamera {
+            focus: Vec3::new(0.0, height - 20_000.0 * sin, -20_000.0 * cos),
+            yaw: 0.0,
+            pitch: pitch_deg.to_radians(),
+            distance: 20_000.0,
+            ..default()
+        };
+        let mut camera = commands.spawn(camera_bundle(orbit));
+        if glow {
+            camera.insert(GlowCamera);
+        }
+    });
+    let (_, _, rgb) = common::run_and_read(app, &out);
     rgb
 }
 

@@ -4,15 +4,14 @@
 //! the surface mesh, its emissive texture or the material were broken, the ground would show.
 //! On a [`GlowCamera`] (HDR with bloom) the glow spills onto the ground next to the disc.
 
-use std::path::PathBuf;
+mod common;
 
 use bevy::prelude::*;
-use volcano_core::{Terrain, VolcanoCorePlugin};
+use volcano_core::Terrain;
 use volcano_lava::model::breakout::BreakoutState;
 use volcano_lava::{Edges, FlowField, FoldSystem, LavaField, LavaParams, LavaState, Placement, SurfaceState};
 use volcano_render::{
-    GlowCamera, HeadlessCapturePlugin, LavaRenderMode, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin,
-    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean,
+    GlowCamera, LavaRenderMode, OrbitCamera, camera_bundle, headless_default_plugins, rgb_region_mean,
 };
 
 const W: u32 = 320;
@@ -22,8 +21,7 @@ const H: u32 = 240;
 /// mean RGB over the disc, over bare ground just right of it and over bare ground further
 /// right.
 fn render(name: &str, crust: f64, mode: LavaRenderMode, glow: bool) -> ([f64; 3], [f64; 3], [f64; 3]) {
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_file(&out);
+    let out = common::out_path(name);
     let terrain = Terrain::flat(129, 0.5, 0.0).unwrap();
     let placement = Placement { centre: Vec2::new(-8.0, 0.0), nx: 32, ny: 64, cell: 0.5 };
     let mut flow = FlowField::on_terrain(&terrain, placement, Edges::default()).unwrap();
@@ -40,37 +38,27 @@ fn render(name: &str, crust: f64, mode: LavaRenderMode, glow: bool) -> ([f64; 3]
         mobility_capped: false,
     };
     let field = LavaField::new(placement, LavaParams::default()).unwrap();
-    let exit = App::new()
-        // One app after the other in this process: only the first may set the global logger.
-        .add_plugins(headless_default_plugins().disable::<bevy::log::LogPlugin>())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .insert_resource(mode)
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        .add_systems(Startup, move |mut commands: Commands| {
-            commands.spawn(terrain.clone());
-            commands.spawn((field.clone(), state.clone()));
-            // Straight down from 40 m: screen right = +x, the disc (x = −8 m) left of centre.
-            let orbit = OrbitCamera {
-                focus: Vec3::ZERO,
-                yaw: 0.0,
-                pitch: 89f32.to_radians(),
-                distance: 40.0,
-                min_distance: 1.0,
-                ..default()
-            };
-            let camera = commands.spawn(camera_bundle(orbit)).id();
-            if glow {
-                commands.entity(camera).insert(GlowCamera);
-            }
-        })
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    // One app after the other in this process: only the first may set the global logger.
+    let mut app =
+        common::capture_app(headless_default_plugins().disable::<bevy::log::LogPlugin>(), W, H, &out, 8);
+    app.insert_resource(mode).add_systems(Startup, move |mut commands: Commands| {
+        commands.spawn(terrain.clone());
+        commands.spawn((field.clone(), state.clone()));
+        // Straight down from 40 m: screen right = +x, the disc (x = −8 m) left of centre.
+        let orbit = OrbitCamera {
+            focus: Vec3::ZERO,
+            yaw: 0.0,
+            pitch: 89f32.to_radians(),
+            distance: 40.0,
+            min_distance: 1.0,
+            ..default()
+        };
+        let camera = commands.spawn(camera_bundle(orbit)).id();
+        if glow {
+            commands.entity(camera).insert(GlowCamera);
+        }
+    });
+    let (_, _, rgb) = common::run_and_read(app, &out);
     // ~0.14 m per pixel: the disc spans x ≈ 59..145 px; bare ground at x ≈ 150..158 px (next
     // to it) and 220..260 px.
     let disc = rgb_region_mean(&rgb, W, (85, 120), (105, 135));

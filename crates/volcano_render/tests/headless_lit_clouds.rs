@@ -12,16 +12,14 @@
 //!    halves are 189.7 and this fails; with an empty density image they match too (the second
 //!    render of the test).
 
-use std::path::PathBuf;
+mod common;
 
 use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
-use volcano_core::VolcanoCorePlugin;
 use volcano_render::clouds::{CloudMaterial, CloudUniform};
 use volcano_render::fog_volume::density_image;
 use volcano_render::{
-    CloudRenderSettings, HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin,
-    camera_bundle, headless_default_plugins, read_png_rgb, rgb_region_mean,
+    CloudRenderSettings, OrbitCamera, camera_bundle, headless_default_plugins, rgb_region_mean,
 };
 
 const W: u32 = 256;
@@ -94,22 +92,10 @@ fn scene(
 
 /// Renders the setup; returns the mean RGB of the left and right thirds' inner bands.
 fn render(name: &str, setup: Setup) -> ([f64; 3], [f64; 3]) {
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(name);
-    let _ = std::fs::remove_file(&out);
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 8,
-        })
-        .insert_resource(setup)
-        .add_systems(Startup, scene)
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
-    let (_, _, rgb) = read_png_rgb(&out).expect("PNG written");
+    let out = common::out_path(name);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    app.insert_resource(setup).add_systems(Startup, scene);
+    let (_, _, rgb) = common::run_and_read(app, &out);
     let (cx, cy) = (W / 2, H / 2);
     let left = rgb_region_mean(&rgb, W, (cx - 60, cx - 20), (cy - 20, cy + 20));
     let right = rgb_region_mean(&rgb, W, (cx + 20, cx + 60), (cy - 20, cy + 20));
@@ -184,22 +170,17 @@ fn frame_ms(drawn: bool) -> f64 {
     let setup = Setup { lo, hi, density, n: 128, orbit, toward_sun, plane: true };
     let stamps: Arc<Mutex<Vec<Instant>>> = Arc::default();
     let sink = stamps.clone();
-    let out =
-        PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("headless_lit_clouds_cost_{drawn}.png"));
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin { width: 960, height: 540, out, capture_after_updates: 40 })
-        .insert_resource(setup)
+    let out = common::out_path(&format!("headless_lit_clouds_cost_{drawn}.png"));
+    let mut app = common::capture_app(headless_default_plugins(), 960, 540, &out, 40);
+    app.insert_resource(setup)
         .add_systems(Startup, scene)
         .add_systems(Update, move |mut boxes: Query<&mut Visibility, With<MeshMaterial3d<CloudMaterial>>>| {
             for mut v in &mut boxes {
                 v.set_if_neq(if drawn { Visibility::Inherited } else { Visibility::Hidden });
             }
         })
-        .add_systems(Last, move || sink.lock().unwrap().push(Instant::now()))
-        .run();
-    assert!(exit.is_success());
+        .add_systems(Last, move || sink.lock().unwrap().push(Instant::now()));
+    common::run_and_read(app, &out);
     let t = stamps.lock().unwrap();
     (t[40] - t[10]).as_secs_f64() * 1e3 / 30.0
 }

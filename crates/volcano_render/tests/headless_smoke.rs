@@ -2,14 +2,11 @@
 //! works) and checks the PNG is a real picture: right size, not one colour, terrain in the
 //! middle different from the sky at the top.
 
-use std::path::PathBuf;
+mod common;
 
 use bevy::prelude::*;
-use volcano_core::{StratovolcanoParams, Volcano, VolcanoCorePlugin};
-use volcano_render::{
-    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle,
-    headless_default_plugins, read_png_rgb, rgb_region_mean, rgb_stddev,
-};
+use volcano_core::{StratovolcanoParams, Volcano};
+use volcano_render::{OrbitCamera, camera_bundle, headless_default_plugins, rgb_region_mean, rgb_stddev};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -34,24 +31,13 @@ fn scene(mut commands: Commands) {
 #[test]
 fn renders_a_volcano_under_a_sky() {
     // Cargo's scratch directory for integration tests (kept, so the frame can be looked at).
-    let out: PathBuf = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("headless_smoke.png");
-    let _ = std::fs::remove_file(&out);
+    let out = common::out_path("headless_smoke.png");
 
-    let exit = App::new()
-        .add_plugins(headless_default_plugins())
-        .add_plugins((VolcanoCorePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin))
-        .add_plugins(HeadlessCapturePlugin {
-            width: W,
-            height: H,
-            out: out.clone(),
-            capture_after_updates: 10,
-        })
-        .add_systems(Startup, scene)
-        .run();
-    assert!(exit.is_success(), "app exited with {exit:?}");
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 10);
+    app.add_systems(Startup, scene);
+    let (w, h, rgb) = common::run_and_read(app, &out);
     eprintln!("smoke frame: {}", out.display());
 
-    let (w, h, rgb) = read_png_rgb(&out).expect("PNG written and readable");
     assert_eq!((w, h), (W, H));
     let sigma = rgb_stddev(&rgb);
     assert!(sigma > 8.0, "frame looks blank: pixel σ = {sigma:.2}");
