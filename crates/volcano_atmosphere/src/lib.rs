@@ -19,6 +19,6 @@ pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, Scenario};
 pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, SharedFields, WeatherPipelineSettings,
-    WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at, flush_weather,
-    join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+    WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at, atmosphere_fields,
+    flush_weather, join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

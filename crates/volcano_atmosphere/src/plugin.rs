@@ -15,7 +15,7 @@ use volcano_core::prelude::*;
 
 pub use components::{
     AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped, WeatherSystems,
-    air_ash_at,
+    air_ash_at, atmosphere_fields,
 };
 pub use pipeline::{
     AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,

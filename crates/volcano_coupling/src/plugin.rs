@@ -12,7 +12,9 @@ use bevy::math::{DVec2, DVec3};
 use bevy::prelude::*;
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
 use volcano_atmosphere::plugin::AtmosphereGround;
-use volcano_atmosphere::{AirLayer, Atmosphere, WeatherStep, WeatherStepped, WeatherSystems};
+use volcano_atmosphere::{
+    AirLayer, Atmosphere, WeatherStep, WeatherStepped, WeatherSystems, atmosphere_fields,
+};
 use volcano_core::prelude::*;
 use volcano_plume::{
     AshReleased, DepositMap, Eruption, LayeredAmbient, PlumeAmbient, PlumeAshBudget, PlumeSlice, Umbrella,
@@ -135,12 +137,8 @@ fn layers_read<'a>(
     query: &'a Query<&AirLayer>,
     n: usize,
 ) -> Option<Vec<&'a LayerFields>> {
-    let mut mine: Vec<&AirLayer> = query.iter().filter(|l| l.atmosphere == atmosphere).collect();
-    mine.sort_by_key(|l| l.index);
-    if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != n) {
-        return None;
-    }
-    Some(mine.into_iter().map(|l| &*l.fields).collect())
+    let mine = atmosphere_fields(query, atmosphere);
+    (mine.len() >= 2 && mine.iter().all(|l| l.t.nx() == n)).then_some(mine)
 }
 
 /// Atmospheres by entity order, with their grids.

@@ -84,10 +84,19 @@ pub struct AirLayer {
 /// ash falling on the player?"), from its `layers` (any order; other atmospheres' layers are
 /// skipped): [`crate::model::ash::ash_at`]. 0 outside the layer stack or without layers.
 pub fn air_ash_at<'a>(layers: impl IntoIterator<Item = &'a AirLayer>, atmosphere: Entity, p: Vec3) -> f64 {
+    crate::model::ash::ash_at(&atmosphere_fields(layers, atmosphere), p.x, p.y as f64, p.z)
+}
+
+/// The fields of the layers of `atmosphere` among `layers` (any order; other atmospheres'
+/// layers are skipped), bottom to top: the model's view of one atmosphere's stack, read in
+/// place.
+pub fn atmosphere_fields<'a>(
+    layers: impl IntoIterator<Item = &'a AirLayer>,
+    atmosphere: Entity,
+) -> Vec<&'a LayerFields> {
     let mut mine: Vec<&AirLayer> = layers.into_iter().filter(|l| l.atmosphere == atmosphere).collect();
     mine.sort_by_key(|l| l.index);
-    let fields: Vec<&LayerFields> = mine.iter().map(|l| &*l.fields).collect();
-    crate::model::ash::ash_at(&fields, p.x, p.y as f64, p.z)
+    mine.into_iter().map(|l| &*l.fields).collect()
 }
 
 /// The ground under an atmosphere (terrain heights, cover, temperature, water).

@@ -210,9 +210,7 @@ fn update_ash_volumes(
         {
             continue;
         }
-        let mut mine: Vec<&AirLayer> = layers.iter().filter(|l| l.atmosphere == entity).collect();
-        mine.sort_by_key(|l| l.index);
-        let fields: Vec<&LayerFields> = mine.iter().map(|l| &*l.fields).collect();
+        let fields = volcano_atmosphere::atmosphere_fields(layers.iter(), entity);
         let grams = airborne_grams(&fields, atmo.dx);
         let show = settings.enabled && grams >= settings.min_grams;
         if let Some(v) = volume
