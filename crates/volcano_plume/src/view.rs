@@ -15,9 +15,13 @@
 //! (re-exported here from the model). [`build_instances`] stays as the CPU reference (tests,
 //! benchmark).
 
+mod currents;
 mod light;
 mod parents;
 
+pub use currents::{
+    CLOUD_ID_BIT, CurrentCloudError, CurrentCloudSettings, FlowSample, current_clouds, surge_thickness,
+};
 pub use light::{AshLightError, AshLightSettings, ParentLight, light_parents, vent_light};
 pub use parents::{DrawnParent, plan_parents};
 
@@ -56,6 +60,9 @@ pub struct ParentSphere {
     /// Whether it is a pyroclastic particle (drawn as a puff, no detail spheres: it already
     /// has the s2 size).
     pub flow: bool,
+    /// Whether it is the ash cloud over a current, derived for the view ([`current_clouds`]):
+    /// a lit puff without detail spheres, not a model sphere.
+    pub cloud: bool,
 }
 
 /// Per-eruption data the views need.
@@ -105,6 +112,7 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
                 density,
                 umbrella: false,
                 flow: false,
+                cloud: false,
             });
         }
     }
@@ -119,24 +127,48 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
                 density: u.density as f32,
                 umbrella: true,
                 flow: false,
+                cloud: false,
             });
         }
     }
+    let mut flows = Vec::new();
     for (p, t) in world.query::<(&PyroParticle, &Transform)>().iter(world) {
         if let Some(&eruption) = index.get(&p.volcano) {
+            let (radius, density) = (p.particle.radius as f32, p.particle.density() as f32);
             parents.push(ParentSphere {
                 id: p.id,
                 eruption,
                 center: t.translation,
-                radius: p.particle.radius as f32,
+                radius,
                 rotation: Quat::IDENTITY,
-                density: p.particle.density() as f32,
+                density,
                 umbrella: false,
                 flow: true,
+                cloud: false,
+            });
+            flows.push(FlowSample {
+                id: p.id,
+                eruption,
+                center: t.translation,
+                radius,
+                speed: p.particle.velocity.length() as f32,
+                density,
+                buoyant: p.buoyant,
+                vent: p.vent,
             });
         }
     }
-    parents.sort_by_key(|p| (p.eruption, p.flow, p.umbrella, p.id));
+    if !flows.is_empty() {
+        let settings = world.get_resource::<CurrentCloudSettings>().cloned().unwrap_or_default();
+        if let Err(e) = settings.validate() {
+            warn_once!("volcano: no clouds over pyroclastic currents: {e}");
+        }
+        // The query's order depends on archetype layout: sort first, so the clouds come out
+        // the same on every run.
+        flows.sort_by_key(|f| (f.eruption, f.id));
+        current_clouds(&flows, &settings, &mut parents);
+    }
+    parents.sort_by_key(|p| (p.eruption, p.flow, p.cloud, p.umbrella, p.id));
     (eruptions.into_iter().map(|(_, v)| v).collect(), parents)
 }
 
@@ -165,7 +197,7 @@ pub fn for_each_sphere(
         let center = p.center.as_dvec3();
         let density = p.density as f64;
         f(SphereRecord { center, radius: p.radius as f64, density, level: 1 });
-        if p.flow {
+        if p.flow || p.cloud {
             continue;
         }
         let rot = DQuat::from_xyzw(
@@ -318,7 +350,12 @@ fn plan_instances(
     let max = settings.max_instances as usize;
     let children = |e: &EruptionView| e.spheres.s2_per_s1 as usize * (1 + e.spheres.s3_per_s2 as usize);
     let detail_total: usize = if settings.detail {
-        parents.iter().filter(|p| !p.flow).filter_map(|p| eruptions.get(p.eruption)).map(children).sum()
+        parents
+            .iter()
+            .filter(|p| !p.flow && !p.cloud)
+            .filter_map(|p| eruptions.get(p.eruption))
+            .map(children)
+            .sum()
     } else {
         0
     };
@@ -334,7 +371,7 @@ fn plan_instances(
             let coverage = 1.0 - 0.45 * shade;
             let mut billboard = e.is_some() && settings.billboards;
             let mut detail = match e {
-                Some(e) if settings.detail && !p.flow => {
+                Some(e) if settings.detail && !p.flow && !p.cloud => {
                     (children(e) as f64 * budget * coverage as f64) as usize
                 }
                 _ => 0,
@@ -396,7 +433,7 @@ fn fill_parent<'a>(
 /// fixed angle from the variant.
 fn billboard_look(p: &ParentSphere, viewpoint: Option<Vec3>) -> (f32, f32) {
     let variant = (mix32(p.id) & 0xffff) as f32 / 65_536.0;
-    if p.umbrella || p.flow {
+    if p.umbrella || p.flow || p.cloud {
         return (variant * std::f32::consts::TAU, variant);
     }
     let (axis, theta) = p.rotation.to_axis_angle();
@@ -449,6 +486,7 @@ mod tests {
             density,
             umbrella,
             flow: false,
+            cloud: false,
         }
     }
 

@@ -153,6 +153,7 @@ fn column() -> (Vec<EruptionView>, Vec<ParentSphere>) {
             density: 200.0 / (1.0 + 0.3 * i as f32).powi(2),
             umbrella: i >= 50,
             flow: i == 13,
+            cloud: i == 17,
         })
         .collect();
     (eruptions, parents)

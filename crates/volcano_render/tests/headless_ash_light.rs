@@ -61,6 +61,7 @@ fn puff(
         density: 5.0,
         umbrella: true,
         flow: false,
+        cloud: false,
     };
     let mut spheres = vec![sphere(0, center, RADIUS / 1.35)];
     if occluded.0 {

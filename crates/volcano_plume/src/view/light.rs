@@ -304,6 +304,7 @@ mod tests {
             density,
             umbrella: false,
             flow: false,
+            cloud: false,
         }
     }
 

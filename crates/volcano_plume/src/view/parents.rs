@@ -97,6 +97,7 @@ mod tests {
                 density: 200.0 / (1.0 + i as f32).powi(2),
                 umbrella: i % 5 == 4,
                 flow: i == 7,
+                cloud: i == 11,
             })
             .collect()
     }

@@ -14,9 +14,9 @@ use std::sync::Arc;
 
 use bevy::prelude::*;
 use volcano_plume::view::{
-    AshInstance, AshLightSettings, EruptionView, ParentLight, ParentSphere, PlumeViewSettings,
-    PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction, light_parents,
-    plan_parents, s2_key, s3_key, vent_light,
+    AshInstance, AshLightSettings, CurrentCloudSettings, EruptionView, ParentLight, ParentSphere,
+    PlumeViewSettings, PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction,
+    light_parents, plan_parents, s2_key, s3_key, vent_light,
 };
 
 /// One parent as the renderer's vertex shader reads it (64 bytes, a `std430` storage-buffer
@@ -160,7 +160,9 @@ pub(super) fn build(app: &mut App) {
         .init_resource::<PlumeViewpoint>()
         .init_resource::<PlumeParents>()
         .init_resource::<AshLightSettings>()
+        .init_resource::<CurrentCloudSettings>()
         .register_type::<AshLightSettings>()
+        .register_type::<CurrentCloudSettings>()
         .register_type::<PlumeViewSettings>()
         .register_type::<PlumeViewpoint>()
         .add_systems(PostUpdate, update_parents);
@@ -230,6 +232,7 @@ mod tests {
                 density: 200.0 / (1.0 + i as f32).powi(2),
                 umbrella: i % 5 == 4,
                 flow: i == 7,
+                cloud: i == 11,
             })
             .collect()
     }
