@@ -15,11 +15,14 @@
 //!   along its tangent so neighbours overlap, at its vertical offset and rolling height above
 //!   the surface), one entity per particle sharing one mesh and material, so Bevy batches them
 //!   into instanced draws; they cast shadows ([`LavaRenderSettings::fold_shadows`]).
+//! - **Glow light**: one shadowless point light per field, of the power and colour its
+//!   emission gives out, lights the ground and folds around the flow ([`light`]).
 //! - **Debug views** ([`LavaRenderMode`]): crust thickness in the colours of thesis Figs
 //!   5.11–5.13 (red < 8 mm, green 8 mm–2 cm, blue > 2 cm; folds white) and lava thickness.
 
 pub mod crust;
 mod folds;
+pub mod light;
 pub mod margin;
 mod surface;
 
@@ -36,6 +39,7 @@ use crate::terrain::{MeshSurface, TerrainMesh};
 
 pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
 pub use folds::{FoldInstance, fold_transform};
+pub use light::{GlowLight, LavaGlow, glow_light, glow_range};
 pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
 
 /// How lava is drawn (a resource; switch it live from a panel).
@@ -78,11 +82,20 @@ pub struct LavaRenderSettings {
     pub show_folds: bool,
     /// Fold ropes cast shadows (one more draw per rope and shadow cascade).
     pub fold_shadows: bool,
+    /// The glowing lava lights its surroundings: one shadowless point light per field
+    /// ([`light::glow_light`]).
+    pub glow_light: bool,
 }
 
 impl Default for LavaRenderSettings {
     fn default() -> Self {
-        Self { rebuild_every_frames: 2, emissive_nits: 40_000.0, show_folds: true, fold_shadows: true }
+        Self {
+            rebuild_every_frames: 2,
+            emissive_nits: 40_000.0,
+            show_folds: true,
+            fold_shadows: true,
+            glow_light: true,
+        }
     }
 }
 
@@ -126,9 +139,11 @@ impl Plugin for LavaRenderPlugin {
             .init_resource::<LavaRenderSettings>()
             .register_type::<LavaRenderMode>()
             .register_type::<LavaRenderSettings>()
+            .register_type::<LavaGlow>()
             .add_systems(
                 PostUpdate,
-                (update_surfaces, folds::update_fold_instances).before(TransformSystems::Propagate),
+                (update_surfaces, folds::update_fold_instances, light::update_glow_lights)
+                    .before(TransformSystems::Propagate),
             );
     }
 
