@@ -45,9 +45,12 @@ pub fn write_ply(path: &Path, points: &[PointRecord]) -> std::io::Result<()> {
     f.flush()
 }
 
-/// Every sphere of every scale, through the same enumeration the renderer uses.
+/// Every sphere of every scale, through the same enumeration the renderer uses; without the
+/// clouds the view derives over pyroclastic currents (`current_clouds`), which are a look, not
+/// model spheres.
 fn gather(world: &mut World) -> Vec<PointRecord> {
-    let (eruptions, parents) = gather_parents(world);
+    let (eruptions, mut parents) = gather_parents(world);
+    parents.retain(|p| !p.cloud);
     let mut out = Vec::new();
     for_each_sphere(&eruptions, &parents, |s| {
         out.push(PointRecord { center: s.center, radius: s.radius, density: s.density })
