@@ -151,6 +151,8 @@ struct VertexOutput {
     // xyz: a detail sphere's centre relative to its parent's (parent radii), zero for puffs;
     // w: light from the incandescent vent (1 at the vent, half at AshLightSettings::vent_reach_m).
     @location(3) place: vec4<f32>,
+    // Transmittance of the parent's body between a detail sphere and the eye (1 for puffs).
+    @location(4) body: f32,
 };
 
 fn sun_direction() -> vec3<f32> {
@@ -190,7 +192,14 @@ fn vertex(v: Vertex) -> VertexOutput {
     if (flow) {
         offset = vec3<f32>(offset.x * 1.35, offset.y * 0.55, offset.z * 1.35);
     }
+    // A detail sphere on the far side of its parent from the eye is seen through the parent's
+    // body: Beer–Lambert over the chord toward the eye, as toward the sun in the fragment
+    // stage. Children are not sorted within their parent, so without this the shadowed back
+    // children were blended over the lit front ones (dark discs ringed with light).
+    let to_eye = normalize(view.world_position - a.center_radius.xyz);
+    let view_chord = max(-dot(place, to_eye), 0.0) * 2.0;
     var out: VertexOutput;
+    out.body = exp(-view_chord * mix(3.0, 0.8, shade));
     out.clip_position = view.clip_from_world * vec4<f32>(e.center_radius.xyz + offset, 1.0);
     out.uv = corner;
     out.params = vec4<f32>(e.params.x, shade, e.params.z, e.params.w);
@@ -264,8 +273,9 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         alpha = smoothstep(edge - 0.1, edge + 0.35, body);
         bump = n - 0.5;
     }
-    // Dense ash is opaque, diluted ash lets the background through.
-    alpha = alpha * mix(1.0, 0.6, shade * shade);
+    // Dense ash is opaque, diluted ash lets the background through; a detail sphere behind
+    // its parent's centre shows only through the parent's body.
+    alpha = alpha * mix(1.0, 0.6, shade * shade) * in.body;
     if (alpha < 0.004) {
         discard;
     }
