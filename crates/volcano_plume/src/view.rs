@@ -5,7 +5,8 @@
 //! into 32-bit words and the system that uploads them are `volcano_render::plume::layout`.
 //!
 //! [`gather_parents`] reads the world once (sorted by sphere id, so the order does not depend
-//! on archetype layout); [`for_each_sphere`] walks parents and children; [`build_instances`]
+//! on archetype layout) and adds the ash clouds the view draws over pyroclastic currents
+//! ([`current_clouds`]); [`for_each_sphere`] walks parents and children; [`build_instances`]
 //! turns them into [`AshInstance`]s: camera-facing smoke billboards for the s1/umbrella
 //! spheres (their texture turned by the spin projected on the screen, §3.7.1) and sphere
 //! impostors for the detail spheres, shaded by density (lighter and thinner aloft).
