@@ -8,6 +8,7 @@ pub mod budget;
 pub mod crust;
 pub mod field;
 pub mod flow;
+mod flow_rows;
 pub mod folds;
 pub mod imprint;
 pub mod params;
