@@ -18,8 +18,8 @@
 
 use super::field::{Edge, FlowField};
 
-use super::bands::BAND_ROWS;
-use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update, use_avx2};
+use super::bands::{BAND_ROWS, use_avx2};
+use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
 use super::params::{GRAVITY, LavaParams, ViscosityModel};
 use volcano_core::parallel::par_map;
 

@@ -37,18 +37,6 @@ impl FluxCtx<'_> {
     }
 }
 
-/// True if this CPU runs the AVX2 copies of the row loops.
-pub(super) fn use_avx2() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        std::arch::is_x86_feature_detected!("avx2")
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
 /// A non-negative value's bit pattern as an ordered integer (0 for zero, negative or NaN, so
 /// the maximum ignores NaN as `f64::max` does).
 #[inline(always)]

@@ -15,6 +15,7 @@ pub mod params;
 pub mod samples;
 pub mod scratch;
 pub mod surface;
+mod surface_rows;
 pub mod thermal;
 
 use breakout::{Breakout, BreakoutState, update_breakouts};

@@ -2,10 +2,11 @@
 //! thickness from the time of contact with the air (eq 5.1) and the divergence of the surface
 //! velocity (eq 5.3), with the thesis' thresholds and reset rule.
 
-use super::bands::{BAND_ROWS, band_range};
+use super::bands::{BAND_ROWS, band_range, use_avx2};
 use super::field::FlowField;
 use super::params::LavaParams;
 use super::samples::{CellSurface, SurfaceSamples, update_samples};
+use super::surface_rows::{CrustCtx, crust_rows};
 use volcano_core::parallel::par_map;
 
 pub use super::crust::{
@@ -160,66 +161,27 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     // 2–5. divergence, upwind advection, radiation, eq (5.3), thresholds; new values go to
     // `old`, then the buffers swap (row bands in parallel).
     let kappa = params.kappa();
-    let four_kdt = 4.0 * kappa * dt;
-    let inv_dx = 1.0 / dx;
-    let reset_ratio = params.crust_reset_ratio;
-    let (vx, vy) = (&s.vsurf[0], &s.vsurf[1]);
-    let (crust, contact) = (&s.crust, &s.contact);
+    let c = CrustCtx {
+        nx,
+        ny,
+        h,
+        vx: &s.vsurf[0],
+        vy: &s.vsurf[1],
+        crust: &s.crust,
+        contact: &s.contact,
+        min_h,
+        inv_dx: 1.0 / dx,
+        dt,
+        kappa,
+        four_kdt: 4.0 * kappa * dt,
+        reset_ratio: params.crust_reset_ratio,
+    };
     let [new_c, new_t] = &mut s.old;
     let items: Vec<_> =
         new_c.chunks_mut(band).zip(new_t.chunks_mut(band)).zip(s.divergence.chunks_mut(band)).collect();
+    let avx2 = use_avx2();
     par_map(items, |b, ((new_c, new_t), divergence)| {
-        let o = b * band;
-        for j in band_range(b, ny) {
-            for i in 0..nx {
-                let k = j * nx + i;
-                let l = k - o;
-                let hk = h[k];
-                let speed2 = vx[k] * vx[k] + vy[k] * vy[k];
-                if hk < min_h || (hk < NO_CRUST_BELOW && speed2 > MOVING_SPEED * MOVING_SPEED) {
-                    new_c[l] = 0.0;
-                    new_t[l] = 0.0;
-                    divergence[l] = 0.0;
-                    continue;
-                }
-                let (im, ip) = (if i > 0 { k - 1 } else { k }, if i + 1 < nx { k + 1 } else { k });
-                let (jm, jp) = (if j > 0 { k - nx } else { k }, if j + 1 < ny { k + nx } else { k });
-                // Divergence by central differences; a dry neighbour counts as this cell.
-                let pick = |c: usize, a: &[f64]| if h[c] >= min_h { a[c] } else { a[k] };
-                // One-sided (span 1) at the grid edges, central (span 2) inside: × 1/span.
-                let span = |d: usize| if d == 2 { 0.5 } else { 1.0 };
-                let ddx = (pick(ip, vx) - pick(im, vx)) * inv_dx * span(ip - im);
-                let ddy = (pick(jp, vy) - pick(jm, vy)) * inv_dx * span((jp - jm) / nx);
-                let div = ddx + ddy;
-                divergence[l] = div;
-                // Upwind advection of crust and contact time (dry upwind cells carry none).
-                let cx = (vx[k] * dt * inv_dx).clamp(-1.0, 1.0);
-                let cy = (vy[k] * dt * inv_dx).clamp(-1.0, 1.0);
-                let (ux, uy) = (if cx > 0.0 { im } else { ip }, if cy > 0.0 { jm } else { jp });
-                let (ax, ay) = (cx.abs(), cy.abs());
-                // Weights (1 − ax − ay, ax, ay); when ax + ay > 1 (a diagonal Courant number
-                // near 1) the cell keeps nothing and the two upwind weights are normalised.
-                let (keep, ax, ay) = if ax + ay <= 1.0 {
-                    (1.0 - ax - ay, ax, ay)
-                } else {
-                    let inv = 1.0 / (ax + ay);
-                    (0.0, ax * inv, ay * inv)
-                };
-                let c0 = keep * crust[k] + ax * crust[ux] + ay * crust[uy];
-                let t0 = keep * contact[k] + ax * contact[ux] + ay * contact[uy];
-                // Radiation (eq 5.1, incremental) and divergence (eq 5.3).
-                let mut t_c = t0 + dt;
-                let mut c = (c0 * c0 + four_kdt).sqrt();
-                if c > DIVERGENCE_MIN_CRUST && div != 0.0 {
-                    c *= exp_small(-div * dt);
-                    if div > 0.0 && c < reset_ratio * crust_from_contact(kappa, t_c) {
-                        t_c = contact_from_crust(kappa, c);
-                    }
-                }
-                new_c[l] = c.min(hk);
-                new_t[l] = t_c;
-            }
-        }
+        crust_rows(&c, band_range(b, ny), (new_c, new_t, divergence), avx2);
     });
     std::mem::swap(&mut s.crust, &mut s.old[0]);
     std::mem::swap(&mut s.contact, &mut s.old[1]);

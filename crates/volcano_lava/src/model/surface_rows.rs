@@ -1,0 +1,176 @@
+//! The row loop of the crust update's second pass ([`super::surface::update_surface`], steps
+//! 2–5: divergence, upwind advection, radiation, eq 5.3, thresholds), branch-free over whole
+//! rows so the compiler can vectorise it, with an AVX2 copy chosen at run time (see
+//! [`super::flow_rows`] for why the copies give bit-identical results).
+//!
+//! Every cell evaluates the whole update and selects the outcome. The divergence factor
+//! `exp(−∇·v dt)` is the Taylor polynomial of [`exp_small`] in the loop; the rare cells whose
+//! `|∇·v dt| ≥ 10⁻²` (where [`exp_small`] calls `f64::exp`) are flagged and redone one by one
+//! with [`exp_small`] after the row, so every cell gets exactly the value of the scalar rule.
+
+use super::crust::{
+    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
+    exp_taylor,
+};
+
+/// Read-only inputs of the pass (row-major grids of `nx × ny`).
+pub(super) struct CrustCtx<'a> {
+    pub nx: usize,
+    pub ny: usize,
+    pub h: &'a [f64],
+    pub vx: &'a [f64],
+    pub vy: &'a [f64],
+    pub crust: &'a [f64],
+    pub contact: &'a [f64],
+    pub min_h: f64,
+    pub inv_dx: f64,
+    pub dt: f64,
+    pub kappa: f64,
+    pub four_kdt: f64,
+    pub reset_ratio: f64,
+}
+
+/// One cell's neighbourhood: this cell, then west, east, south, north (a missing neighbour at
+/// the grid edge is the cell itself).
+type Five = [f64; 5];
+
+/// The update of one cell (steps 2–5 of `update_surface`): `(crust, contact, divergence,
+/// redo)`, where `redo` says the divergence factor needs `f64::exp` (only when `EXACT` is
+/// false: the Taylor polynomial was used and the result must be recomputed with `EXACT`).
+#[inline(always)]
+fn crust_cell<const EXACT: bool>(
+    c: &CrustCtx,
+    (h, vx, vy, crust, contact): (Five, Five, Five, Five, Five),
+    (span_x, span_y): (f64, f64),
+) -> (f64, f64, f64, bool) {
+    let (dt, inv_dx, min_h) = (c.dt, c.inv_dx, c.min_h);
+    let hk = h[0];
+    let speed2 = vx[0] * vx[0] + vy[0] * vy[0];
+    let none = hk < min_h || (hk < NO_CRUST_BELOW && speed2 > MOVING_SPEED * MOVING_SPEED);
+    // Divergence by central differences; a dry neighbour counts as this cell.
+    let pick = |n: usize, a: &Five| if h[n] >= min_h { a[n] } else { a[0] };
+    let ddx = (pick(2, &vx) - pick(1, &vx)) * inv_dx * span_x;
+    let ddy = (pick(4, &vy) - pick(3, &vy)) * inv_dx * span_y;
+    let div = ddx + ddy;
+    // Upwind advection of crust and contact time (dry upwind cells carry none).
+    let cx = (vx[0] * dt * inv_dx).clamp(-1.0, 1.0);
+    let cy = (vy[0] * dt * inv_dx).clamp(-1.0, 1.0);
+    let (ux, uy) = (if cx > 0.0 { 1 } else { 2 }, if cy > 0.0 { 3 } else { 4 });
+    let (ax, ay) = (cx.abs(), cy.abs());
+    let inv = 1.0 / (ax + ay);
+    let (keep, ax, ay) = if ax + ay <= 1.0 { (1.0 - ax - ay, ax, ay) } else { (0.0, ax * inv, ay * inv) };
+    let c0 = keep * crust[0] + ax * crust[ux] + ay * crust[uy];
+    let t0 = keep * contact[0] + ax * contact[ux] + ay * contact[uy];
+    // Radiation (eq 5.1, incremental) and divergence (eq 5.3).
+    let mut t_c = t0 + dt;
+    let mut cr = (c0 * c0 + c.four_kdt).sqrt();
+    let x = -div * dt;
+    let stretch = cr > DIVERGENCE_MIN_CRUST && div != 0.0;
+    let redo = !EXACT && stretch && !(x.abs() < 1e-2);
+    let e = if EXACT { exp_small(x) } else { exp_taylor(x) };
+    if stretch {
+        cr *= e;
+        if div > 0.0 && cr < c.reset_ratio * crust_from_contact(c.kappa, t_c) {
+            t_c = contact_from_crust(c.kappa, cr);
+        }
+    }
+    if none { (0.0, 0.0, 0.0, false) } else { (cr.min(hk), t_c, div, redo && !none) }
+}
+
+/// Steps 2–5 for the rows `rows` of a band, into the band's `new_c`, `new_t`, `divergence`
+/// (which start at row `rows.start`).
+pub(super) fn crust_rows(
+    c: &CrustCtx,
+    rows: std::ops::Range<usize>,
+    out: (&mut [f64], &mut [f64], &mut [f64]),
+    avx2: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
+        return unsafe { crust_rows_avx2(c, rows, out) };
+    }
+    let _ = avx2;
+    crust_rows_impl(c, rows, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn crust_rows_avx2(c: &CrustCtx, rows: std::ops::Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
+    crust_rows_impl(c, rows, out)
+}
+
+#[inline(always)]
+fn crust_rows_impl(c: &CrustCtx, rows: std::ops::Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
+    let (nx, ny) = (c.nx, c.ny);
+    let o = rows.start;
+    let (new_c, new_t, divergence) = out;
+    fn row(a: &[f64], nx: usize, r: usize) -> &[f64] {
+        &a[r * nx..(r + 1) * nx]
+    }
+    for j in rows {
+        let (jm, jp) = (j.saturating_sub(1), (j + 1).min(ny - 1));
+        // One-sided (span 1) at the grid edges, central (span 2) inside: × 1/span.
+        let span_y = if jp - jm == 2 { 0.5 } else { 1.0 };
+        let grids = [c.h, c.vx, c.vy, c.crust, c.contact];
+        let here = grids.map(|a| row(a, nx, j));
+        let south = grids.map(|a| row(a, nx, jm));
+        let north = grids.map(|a| row(a, nx, jp));
+        let l = (j - o) * nx..(j - o + 1) * nx;
+        let (oc, ot, od) = (&mut new_c[l.clone()], &mut new_t[l.clone()], &mut divergence[l]);
+        // Cell i with west and east neighbours iw, ie (the cell itself at the edges).
+        let at = |i: usize, iw: usize, ie: usize, exact: bool| {
+            let five = |q: usize| [here[q][i], here[q][iw], here[q][ie], south[q][i], north[q][i]];
+            let span_x = if ie - iw == 2 { 0.5 } else { 1.0 };
+            let cells = (five(0), five(1), five(2), five(3), five(4));
+            if exact {
+                crust_cell::<true>(c, cells, (span_x, span_y))
+            } else {
+                crust_cell::<false>(c, cells, (span_x, span_y))
+            }
+        };
+        let mut redo = false;
+        let mut put = |i: usize, (cr, t, d, r): (f64, f64, f64, bool)| {
+            oc[i] = cr;
+            ot[i] = t;
+            od[i] = d;
+            redo |= r;
+        };
+        put(0, at(0, 0, 1.min(nx - 1), false));
+        if nx > 1 {
+            put(nx - 1, at(nx - 1, nx - 2, nx - 1, false));
+        }
+        if nx > 2 {
+            // The interior cells, whose neighbours are i − 1 and i + 1 (vectorisable).
+            let m = nx - 2;
+            let w = here.map(|a| &a[..m]);
+            let e = here.map(|a| &a[2..m + 2]);
+            let cc = here.map(|a| &a[1..m + 1]);
+            let s = south.map(|a| &a[1..m + 1]);
+            let n = north.map(|a| &a[1..m + 1]);
+            let (ocm, otm, odm) = (&mut oc[1..m + 1], &mut ot[1..m + 1], &mut od[1..m + 1]);
+            let mut redo_in = false;
+            for i in 0..m {
+                let five = |q: usize| [cc[q][i], w[q][i], e[q][i], s[q][i], n[q][i]];
+                let (cr, t, d, r) =
+                    crust_cell::<false>(c, (five(0), five(1), five(2), five(3), five(4)), (0.5, span_y));
+                ocm[i] = cr;
+                otm[i] = t;
+                odm[i] = d;
+                redo_in |= r;
+            }
+            redo |= redo_in;
+        }
+        if redo {
+            for i in 0..nx {
+                let (iw, ie) = (i.saturating_sub(1), (i + 1).min(nx - 1));
+                if at(i, iw, ie, false).3 {
+                    let (cr, t, d, _) = at(i, iw, ie, true);
+                    oc[i] = cr;
+                    ot[i] = t;
+                    od[i] = d;
+                }
+            }
+        }
+    }
+}
