@@ -6,7 +6,7 @@ use super::bands::{BAND_ROWS, band_range, use_avx2};
 use super::field::FlowField;
 use super::params::LavaParams;
 use super::samples::{CellSurface, SurfaceSamples, update_samples};
-use super::surface_rows::{CrustCtx, crust_rows};
+use super::surface_rows::{CrustCtx, VelocityCtx, crust_rows, velocity_rows};
 use volcano_core::parallel::par_map;
 
 pub use super::crust::{
@@ -33,8 +33,9 @@ pub struct SurfaceState {
     /// Lagrangian samples that carry the crust (thesis §5.4.2).
     pub samples: SurfaceSamples,
     old: [Vec<f64>; 2],
-    /// Per row band: horizontal 3-sums for the smoothed surface velocity (kept allocated).
-    hsum: Vec<Vec<[f64; 3]>>,
+    /// Per row band: horizontal 3-sums of (u, v, 1) over wet cells for the smoothed surface
+    /// velocity, one plane each (kept allocated).
+    hsum: Vec<[Vec<f64>; 3]>,
 }
 
 impl SurfaceState {
@@ -100,63 +101,13 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     let inv_rigid = 1.0 / params.rigid_crust;
     let band = BAND_ROWS * nx;
     // 1. surface velocity, smoothed by crust thickness (row bands in parallel).
-    let crust = &s.crust;
+    let avx2 = use_avx2();
+    let c = VelocityCtx { nx, ny, h, u, v, crust: &s.crust, min_h, inv_rigid };
     let [vsx, vsy] = &mut s.vsurf;
-    s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Vec::new);
+    s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Default::default);
     let items: Vec<_> = vsx.chunks_mut(band).zip(vsy.chunks_mut(band)).zip(s.hsum.iter_mut()).collect();
     par_map(items, |b, ((vsx, vsy), hsum)| {
-        let o = b * band;
-        let rows = band_range(b, ny);
-        // Horizontal 3-sums of (u, v, 1) over wet cells for the band's rows and the rows
-        // above and below, then vertical 3-sums: the 3×3 wet mean without 9 branchy reads.
-        let (r0, r1) = (rows.start.saturating_sub(1), (rows.end + 1).min(ny));
-        hsum.resize((r1 - r0) * nx, [0.0; 3]);
-        for j in r0..r1 {
-            let row = j * nx;
-            let wet = |i: usize| {
-                let q = row + i;
-                if h[q] >= min_h { [u[q], v[q], 1.0] } else { [0.0; 3] }
-            };
-            let out = &mut hsum[(j - r0) * nx..(j - r0 + 1) * nx];
-            let (mut left, mut here) = ([0.0; 3], wet(0));
-            for (i, o) in out.iter_mut().enumerate() {
-                let right = if i + 1 < nx { wet(i + 1) } else { [0.0; 3] };
-                *o = [
-                    left[0] + here[0] + right[0],
-                    left[1] + here[1] + right[1],
-                    left[2] + here[2] + right[2],
-                ];
-                (left, here) = (here, right);
-            }
-        }
-        for j in rows {
-            for i in 0..nx {
-                let k = j * nx + i;
-                let l = k - o;
-                if h[k] < min_h {
-                    vsx[l] = 0.0;
-                    vsy[l] = 0.0;
-                    continue;
-                }
-                let (rx, ry) = (SURFACE_TO_MEAN * u[k], SURFACE_TO_MEAN * v[k]);
-                let w = (crust[k] * inv_rigid).min(1.0);
-                if w == 0.0 {
-                    vsx[l] = rx;
-                    vsy[l] = ry;
-                    continue;
-                }
-                let (mut mx, mut my, mut n) = (0.0, 0.0, 0.0);
-                for nj in j.saturating_sub(1)..(j + 2).min(ny) {
-                    let [a, c, m] = hsum[(nj - r0) * nx + i];
-                    mx += a;
-                    my += c;
-                    n += m;
-                }
-                let f = SURFACE_TO_MEAN / n;
-                vsx[l] = (1.0 - w) * rx + w * mx * f;
-                vsy[l] = (1.0 - w) * ry + w * my * f;
-            }
-        }
+        velocity_rows(&c, band_range(b, ny), hsum, (vsx, vsy), avx2);
     });
     // 2–5. divergence, upwind advection, radiation, eq (5.3), thresholds; new values go to
     // `old`, then the buffers swap (row bands in parallel).
@@ -179,7 +130,6 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     let [new_c, new_t] = &mut s.old;
     let items: Vec<_> =
         new_c.chunks_mut(band).zip(new_t.chunks_mut(band)).zip(s.divergence.chunks_mut(band)).collect();
-    let avx2 = use_avx2();
     par_map(items, |b, ((new_c, new_t), divergence)| {
         crust_rows(&c, band_range(b, ny), (new_c, new_t, divergence), avx2);
     });

@@ -1,19 +1,29 @@
-//! The row loop of the crust update's second pass ([`super::surface::update_surface`], steps
-//! 2–5: divergence, upwind advection, radiation, eq 5.3, thresholds), branch-free over whole
-//! rows so the compiler can vectorise it, with an AVX2 copy chosen at run time (see
-//! [`super::flow_rows`] for why the copies give bit-identical results).
+//! The row loops of the crust update ([`super::surface::update_surface`]): step 1, the surface
+//! velocity smoothed by the crust, and steps 2–5, divergence, upwind advection, radiation,
+//! eq 5.3 and thresholds. Branch-free over whole rows so the compiler can vectorise them, with
+//! AVX2 copies chosen at run time (see [`super::flow_rows`] for why the copies give
+//! bit-identical results).
 //!
 //! Every cell evaluates the whole update and selects the outcome. The divergence factor
 //! `exp(−∇·v dt)` is the Taylor polynomial of [`exp_small`] in the loop; the rare cells whose
 //! `|∇·v dt| ≥ 10⁻²` (where [`exp_small`] calls `f64::exp`) are flagged and redone one by one
 //! with [`exp_small`] after the row, so every cell gets exactly the value of the scalar rule.
 
+use std::ops::Range;
+
 use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
     exp_taylor,
 };
+use super::surface::SURFACE_TO_MEAN;
 
-/// Read-only inputs of the pass (row-major grids of `nx × ny`).
+/// Row `r` of a row-major grid of rows of `nx`.
+#[inline(always)]
+fn row(a: &[f64], nx: usize, r: usize) -> &[f64] {
+    &a[r * nx..(r + 1) * nx]
+}
+
+/// Read-only inputs of the crust pass (row-major grids of `nx × ny`).
 pub(super) struct CrustCtx<'a> {
     pub nx: usize,
     pub ny: usize,
@@ -81,7 +91,7 @@ fn crust_cell<const EXACT: bool>(
 /// (which start at row `rows.start`).
 pub(super) fn crust_rows(
     c: &CrustCtx,
-    rows: std::ops::Range<usize>,
+    rows: Range<usize>,
     out: (&mut [f64], &mut [f64], &mut [f64]),
     avx2: bool,
 ) {
@@ -96,18 +106,15 @@ pub(super) fn crust_rows(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn crust_rows_avx2(c: &CrustCtx, rows: std::ops::Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
+fn crust_rows_avx2(c: &CrustCtx, rows: Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
     crust_rows_impl(c, rows, out)
 }
 
 #[inline(always)]
-fn crust_rows_impl(c: &CrustCtx, rows: std::ops::Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
+fn crust_rows_impl(c: &CrustCtx, rows: Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
     let (nx, ny) = (c.nx, c.ny);
     let o = rows.start;
     let (new_c, new_t, divergence) = out;
-    fn row(a: &[f64], nx: usize, r: usize) -> &[f64] {
-        &a[r * nx..(r + 1) * nx]
-    }
     for j in rows {
         let (jm, jp) = (j.saturating_sub(1), (j + 1).min(ny - 1));
         // One-sided (span 1) at the grid edges, central (span 2) inside: × 1/span.
@@ -172,5 +179,145 @@ fn crust_rows_impl(c: &CrustCtx, rows: std::ops::Range<usize>, out: (&mut [f64],
                 }
             }
         }
+    }
+}
+
+/// Read-only inputs of the surface-velocity pass (step 1 of `update_surface`).
+pub(super) struct VelocityCtx<'a> {
+    pub nx: usize,
+    pub ny: usize,
+    pub h: &'a [f64],
+    pub u: &'a [f64],
+    pub v: &'a [f64],
+    pub crust: &'a [f64],
+    pub min_h: f64,
+    pub inv_rigid: f64,
+}
+
+/// Step 1 for the rows `rows` of a band, into the band's `vsx`, `vsy` (which start at row
+/// `rows.start`); `hsum` is the band's scratch for the horizontal 3-sums of `(u, v, 1)` over
+/// wet cells (one plane each) of its rows and the rows above and below.
+pub(super) fn velocity_rows(
+    c: &VelocityCtx,
+    rows: Range<usize>,
+    hsum: &mut [Vec<f64>; 3],
+    out: (&mut [f64], &mut [f64]),
+    avx2: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
+        return unsafe { velocity_rows_avx2(c, rows, hsum, out) };
+    }
+    let _ = avx2;
+    velocity_rows_impl(c, rows, hsum, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn velocity_rows_avx2(c: &VelocityCtx, rows: Range<usize>, hsum: &mut [Vec<f64>; 3], out: (&mut [f64], &mut [f64])) {
+    velocity_rows_impl(c, rows, hsum, out)
+}
+
+/// `(u, v, 1)` of a wet cell, zeros for a dry one.
+#[inline(always)]
+fn wet(h: f64, u: f64, v: f64, min_h: f64) -> [f64; 3] {
+    if h >= min_h { [u, v, 1.0] } else { [0.0; 3] }
+}
+
+#[inline(always)]
+fn velocity_rows_impl(c: &VelocityCtx, rows: Range<usize>, hsum: &mut [Vec<f64>; 3], out: (&mut [f64], &mut [f64])) {
+    let (nx, ny, min_h) = (c.nx, c.ny, c.min_h);
+    // Horizontal 3-sums `(left + here) + right` (zero beyond the row ends), then vertical
+    // 3-sums: the 3×3 wet mean without 9 branchy reads.
+    let (r0, r1) = (rows.start.saturating_sub(1), (rows.end + 1).min(ny));
+    for p in hsum.iter_mut() {
+        p.resize((r1 - r0) * nx, 0.0);
+    }
+    for j in r0..r1 {
+        let (h, u, v) = (row(c.h, nx, j), row(c.u, nx, j), row(c.v, nx, j));
+        let l = (j - r0) * nx..(j - r0 + 1) * nx;
+        let [su, sv, sn] = hsum;
+        let (su, sv, sn) = (&mut su[l.clone()], &mut sv[l.clone()], &mut sn[l]);
+        let at = |i: usize| wet(h[i], u[i], v[i], min_h);
+        let mut put = |i: usize, [a, b, d]: [f64; 3], [e, f, g]: [f64; 3], [x, y, z]: [f64; 3]| {
+            su[i] = a + e + x;
+            sv[i] = b + f + y;
+            sn[i] = d + g + z;
+        };
+        put(0, [0.0; 3], at(0), if nx > 1 { at(1) } else { [0.0; 3] });
+        if nx > 1 {
+            put(nx - 1, at(nx - 2), at(nx - 1), [0.0; 3]);
+        }
+        if nx > 2 {
+            let m = nx - 2;
+            let (hw, hc, he) = (&h[..m], &h[1..m + 1], &h[2..m + 2]);
+            let (uw, uc, ue) = (&u[..m], &u[1..m + 1], &u[2..m + 2]);
+            let (vw, vc, ve) = (&v[..m], &v[1..m + 1], &v[2..m + 2]);
+            let (su, sv, sn) = (&mut su[1..m + 1], &mut sv[1..m + 1], &mut sn[1..m + 1]);
+            for i in 0..m {
+                let [a, b, d] = wet(hw[i], uw[i], vw[i], min_h);
+                let [e, f, g] = wet(hc[i], uc[i], vc[i], min_h);
+                let [x, y, z] = wet(he[i], ue[i], ve[i], min_h);
+                su[i] = a + e + x;
+                sv[i] = b + f + y;
+                sn[i] = d + g + z;
+            }
+        }
+    }
+    let o = rows.start;
+    let (vsx, vsy) = out;
+    for j in rows {
+        let l = (j - o) * nx..(j - o + 1) * nx;
+        let (ox, oy) = (&mut vsx[l.clone()], &mut vsy[l]);
+        let plane = |p: usize, r: usize| row(&hsum[p], nx, r - r0);
+        let rows3 = |r: usize| [plane(0, r), plane(1, r), plane(2, r)];
+        let (down, up) = ((j > 0).then(|| rows3(j - 1)), (j + 1 < ny).then(|| rows3(j + 1)));
+        let cells = (row(c.h, nx, j), row(c.u, nx, j), row(c.v, nx, j), row(c.crust, nx, j));
+        let here = rows3(j);
+        match (down, up) {
+            (Some(d), Some(u)) => smooth_row::<true, true>(c, cells, [d, here, u], (ox, oy)),
+            (Some(d), None) => smooth_row::<true, false>(c, cells, [d, here, here], (ox, oy)),
+            (None, Some(u)) => smooth_row::<false, true>(c, cells, [here, here, u], (ox, oy)),
+            (None, None) => smooth_row::<false, false>(c, cells, [here, here, here], (ox, oy)),
+        }
+    }
+}
+
+/// One row of surface velocities: `3/2 ×` the depth-averaged velocity blended toward the wet
+/// 3×3 mean (`sums` = horizontal sums of the rows below, here and above; the row below or
+/// above only if `DOWN` / `UP`, summed from zero in that order).
+#[inline(always)]
+fn smooth_row<const DOWN: bool, const UP: bool>(
+    c: &VelocityCtx,
+    (h, u, v, crust): (&[f64], &[f64], &[f64], &[f64]),
+    sums: [[&[f64]; 3]; 3],
+    (ox, oy): (&mut [f64], &mut [f64]),
+) {
+    let n = c.nx;
+    let (h, u, v, crust, ox, oy) = (&h[..n], &u[..n], &v[..n], &crust[..n], &mut ox[..n], &mut oy[..n]);
+    let [d, m, p] = sums.map(|r| r.map(|a| &a[..n]));
+    for i in 0..n {
+        let (rx, ry) = (SURFACE_TO_MEAN * u[i], SURFACE_TO_MEAN * v[i]);
+        let w = (crust[i] * c.inv_rigid).min(1.0);
+        let (mut mx, mut my, mut cnt) = (0.0, 0.0, 0.0);
+        if DOWN {
+            mx += d[0][i];
+            my += d[1][i];
+            cnt += d[2][i];
+        }
+        mx += m[0][i];
+        my += m[1][i];
+        cnt += m[2][i];
+        if UP {
+            mx += p[0][i];
+            my += p[1][i];
+            cnt += p[2][i];
+        }
+        let f = SURFACE_TO_MEAN / cnt;
+        let (sx, sy) = ((1.0 - w) * rx + w * mx * f, (1.0 - w) * ry + w * my * f);
+        let dry = h[i] < c.min_h;
+        ox[i] = if dry { 0.0 } else if w == 0.0 { rx } else { sx };
+        oy[i] = if dry { 0.0 } else if w == 0.0 { ry } else { sy };
     }
 }
