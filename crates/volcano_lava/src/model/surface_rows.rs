@@ -219,10 +219,18 @@ fn velocity_rows_avx2(c: &VelocityCtx, rows: Range<usize>, hsum: &mut [Vec<f64>;
     velocity_rows_impl(c, rows, hsum, out)
 }
 
+/// `x` where `keep`, else `+0.0`: a select written as a bit mask, so the compiler keeps
+/// plain loads and stores instead of masked ones (slow on some CPUs).
+#[inline(always)]
+fn keep_or_zero(keep: bool, x: f64) -> f64 {
+    f64::from_bits(x.to_bits() & (keep as u64).wrapping_neg())
+}
+
 /// `(u, v, 1)` of a wet cell, zeros for a dry one.
 #[inline(always)]
 fn wet(h: f64, u: f64, v: f64, min_h: f64) -> [f64; 3] {
-    if h >= min_h { [u, v, 1.0] } else { [0.0; 3] }
+    let w = h >= min_h;
+    [keep_or_zero(w, u), keep_or_zero(w, v), keep_or_zero(w, 1.0)]
 }
 
 #[inline(always)]
@@ -316,8 +324,8 @@ fn smooth_row<const DOWN: bool, const UP: bool>(
         }
         let f = SURFACE_TO_MEAN / cnt;
         let (sx, sy) = ((1.0 - w) * rx + w * mx * f, (1.0 - w) * ry + w * my * f);
-        let dry = h[i] < c.min_h;
-        ox[i] = if dry { 0.0 } else if w == 0.0 { rx } else { sx };
-        oy[i] = if dry { 0.0 } else if w == 0.0 { ry } else { sy };
+        let (wet, free) = (!(h[i] < c.min_h), w == 0.0);
+        ox[i] = keep_or_zero(wet, f64::from_bits(if free { rx.to_bits() } else { sx.to_bits() }));
+        oy[i] = keep_or_zero(wet, f64::from_bits(if free { ry.to_bits() } else { sy.to_bits() }));
     }
 }
