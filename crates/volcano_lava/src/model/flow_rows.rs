@@ -303,11 +303,7 @@ fn band_update_avx2(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 {
 
 #[inline(always)]
 fn band_update_rows(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 {
-    if c.write_velocity {
-        band_update_impl::<true>(c, b, out)
-    } else {
-        band_update_impl::<false>(c, b, out)
-    }
+    if c.write_velocity { band_update_impl::<true>(c, b, out) } else { band_update_impl::<false>(c, b, out) }
 }
 
 /// Stores cell `i`'s update into the output rows; true if its thickness went negative.
@@ -379,7 +375,8 @@ fn band_update_impl<const VEL: bool>(c: &UpdateCtx, b: usize, out: UpdateOut) ->
             // The interior cells, whose neighbours are i − 1 and i + 1 (vectorisable).
             let m = nx - 2;
             let (fw, fe, fsm, fnm) = (&fxr[1..m + 1], &fxr[2..m + 2], &fs[1..m + 1], &fnn[1..m + 1]);
-            let (lw, lc, le, ldm, lum) = (&lh[..m], &lh[1..m + 1], &lh[2..m + 2], &ld[1..m + 1], &lu[1..m + 1]);
+            let (lw, lc, le, ldm, lum) =
+                (&lh[..m], &lh[1..m + 1], &lh[2..m + 2], &ld[1..m + 1], &lu[1..m + 1]);
             let (hm, tw, tc, te, tsm, tnm) =
                 (&h[1..m + 1], &t[..m], &t[1..m + 1], &t[2..m + 2], &tm[1..m + 1], &tp[1..m + 1]);
             let outs = (&mut hn[1..m + 1], &mut tn[1..m + 1], &mut u[1..m + 1], &mut v[1..m + 1]);

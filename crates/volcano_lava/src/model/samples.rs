@@ -17,12 +17,12 @@
 
 use bevy::math::DVec2;
 
+use super::bands::BAND_ROWS;
 use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
 };
 use super::field::FlowField;
 use super::params::LavaParams;
-use super::bands::BAND_ROWS;
 use volcano_core::parallel::par_map;
 
 /// One surface sample.
@@ -199,7 +199,9 @@ pub fn update_samples(
     let fresh = par_map(items, |b, ((crust, contact), (count, sum))| {
         let o = b * band;
         let mut fresh = Vec::new();
-        for (l, ((c, t), (&n, sm))) in crust.iter_mut().zip(contact.iter_mut()).zip(count.iter().zip(sum)).enumerate() {
+        for (l, ((c, t), (&n, sm))) in
+            crust.iter_mut().zip(contact.iter_mut()).zip(count.iter().zip(sum)).enumerate()
+        {
             let k = o + l;
             if n > 0 {
                 let inv = 1.0 / n as f64;
@@ -208,7 +210,11 @@ pub fn update_samples(
             } else if h[k] >= min_h {
                 // A wet cell with no sample gets one at its centre, from the grid's values.
                 let (i, j) = (k % nx, k / nx);
-                fresh.push(SurfaceSample { pos: DVec2::new(i as f64 + 0.5, j as f64 + 0.5), contact: *t, crust: *c });
+                fresh.push(SurfaceSample {
+                    pos: DVec2::new(i as f64 + 0.5, j as f64 + 0.5),
+                    contact: *t,
+                    crust: *c,
+                });
             }
         }
         fresh

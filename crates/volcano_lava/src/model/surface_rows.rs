@@ -76,7 +76,8 @@ fn crust_cell<const EXACT: bool>(
     let mut cr = (c0 * c0 + c.four_kdt).sqrt();
     let x = -div * dt;
     let stretch = cr > DIVERGENCE_MIN_CRUST && div != 0.0;
-    let redo = !EXACT && stretch && !(x.abs() < 1e-2);
+    let in_taylor_range = x.abs() < 1e-2; // false for NaN, as in `exp_small`
+    let redo = !EXACT && stretch && !in_taylor_range;
     let e = if EXACT { exp_small(x) } else { exp_taylor(x) };
     if stretch {
         cr *= e;
@@ -215,7 +216,12 @@ pub(super) fn velocity_rows(
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn velocity_rows_avx2(c: &VelocityCtx, rows: Range<usize>, hsum: &mut [Vec<f64>; 3], out: (&mut [f64], &mut [f64])) {
+fn velocity_rows_avx2(
+    c: &VelocityCtx,
+    rows: Range<usize>,
+    hsum: &mut [Vec<f64>; 3],
+    out: (&mut [f64], &mut [f64]),
+) {
     velocity_rows_impl(c, rows, hsum, out)
 }
 
@@ -234,7 +240,12 @@ fn wet(h: f64, u: f64, v: f64, min_h: f64) -> [f64; 3] {
 }
 
 #[inline(always)]
-fn velocity_rows_impl(c: &VelocityCtx, rows: Range<usize>, hsum: &mut [Vec<f64>; 3], out: (&mut [f64], &mut [f64])) {
+fn velocity_rows_impl(
+    c: &VelocityCtx,
+    rows: Range<usize>,
+    hsum: &mut [Vec<f64>; 3],
+    out: (&mut [f64], &mut [f64]),
+) {
     let (nx, ny, min_h) = (c.nx, c.ny, c.min_h);
     // Horizontal 3-sums `(left + here) + right` (zero beyond the row ends), then vertical
     // 3-sums: the 3×3 wet mean without 9 branchy reads.
@@ -324,8 +335,8 @@ fn smooth_row<const DOWN: bool, const UP: bool>(
         }
         let f = SURFACE_TO_MEAN / cnt;
         let (sx, sy) = ((1.0 - w) * rx + w * mx * f, (1.0 - w) * ry + w * my * f);
-        let (wet, free) = (!(h[i] < c.min_h), w == 0.0);
-        ox[i] = keep_or_zero(wet, f64::from_bits(if free { rx.to_bits() } else { sx.to_bits() }));
-        oy[i] = keep_or_zero(wet, f64::from_bits(if free { ry.to_bits() } else { sy.to_bits() }));
+        let (dry, free) = (h[i] < c.min_h, w == 0.0);
+        ox[i] = keep_or_zero(!dry, f64::from_bits(if free { rx.to_bits() } else { sx.to_bits() }));
+        oy[i] = keep_or_zero(!dry, f64::from_bits(if free { ry.to_bits() } else { sy.to_bits() }));
     }
 }
