@@ -51,9 +51,6 @@ pub struct SurfaceSamples {
 /// Samples per parallel task.
 const SAMPLE_CHUNK: usize = 16_384;
 
-/// Fixed row parts of the grid binned in parallel (independent of the thread count).
-const BIN_PARTS: usize = 4;
-
 /// What the surface layer hands to [`update_samples`] (per-cell arrays, row-major).
 pub struct CellSurface<'a> {
     /// Surface velocity (m/s), x and y.
@@ -150,43 +147,19 @@ pub fn update_samples(
         }
     });
     // Binning in sample order (deterministic): drop the lost and the surplus, sum the rest.
-    // A cell's count and sums depend only on its own samples in sample order, so the cells
-    // are binned by fixed row quarters in parallel, each quarter scanning the samples in order
-    // and keeping those in its cells; the surplus comes back as flags and the compaction runs
-    // in sample order.
-    let (count, sum, ks, samples) = (&mut s.count, &mut s.sum, &s.cells, &s.samples);
-    let quarter = ny.div_ceil(BIN_PARTS) * nx;
-    let items: Vec<_> = count.chunks_mut(quarter).zip(sum.chunks_mut(quarter)).collect();
-    let surplus = par_map(items, |q, (count, sum)| {
-        let (lo, hi) = (q * quarter, q * quarter + count.len());
-        let mut surplus = Vec::new();
-        for (idx, &k) in ks.iter().enumerate() {
-            let k = k as usize;
-            if k < lo || k >= hi {
-                continue; // another quarter's, or lost (u32::MAX)
-            }
-            let l = k - lo;
-            if count[l] >= 2 * max_per_cell {
-                surplus.push(idx as u32);
-                continue;
-            }
-            let smp = &samples[idx];
-            count[l] += 1;
-            sum[l][0] += smp.crust;
-            sum[l][1] += smp.contact;
-        }
-        surplus
-    });
-    let mut gone: Vec<bool> = ks.iter().map(|&k| k == u32::MAX).collect();
-    for idx in surplus.into_iter().flatten() {
-        gone[idx as usize] = true;
-    }
+    let (count, sum, ks) = (&mut s.count, &mut s.sum, &s.cells);
     let mut idx = 0;
-    s.samples.retain(|_| {
+    s.samples.retain(|smp| {
+        let k = ks[idx] as usize;
         idx += 1;
-        !gone[idx - 1]
+        if k == u32::MAX as usize || count[k] >= 2 * max_per_cell {
+            return false;
+        }
+        count[k] += 1;
+        sum[k][0] += smp.crust;
+        sum[k][1] += smp.contact;
+        true
     });
-    let (count, sum) = (&s.count, &s.sum);
     // Cell means and new samples by row bands in parallel; the new samples are appended in
     // band order, so in cell order as a single loop would push them.
     let band = BAND_ROWS * nx;
