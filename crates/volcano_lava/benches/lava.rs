@@ -1,6 +1,6 @@
 //! Criterion benches (issue 5 performance targets): one flow substep on a 512² grid
-//! (η = 1000 Pa·s, lava up to 1 m thick), one crust update, and a same-run memory sweep over
-//! the same field bytes (the bandwidth limit) for the ratio.
+//! (η = 1000 Pa·s, lava up to 1 m thick), also on one thread, one crust update, and a same-run
+//! memory sweep over the same field bytes (the bandwidth limit) for the ratio.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -9,6 +9,7 @@ use bevy::math::DVec2;
 use bevy::math::Vec2;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_core::Grid2;
+use volcano_core::parallel::run_inline;
 use volcano_lava::model::flow::advance_flow;
 use volcano_lava::model::folds::{Fold, FoldParams, FoldParticle, FoldSystem, update_folds};
 use volcano_lava::model::surface::{SurfaceState, update_surface};
@@ -41,6 +42,12 @@ fn benches(c: &mut Criterion) {
     let mut f = field();
     g.bench_function("flow_substep", |b| {
         b.iter(|| black_box(advance_flow(&mut f, &one_substep, 0.002)));
+    });
+    // The same on the calling thread alone (the bands in order, no pool): on a loaded machine
+    // its ratio to the single-threaded memory sweep does not depend on how many cores the
+    // pool gets.
+    g.bench_function("flow_substep_one_thread", |b| {
+        b.iter(|| run_inline(|| black_box(advance_flow(&mut f, &one_substep, 0.002))));
     });
     let p = LavaParams::isothermal(1000.0).unwrap();
     let mut f = field();

@@ -13,11 +13,13 @@
 //! The work runs in two passes over fixed row bands (see [`super::bands`]): mobilities and
 //! fluxes, then the global substep, then limiter and cell update. Each band computes what it
 //! needs of its neighbours' rows (mobility one row below, limiter one row each side) into its
-//! own buffer instead of waiting for a separate pass over the whole grid.
+//! own buffer instead of waiting for a separate pass over the whole grid. The row loops of
+//! both passes are in [`super::flow_rows`] (branch-free, vectorised, bit-identical on any CPU).
 
 use super::field::{Edge, FlowField};
 
-use super::bands::{BAND_ROWS, band_range};
+use super::bands::{BAND_ROWS, use_avx2};
+use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
 use super::params::{GRAVITY, LavaParams, ViscosityModel};
 use volcano_core::parallel::par_map;
 
@@ -61,8 +63,8 @@ pub fn bingham_factor(h: f64, plug: f64) -> f64 {
 /// mobilities `ρ g h³/(3η(T))` (second-order in the interior; at a front it is half the wet
 /// cell's, so lava advances into dry cells). A face whose donor (higher surface) cell is dry
 /// carries no lava: the limiter of [`transfer`] scales it to zero.
-#[inline]
-fn face_flux(
+#[inline(always)]
+pub(super) fn face_flux(
     inv_dx: f64,
     yield_over_rho_g: f64,
     (ga, ha, ma): (f64, f64, f64),
@@ -70,22 +72,22 @@ fn face_flux(
 ) -> (f64, f64, f64) {
     let grad = ((gb + hb) - (ga + ha)) * inv_dx;
     let hd = if grad < 0.0 { ha } else { hb };
-    if hd <= 0.0 || grad == 0.0 {
-        return (0.0, 0.0, 0.0);
-    }
+    // Evaluated for every face and selected at the end (no early return), so the row loops
+    // of `flow_rows` stay branch-free; a dry donor or a flat face gives exactly zeros.
     let mut m = 0.5 * (ma + mb) * slope_factor((gb - ga) * inv_dx);
     if yield_over_rho_g > 0.0 {
         m *= bingham_factor(hd, yield_over_rho_g / grad.abs());
     }
     let q = -m * grad;
     // Kinematic wave speed ∂q/∂h ≈ 3q/h with the thickness that dominates the mobility.
-    (q, m, 3.0 * q.abs() / ha.max(hb))
+    let w = 3.0 * q.abs() / ha.max(hb);
+    if hd <= 0.0 || grad == 0.0 { (0.0, 0.0, 0.0) } else { (q, m, w) }
 }
 
 /// Cell mobility `ρ g h³/(3η(T))` (m³/s per unit gradient) times the crust factor `fac`
 /// (`rg3` = ρ g/3). Zero where there is no lava.
 #[inline]
-fn mobility(model: ViscosityModel, rg3: f64, h: f64, t: f64, fac: f64) -> f64 {
+pub(super) fn mobility(model: ViscosityModel, rg3: f64, h: f64, t: f64, fac: f64) -> f64 {
     match model {
         ViscosityModel::Constant(eta) => rg3 / eta * fac * h * h * h,
         model => {
@@ -98,108 +100,6 @@ fn mobility(model: ViscosityModel, rg3: f64, h: f64, t: f64, fac: f64) -> f64 {
     }
 }
 
-/// Read-only inputs of a flux pass.
-struct FluxCtx<'a> {
-    nx: usize,
-    ny: usize,
-    inv_dx: f64,
-    yield_rg: f64,
-    rg3: f64,
-    viscosity: ViscosityModel,
-    edges: super::field::Edges,
-    g: &'a [f64],
-    h: &'a [f64],
-    t: &'a [f64],
-    fac: &'a [f64],
-}
-
-impl FluxCtx<'_> {
-    fn mob(&self, k: usize) -> f64 {
-        mobility(self.viscosity, self.rg3, self.h[k], self.t[k], self.fac[k])
-    }
-}
-
-/// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face fluxes
-/// of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face row
-/// `start` first; face row 0 is the south edge) and, for the last band, the north edge faces
-/// (`north`). Returns the band's largest face mobility and wave speed.
-fn band_fluxes(
-    c: &FluxCtx,
-    b: usize,
-    mob: &mut [f64],
-    fx: &mut [f64],
-    fy: &mut [f64],
-    north: Option<&mut [f64]>,
-) -> (f64, f64) {
-    let (nx, ny, g, h) = (c.nx, c.ny, c.g, c.h);
-    let rows = band_range(b, ny);
-    let lo = rows.start.saturating_sub(1);
-    for (m, k) in mob.iter_mut().zip(lo * nx..rows.end * nx) {
-        *m = c.mob(k);
-    }
-    let mob = |k: usize| mob[k - lo * nx];
-    let cell = |k: usize| (g[k], h[k], mob(k));
-    let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
-    let mut take = |(q, m, w): (f64, f64, f64)| {
-        m_max = m_max.max(m);
-        c_max = c_max.max(w);
-        q
-    };
-    let nfx = nx + 1;
-    let open = |edge: Edge, e: usize, inner: usize| {
-        if edge != Edge::Open {
-            return (0.0, 0.0, 0.0);
-        }
-        let ghost = 2.0 * g[e] - g[inner];
-        let (q, m, w) = face_flux(c.inv_dx, c.yield_rg, cell(e), (ghost, h[e], mob(e)));
-        (q.max(0.0), m, w)
-    };
-    for (frow, j) in fx.chunks_mut(nfx).zip(rows.clone()) {
-        let row = j * nx;
-        for (i, f) in frow.iter_mut().enumerate().take(nx).skip(1) {
-            *f = take(face_flux(c.inv_dx, c.yield_rg, cell(row + i - 1), cell(row + i)));
-        }
-        let (w, e) = (row, row + nx - 1);
-        let (q0, qn) = if c.edges.west == Edge::Periodic {
-            let q = take(face_flux(c.inv_dx, c.yield_rg, cell(e), cell(w)));
-            (q, q)
-        } else {
-            let qw = take(open(c.edges.west, w, (w + 1).min(e)));
-            let qe = take(open(c.edges.east, e, if nx > 1 { e - 1 } else { e }));
-            (-qw, qe)
-        };
-        frow[0] = q0;
-        frow[nx] = qn;
-    }
-    // Face row j (≥ 1) lies between cell rows j−1 and j.
-    for (frow, j) in fy.chunks_mut(nx).zip(rows.clone()) {
-        if j == 0 {
-            continue; // the south edge, below
-        }
-        for (i, f) in frow.iter_mut().enumerate() {
-            *f = take(face_flux(c.inv_dx, c.yield_rg, cell((j - 1) * nx + i), cell(j * nx + i)));
-        }
-    }
-    // Open or wall edges south and north (periodic ones are done by the caller: they need
-    // the far row).
-    if c.edges.south != Edge::Periodic {
-        if rows.start == 0 {
-            for (i, f) in fy.iter_mut().take(nx).enumerate() {
-                let inner = if ny > 1 { i + nx } else { i };
-                *f = -take(open(c.edges.south, i, inner));
-            }
-        }
-        if let Some(north) = north {
-            for (i, f) in north.iter_mut().enumerate() {
-                let e = (ny - 1) * nx + i;
-                let inner = if ny > 1 { e - nx } else { e };
-                *f = take(open(c.edges.north, e, inner));
-            }
-        }
-    }
-    (m_max, c_max)
-}
-
 /// Advances the lava thickness and temperature of `field` by `dt` seconds with as many
 /// CFL-limited substeps as needed (at most `params.max_substeps`). Volume is conserved to
 /// round-off: only open edges remove lava (booked as outflow). The velocity field is the
@@ -208,6 +108,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
     let mut report = FlowReport::default();
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let mut t_left = dt;
+    let avx2 = use_avx2();
     while t_left > 0.0 && report.substeps < params.max_substeps {
         report.substeps += 1;
         let s = &mut field.scratch;
@@ -236,7 +137,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             .enumerate()
             .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
             .collect();
-        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north));
+        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north, avx2));
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
             m_max = m_max.max(m);
@@ -278,44 +179,27 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             t_left = 0.0;
         }
         let last = t_left == 0.0 || report.substeps == params.max_substeps;
-        report.outflow += transfer(field, scale * dt_s, last);
+        report.outflow += transfer(field, scale * dt_s, last, avx2);
     }
     field.budget.outflow += report.outflow;
     field.time += dt;
     report
 }
 
-/// Limiter factors of cell row `j` into `out`: a cell's outgoing volume (`vol` = face length
-/// × substep) never exceeds what it holds.
-#[allow(clippy::too_many_arguments)]
-fn limiter_row(j: usize, nx: usize, fx: &[f64], fy: &[f64], h: &[f64], vol: f64, area: f64, out: &mut [f64]) {
-    let nfx = nx + 1;
-    for (i, l) in out.iter_mut().enumerate() {
-        let k = j * nx + i;
-        let (w, e) = (fx[j * nfx + i], fx[j * nfx + i + 1]);
-        let (so, no) = (fy[k], fy[k + nx]);
-        let out = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
-        let avail = h[k] * area;
-        *l = if out > avail { avail / out } else { 1.0 };
-    }
-}
-
 /// Applies one substep's face fluxes (`vol` = face length × substep, so volume = q · vol) with
 /// the positivity limiter; returns the volume that left through open edges. Each face volume
 /// is `q · vol · lim[donor]`, computed by the same expression on both sides, so what one cell
 /// loses its neighbour gains exactly.
-fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
+fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, avx2: bool) -> f64 {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let nfx = nx + 1;
     let area = dx * dx;
-    let inv_area = 1.0 / area;
     let s = &mut field.scratch;
     let (h, t) = (field.h.data(), field.temp.data());
     let (fx, fy) = (&s.fx, &s.fy);
     // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature. Row bands
-    // in parallel, each with the limiter of its rows and the rows on either side (local row
-    // 0 is the row below, wrapping; the last local row the row above); the round-off tally
-    // is summed in band order.
+    // in parallel, each with the limiter of its rows and the rows on either side; the
+    // round-off tally is summed in band order.
     let (hn, tn) = (s.h_new.data_mut(), s.t_new.data_mut());
     let (u, v) = field.vel.split_at_mut(1);
     let (u, v) = (u[0].data_mut(), v[0].data_mut());
@@ -326,65 +210,9 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool) -> f64 {
         .zip(hn.chunks_mut(band).zip(tn.chunks_mut(band)))
         .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
         .collect();
+    let c = UpdateCtx { nx, ny, fx, fy, h, t, vol, area, write_velocity };
     let tallies = par_map(items, |b, ((lim, (hn, tn)), (u, v))| {
-        let rows = band_range(b, ny);
-        let (start, n) = (rows.start, rows.len());
-        let below = if start > 0 { start - 1 } else { ny - 1 };
-        let above = if rows.end < ny { rows.end } else { 0 };
-        for (r, out) in lim.chunks_mut(nx).enumerate() {
-            let j = if r == 0 {
-                below
-            } else if r > n {
-                above
-            } else {
-                start + r - 1
-            };
-            limiter_row(j, nx, fx, fy, h, vol, area, out);
-        }
-        let lim = &*lim;
-        let mut rounding = 0.0;
-        let o = start * nx;
-        for j in rows {
-            let r = j - start + 1; // local row of j
-            let (here, down, up) = (r * nx, (r - 1) * nx, (r + 1) * nx);
-            let jm = if j > 0 { j - 1 } else { ny - 1 };
-            let jp = if j + 1 < ny { j + 1 } else { 0 };
-            for i in 0..nx {
-                let k = j * nx + i;
-                let (iw, ie) = (if i > 0 { i - 1 } else { nx - 1 }, if i + 1 < nx { i + 1 } else { 0 });
-                let (im, ip) = (j * nx + iw, j * nx + ie);
-                let (sm, sp) = (jm * nx + i, jp * nx + i);
-                let lk = lim[here + i];
-                // Signed face volumes, +x / +y positive, each scaled by its donor's factor.
-                let qw = fx[j * nfx + i] * vol;
-                let qe = fx[j * nfx + i + 1] * vol;
-                let qs = fy[k] * vol;
-                let qn = fy[k + nx] * vol;
-                let vw = qw * if qw > 0.0 { lim[here + iw] } else { lk };
-                let ve = qe * if qe > 0.0 { lk } else { lim[here + ie] };
-                let vs = qs * if qs > 0.0 { lim[down + i] } else { lk };
-                let vn = qn * if qn > 0.0 { lk } else { lim[up + i] };
-                let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
-                let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
-                let ein =
-                    vw.max(0.0) * t[im] - ve.min(0.0) * t[ip] + vs.max(0.0) * t[sm] - vn.min(0.0) * t[sp];
-                let mut hk = h[k] + (vin - vout) * inv_area;
-                if hk < 0.0 {
-                    rounding -= hk * area;
-                    hk = 0.0;
-                }
-                let remain = (h[k] - vout * inv_area).max(0.0);
-                let l = k - o;
-                tn[l] = if hk > 0.0 { (remain * t[k] + ein * inv_area) / hk } else { t[k] };
-                hn[l] = hk;
-                if write_velocity {
-                    let ok = hk > 0.0;
-                    u[l] = if ok { 0.5 * (vw + ve) / (vol * hk) } else { 0.0 };
-                    v[l] = if ok { 0.5 * (vs + vn) / (vol * hk) } else { 0.0 };
-                }
-            }
-        }
-        rounding
+        band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, avx2)
     });
     let rounding: f64 = tallies.iter().sum();
     // Volume through open edges (same expressions as above; the limiter of cell (i, j) is in

@@ -8,12 +8,14 @@ pub mod budget;
 pub mod crust;
 pub mod field;
 pub mod flow;
+mod flow_rows;
 pub mod folds;
 pub mod imprint;
 pub mod params;
 pub mod samples;
 pub mod scratch;
 pub mod surface;
+mod surface_rows;
 pub mod thermal;
 
 use breakout::{Breakout, BreakoutState, update_breakouts};

@@ -17,6 +17,7 @@
 
 use bevy::math::DVec2;
 
+use super::bands::BAND_ROWS;
 use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
 };
@@ -159,19 +160,39 @@ pub fn update_samples(
         sum[k][1] += smp.contact;
         true
     });
-    for k in 0..n {
-        if count[k] > 0 {
-            let inv = 1.0 / count[k] as f64;
-            cells.crust[k] = sum[k][0] * inv;
-            cells.contact[k] = sum[k][1] * inv;
-        } else if h[k] >= min_h {
-            // A wet cell with no sample gets one at its centre, from the grid's values.
-            let (i, j) = (k % nx, k / nx);
-            s.samples.push(SurfaceSample {
-                pos: DVec2::new(i as f64 + 0.5, j as f64 + 0.5),
-                contact: cells.contact[k],
-                crust: cells.crust[k],
-            });
+    // Cell means and new samples by row bands in parallel; the new samples are appended in
+    // band order, so in cell order as a single loop would push them.
+    let band = BAND_ROWS * nx;
+    let items: Vec<_> = cells
+        .crust
+        .chunks_mut(band)
+        .zip(cells.contact.chunks_mut(band))
+        .zip(count.chunks(band).zip(sum.chunks(band)))
+        .collect();
+    let fresh = par_map(items, |b, ((crust, contact), (count, sum))| {
+        let o = b * band;
+        let mut fresh = Vec::new();
+        for (l, ((c, t), (&n, sm))) in
+            crust.iter_mut().zip(contact.iter_mut()).zip(count.iter().zip(sum)).enumerate()
+        {
+            let k = o + l;
+            if n > 0 {
+                let inv = 1.0 / n as f64;
+                *c = sm[0] * inv;
+                *t = sm[1] * inv;
+            } else if h[k] >= min_h {
+                // A wet cell with no sample gets one at its centre, from the grid's values.
+                let (i, j) = (k % nx, k / nx);
+                fresh.push(SurfaceSample {
+                    pos: DVec2::new(i as f64 + 0.5, j as f64 + 0.5),
+                    contact: *t,
+                    crust: *c,
+                });
+            }
         }
+        fresh
+    });
+    for f in fresh {
+        s.samples.extend(f);
     }
 }

@@ -2,10 +2,11 @@
 //! thickness from the time of contact with the air (eq 5.1) and the divergence of the surface
 //! velocity (eq 5.3), with the thesis' thresholds and reset rule.
 
-use super::bands::{BAND_ROWS, band_range};
+use super::bands::{BAND_ROWS, band_range, use_avx2};
 use super::field::FlowField;
 use super::params::LavaParams;
 use super::samples::{CellSurface, SurfaceSamples, update_samples};
+use super::surface_rows::{CrustCtx, VelocityCtx, crust_rows, velocity_rows};
 use volcano_core::parallel::par_map;
 
 pub use super::crust::{
@@ -32,8 +33,9 @@ pub struct SurfaceState {
     /// Lagrangian samples that carry the crust (thesis §5.4.2).
     pub samples: SurfaceSamples,
     old: [Vec<f64>; 2],
-    /// Per row band: horizontal 3-sums for the smoothed surface velocity (kept allocated).
-    hsum: Vec<Vec<[f64; 3]>>,
+    /// Per row band: horizontal 3-sums of (u, v, 1) over wet cells for the smoothed surface
+    /// velocity, one plane each (kept allocated).
+    hsum: Vec<[Vec<f64>; 3]>,
 }
 
 impl SurfaceState {
@@ -99,127 +101,37 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     let inv_rigid = 1.0 / params.rigid_crust;
     let band = BAND_ROWS * nx;
     // 1. surface velocity, smoothed by crust thickness (row bands in parallel).
-    let crust = &s.crust;
+    let avx2 = use_avx2();
+    let c = VelocityCtx { nx, ny, h, u, v, crust: &s.crust, min_h, inv_rigid };
     let [vsx, vsy] = &mut s.vsurf;
-    s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Vec::new);
+    s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Default::default);
     let items: Vec<_> = vsx.chunks_mut(band).zip(vsy.chunks_mut(band)).zip(s.hsum.iter_mut()).collect();
     par_map(items, |b, ((vsx, vsy), hsum)| {
-        let o = b * band;
-        let rows = band_range(b, ny);
-        // Horizontal 3-sums of (u, v, 1) over wet cells for the band's rows and the rows
-        // above and below, then vertical 3-sums: the 3×3 wet mean without 9 branchy reads.
-        let (r0, r1) = (rows.start.saturating_sub(1), (rows.end + 1).min(ny));
-        hsum.resize((r1 - r0) * nx, [0.0; 3]);
-        for j in r0..r1 {
-            let row = j * nx;
-            let wet = |i: usize| {
-                let q = row + i;
-                if h[q] >= min_h { [u[q], v[q], 1.0] } else { [0.0; 3] }
-            };
-            let out = &mut hsum[(j - r0) * nx..(j - r0 + 1) * nx];
-            let (mut left, mut here) = ([0.0; 3], wet(0));
-            for (i, o) in out.iter_mut().enumerate() {
-                let right = if i + 1 < nx { wet(i + 1) } else { [0.0; 3] };
-                *o = [
-                    left[0] + here[0] + right[0],
-                    left[1] + here[1] + right[1],
-                    left[2] + here[2] + right[2],
-                ];
-                (left, here) = (here, right);
-            }
-        }
-        for j in rows {
-            for i in 0..nx {
-                let k = j * nx + i;
-                let l = k - o;
-                if h[k] < min_h {
-                    vsx[l] = 0.0;
-                    vsy[l] = 0.0;
-                    continue;
-                }
-                let (rx, ry) = (SURFACE_TO_MEAN * u[k], SURFACE_TO_MEAN * v[k]);
-                let w = (crust[k] * inv_rigid).min(1.0);
-                if w == 0.0 {
-                    vsx[l] = rx;
-                    vsy[l] = ry;
-                    continue;
-                }
-                let (mut mx, mut my, mut n) = (0.0, 0.0, 0.0);
-                for nj in j.saturating_sub(1)..(j + 2).min(ny) {
-                    let [a, c, m] = hsum[(nj - r0) * nx + i];
-                    mx += a;
-                    my += c;
-                    n += m;
-                }
-                let f = SURFACE_TO_MEAN / n;
-                vsx[l] = (1.0 - w) * rx + w * mx * f;
-                vsy[l] = (1.0 - w) * ry + w * my * f;
-            }
-        }
+        velocity_rows(&c, band_range(b, ny), hsum, (vsx, vsy), avx2);
     });
     // 2–5. divergence, upwind advection, radiation, eq (5.3), thresholds; new values go to
     // `old`, then the buffers swap (row bands in parallel).
     let kappa = params.kappa();
-    let four_kdt = 4.0 * kappa * dt;
-    let inv_dx = 1.0 / dx;
-    let reset_ratio = params.crust_reset_ratio;
-    let (vx, vy) = (&s.vsurf[0], &s.vsurf[1]);
-    let (crust, contact) = (&s.crust, &s.contact);
+    let c = CrustCtx {
+        nx,
+        ny,
+        h,
+        vx: &s.vsurf[0],
+        vy: &s.vsurf[1],
+        crust: &s.crust,
+        contact: &s.contact,
+        min_h,
+        inv_dx: 1.0 / dx,
+        dt,
+        kappa,
+        four_kdt: 4.0 * kappa * dt,
+        reset_ratio: params.crust_reset_ratio,
+    };
     let [new_c, new_t] = &mut s.old;
     let items: Vec<_> =
         new_c.chunks_mut(band).zip(new_t.chunks_mut(band)).zip(s.divergence.chunks_mut(band)).collect();
     par_map(items, |b, ((new_c, new_t), divergence)| {
-        let o = b * band;
-        for j in band_range(b, ny) {
-            for i in 0..nx {
-                let k = j * nx + i;
-                let l = k - o;
-                let hk = h[k];
-                let speed2 = vx[k] * vx[k] + vy[k] * vy[k];
-                if hk < min_h || (hk < NO_CRUST_BELOW && speed2 > MOVING_SPEED * MOVING_SPEED) {
-                    new_c[l] = 0.0;
-                    new_t[l] = 0.0;
-                    divergence[l] = 0.0;
-                    continue;
-                }
-                let (im, ip) = (if i > 0 { k - 1 } else { k }, if i + 1 < nx { k + 1 } else { k });
-                let (jm, jp) = (if j > 0 { k - nx } else { k }, if j + 1 < ny { k + nx } else { k });
-                // Divergence by central differences; a dry neighbour counts as this cell.
-                let pick = |c: usize, a: &[f64]| if h[c] >= min_h { a[c] } else { a[k] };
-                // One-sided (span 1) at the grid edges, central (span 2) inside: × 1/span.
-                let span = |d: usize| if d == 2 { 0.5 } else { 1.0 };
-                let ddx = (pick(ip, vx) - pick(im, vx)) * inv_dx * span(ip - im);
-                let ddy = (pick(jp, vy) - pick(jm, vy)) * inv_dx * span((jp - jm) / nx);
-                let div = ddx + ddy;
-                divergence[l] = div;
-                // Upwind advection of crust and contact time (dry upwind cells carry none).
-                let cx = (vx[k] * dt * inv_dx).clamp(-1.0, 1.0);
-                let cy = (vy[k] * dt * inv_dx).clamp(-1.0, 1.0);
-                let (ux, uy) = (if cx > 0.0 { im } else { ip }, if cy > 0.0 { jm } else { jp });
-                let (ax, ay) = (cx.abs(), cy.abs());
-                // Weights (1 − ax − ay, ax, ay); when ax + ay > 1 (a diagonal Courant number
-                // near 1) the cell keeps nothing and the two upwind weights are normalised.
-                let (keep, ax, ay) = if ax + ay <= 1.0 {
-                    (1.0 - ax - ay, ax, ay)
-                } else {
-                    let inv = 1.0 / (ax + ay);
-                    (0.0, ax * inv, ay * inv)
-                };
-                let c0 = keep * crust[k] + ax * crust[ux] + ay * crust[uy];
-                let t0 = keep * contact[k] + ax * contact[ux] + ay * contact[uy];
-                // Radiation (eq 5.1, incremental) and divergence (eq 5.3).
-                let mut t_c = t0 + dt;
-                let mut c = (c0 * c0 + four_kdt).sqrt();
-                if c > DIVERGENCE_MIN_CRUST && div != 0.0 {
-                    c *= exp_small(-div * dt);
-                    if div > 0.0 && c < reset_ratio * crust_from_contact(kappa, t_c) {
-                        t_c = contact_from_crust(kappa, c);
-                    }
-                }
-                new_c[l] = c.min(hk);
-                new_t[l] = t_c;
-            }
-        }
+        crust_rows(&c, band_range(b, ny), (new_c, new_t, divergence), avx2);
     });
     std::mem::swap(&mut s.crust, &mut s.old[0]);
     std::mem::swap(&mut s.contact, &mut s.old[1]);

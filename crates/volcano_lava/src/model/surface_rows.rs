@@ -1,0 +1,342 @@
+//! The row loops of the crust update ([`super::surface::update_surface`]): step 1, the surface
+//! velocity smoothed by the crust, and steps 2–5, divergence, upwind advection, radiation,
+//! eq 5.3 and thresholds. Branch-free over whole rows so the compiler can vectorise them, with
+//! AVX2 copies chosen at run time (see [`super::flow_rows`] for why the copies give
+//! bit-identical results).
+//!
+//! Every cell evaluates the whole update and selects the outcome. The divergence factor
+//! `exp(−∇·v dt)` is the Taylor polynomial of [`exp_small`] in the loop; the rare cells whose
+//! `|∇·v dt| ≥ 10⁻²` (where [`exp_small`] calls `f64::exp`) are flagged and redone one by one
+//! with [`exp_small`] after the row, so every cell gets exactly the value of the scalar rule.
+
+use std::ops::Range;
+
+use super::crust::{
+    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
+    exp_taylor,
+};
+use super::surface::SURFACE_TO_MEAN;
+
+/// Row `r` of a row-major grid of rows of `nx`.
+#[inline(always)]
+fn row(a: &[f64], nx: usize, r: usize) -> &[f64] {
+    &a[r * nx..(r + 1) * nx]
+}
+
+/// Read-only inputs of the crust pass (row-major grids of `nx × ny`).
+pub(super) struct CrustCtx<'a> {
+    pub nx: usize,
+    pub ny: usize,
+    pub h: &'a [f64],
+    pub vx: &'a [f64],
+    pub vy: &'a [f64],
+    pub crust: &'a [f64],
+    pub contact: &'a [f64],
+    pub min_h: f64,
+    pub inv_dx: f64,
+    pub dt: f64,
+    pub kappa: f64,
+    pub four_kdt: f64,
+    pub reset_ratio: f64,
+}
+
+/// One cell's neighbourhood: this cell, then west, east, south, north (a missing neighbour at
+/// the grid edge is the cell itself).
+type Five = [f64; 5];
+
+/// The update of one cell (steps 2–5 of `update_surface`): `(crust, contact, divergence,
+/// redo)`, where `redo` says the divergence factor needs `f64::exp` (only when `EXACT` is
+/// false: the Taylor polynomial was used and the result must be recomputed with `EXACT`).
+#[inline(always)]
+fn crust_cell<const EXACT: bool>(
+    c: &CrustCtx,
+    (h, vx, vy, crust, contact): (Five, Five, Five, Five, Five),
+    (span_x, span_y): (f64, f64),
+) -> (f64, f64, f64, bool) {
+    let (dt, inv_dx, min_h) = (c.dt, c.inv_dx, c.min_h);
+    let hk = h[0];
+    let speed2 = vx[0] * vx[0] + vy[0] * vy[0];
+    let none = hk < min_h || (hk < NO_CRUST_BELOW && speed2 > MOVING_SPEED * MOVING_SPEED);
+    // Divergence by central differences; a dry neighbour counts as this cell.
+    let pick = |n: usize, a: &Five| if h[n] >= min_h { a[n] } else { a[0] };
+    let ddx = (pick(2, &vx) - pick(1, &vx)) * inv_dx * span_x;
+    let ddy = (pick(4, &vy) - pick(3, &vy)) * inv_dx * span_y;
+    let div = ddx + ddy;
+    // Upwind advection of crust and contact time (dry upwind cells carry none).
+    let cx = (vx[0] * dt * inv_dx).clamp(-1.0, 1.0);
+    let cy = (vy[0] * dt * inv_dx).clamp(-1.0, 1.0);
+    let (ux, uy) = (if cx > 0.0 { 1 } else { 2 }, if cy > 0.0 { 3 } else { 4 });
+    let (ax, ay) = (cx.abs(), cy.abs());
+    let inv = 1.0 / (ax + ay);
+    let (keep, ax, ay) = if ax + ay <= 1.0 { (1.0 - ax - ay, ax, ay) } else { (0.0, ax * inv, ay * inv) };
+    let c0 = keep * crust[0] + ax * crust[ux] + ay * crust[uy];
+    let t0 = keep * contact[0] + ax * contact[ux] + ay * contact[uy];
+    // Radiation (eq 5.1, incremental) and divergence (eq 5.3).
+    let mut t_c = t0 + dt;
+    let mut cr = (c0 * c0 + c.four_kdt).sqrt();
+    let x = -div * dt;
+    let stretch = cr > DIVERGENCE_MIN_CRUST && div != 0.0;
+    let in_taylor_range = x.abs() < 1e-2; // false for NaN, as in `exp_small`
+    let redo = !EXACT && stretch && !in_taylor_range;
+    let e = if EXACT { exp_small(x) } else { exp_taylor(x) };
+    if stretch {
+        cr *= e;
+        if div > 0.0 && cr < c.reset_ratio * crust_from_contact(c.kappa, t_c) {
+            t_c = contact_from_crust(c.kappa, cr);
+        }
+    }
+    if none { (0.0, 0.0, 0.0, false) } else { (cr.min(hk), t_c, div, redo && !none) }
+}
+
+/// Steps 2–5 for the rows `rows` of a band, into the band's `new_c`, `new_t`, `divergence`
+/// (which start at row `rows.start`).
+pub(super) fn crust_rows(
+    c: &CrustCtx,
+    rows: Range<usize>,
+    out: (&mut [f64], &mut [f64], &mut [f64]),
+    avx2: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
+        return unsafe { crust_rows_avx2(c, rows, out) };
+    }
+    let _ = avx2;
+    crust_rows_impl(c, rows, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn crust_rows_avx2(c: &CrustCtx, rows: Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
+    crust_rows_impl(c, rows, out)
+}
+
+#[inline(always)]
+fn crust_rows_impl(c: &CrustCtx, rows: Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
+    let (nx, ny) = (c.nx, c.ny);
+    let o = rows.start;
+    let (new_c, new_t, divergence) = out;
+    for j in rows {
+        let (jm, jp) = (j.saturating_sub(1), (j + 1).min(ny - 1));
+        // One-sided (span 1) at the grid edges, central (span 2) inside: × 1/span.
+        let span_y = if jp - jm == 2 { 0.5 } else { 1.0 };
+        let grids = [c.h, c.vx, c.vy, c.crust, c.contact];
+        let here = grids.map(|a| row(a, nx, j));
+        let south = grids.map(|a| row(a, nx, jm));
+        let north = grids.map(|a| row(a, nx, jp));
+        let l = (j - o) * nx..(j - o + 1) * nx;
+        let (oc, ot, od) = (&mut new_c[l.clone()], &mut new_t[l.clone()], &mut divergence[l]);
+        // Cell i with west and east neighbours iw, ie (the cell itself at the edges).
+        let at = |i: usize, iw: usize, ie: usize, exact: bool| {
+            let five = |q: usize| [here[q][i], here[q][iw], here[q][ie], south[q][i], north[q][i]];
+            let span_x = if ie - iw == 2 { 0.5 } else { 1.0 };
+            let cells = (five(0), five(1), five(2), five(3), five(4));
+            if exact {
+                crust_cell::<true>(c, cells, (span_x, span_y))
+            } else {
+                crust_cell::<false>(c, cells, (span_x, span_y))
+            }
+        };
+        let mut redo = false;
+        let mut put = |i: usize, (cr, t, d, r): (f64, f64, f64, bool)| {
+            oc[i] = cr;
+            ot[i] = t;
+            od[i] = d;
+            redo |= r;
+        };
+        put(0, at(0, 0, 1.min(nx - 1), false));
+        if nx > 1 {
+            put(nx - 1, at(nx - 1, nx - 2, nx - 1, false));
+        }
+        if nx > 2 {
+            // The interior cells, whose neighbours are i − 1 and i + 1 (vectorisable).
+            let m = nx - 2;
+            let w = here.map(|a| &a[..m]);
+            let e = here.map(|a| &a[2..m + 2]);
+            let cc = here.map(|a| &a[1..m + 1]);
+            let s = south.map(|a| &a[1..m + 1]);
+            let n = north.map(|a| &a[1..m + 1]);
+            let (ocm, otm, odm) = (&mut oc[1..m + 1], &mut ot[1..m + 1], &mut od[1..m + 1]);
+            let mut redo_in = false;
+            for i in 0..m {
+                let five = |q: usize| [cc[q][i], w[q][i], e[q][i], s[q][i], n[q][i]];
+                let (cr, t, d, r) =
+                    crust_cell::<false>(c, (five(0), five(1), five(2), five(3), five(4)), (0.5, span_y));
+                ocm[i] = cr;
+                otm[i] = t;
+                odm[i] = d;
+                redo_in |= r;
+            }
+            redo |= redo_in;
+        }
+        if redo {
+            for i in 0..nx {
+                let (iw, ie) = (i.saturating_sub(1), (i + 1).min(nx - 1));
+                if at(i, iw, ie, false).3 {
+                    let (cr, t, d, _) = at(i, iw, ie, true);
+                    oc[i] = cr;
+                    ot[i] = t;
+                    od[i] = d;
+                }
+            }
+        }
+    }
+}
+
+/// Read-only inputs of the surface-velocity pass (step 1 of `update_surface`).
+pub(super) struct VelocityCtx<'a> {
+    pub nx: usize,
+    pub ny: usize,
+    pub h: &'a [f64],
+    pub u: &'a [f64],
+    pub v: &'a [f64],
+    pub crust: &'a [f64],
+    pub min_h: f64,
+    pub inv_rigid: f64,
+}
+
+/// Step 1 for the rows `rows` of a band, into the band's `vsx`, `vsy` (which start at row
+/// `rows.start`); `hsum` is the band's scratch for the horizontal 3-sums of `(u, v, 1)` over
+/// wet cells (one plane each) of its rows and the rows above and below.
+pub(super) fn velocity_rows(
+    c: &VelocityCtx,
+    rows: Range<usize>,
+    hsum: &mut [Vec<f64>; 3],
+    out: (&mut [f64], &mut [f64]),
+    avx2: bool,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
+        return unsafe { velocity_rows_avx2(c, rows, hsum, out) };
+    }
+    let _ = avx2;
+    velocity_rows_impl(c, rows, hsum, out)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn velocity_rows_avx2(
+    c: &VelocityCtx,
+    rows: Range<usize>,
+    hsum: &mut [Vec<f64>; 3],
+    out: (&mut [f64], &mut [f64]),
+) {
+    velocity_rows_impl(c, rows, hsum, out)
+}
+
+/// `x` where `keep`, else `+0.0`: a select written as a bit mask, so the compiler keeps
+/// plain loads and stores instead of masked ones (slow on some CPUs).
+#[inline(always)]
+fn keep_or_zero(keep: bool, x: f64) -> f64 {
+    f64::from_bits(x.to_bits() & (keep as u64).wrapping_neg())
+}
+
+/// `(u, v, 1)` of a wet cell, zeros for a dry one.
+#[inline(always)]
+fn wet(h: f64, u: f64, v: f64, min_h: f64) -> [f64; 3] {
+    let w = h >= min_h;
+    [keep_or_zero(w, u), keep_or_zero(w, v), keep_or_zero(w, 1.0)]
+}
+
+#[inline(always)]
+fn velocity_rows_impl(
+    c: &VelocityCtx,
+    rows: Range<usize>,
+    hsum: &mut [Vec<f64>; 3],
+    out: (&mut [f64], &mut [f64]),
+) {
+    let (nx, ny, min_h) = (c.nx, c.ny, c.min_h);
+    // Horizontal 3-sums `(left + here) + right` (zero beyond the row ends), then vertical
+    // 3-sums: the 3×3 wet mean without 9 branchy reads.
+    let (r0, r1) = (rows.start.saturating_sub(1), (rows.end + 1).min(ny));
+    for p in hsum.iter_mut() {
+        p.resize((r1 - r0) * nx, 0.0);
+    }
+    for j in r0..r1 {
+        let (h, u, v) = (row(c.h, nx, j), row(c.u, nx, j), row(c.v, nx, j));
+        let l = (j - r0) * nx..(j - r0 + 1) * nx;
+        let [su, sv, sn] = hsum;
+        let (su, sv, sn) = (&mut su[l.clone()], &mut sv[l.clone()], &mut sn[l]);
+        let at = |i: usize| wet(h[i], u[i], v[i], min_h);
+        let mut put = |i: usize, [a, b, d]: [f64; 3], [e, f, g]: [f64; 3], [x, y, z]: [f64; 3]| {
+            su[i] = a + e + x;
+            sv[i] = b + f + y;
+            sn[i] = d + g + z;
+        };
+        put(0, [0.0; 3], at(0), if nx > 1 { at(1) } else { [0.0; 3] });
+        if nx > 1 {
+            put(nx - 1, at(nx - 2), at(nx - 1), [0.0; 3]);
+        }
+        if nx > 2 {
+            let m = nx - 2;
+            let (hw, hc, he) = (&h[..m], &h[1..m + 1], &h[2..m + 2]);
+            let (uw, uc, ue) = (&u[..m], &u[1..m + 1], &u[2..m + 2]);
+            let (vw, vc, ve) = (&v[..m], &v[1..m + 1], &v[2..m + 2]);
+            let (su, sv, sn) = (&mut su[1..m + 1], &mut sv[1..m + 1], &mut sn[1..m + 1]);
+            for i in 0..m {
+                let [a, b, d] = wet(hw[i], uw[i], vw[i], min_h);
+                let [e, f, g] = wet(hc[i], uc[i], vc[i], min_h);
+                let [x, y, z] = wet(he[i], ue[i], ve[i], min_h);
+                su[i] = a + e + x;
+                sv[i] = b + f + y;
+                sn[i] = d + g + z;
+            }
+        }
+    }
+    let o = rows.start;
+    let (vsx, vsy) = out;
+    for j in rows {
+        let l = (j - o) * nx..(j - o + 1) * nx;
+        let (ox, oy) = (&mut vsx[l.clone()], &mut vsy[l]);
+        let plane = |p: usize, r: usize| row(&hsum[p], nx, r - r0);
+        let rows3 = |r: usize| [plane(0, r), plane(1, r), plane(2, r)];
+        let (down, up) = ((j > 0).then(|| rows3(j - 1)), (j + 1 < ny).then(|| rows3(j + 1)));
+        let cells = (row(c.h, nx, j), row(c.u, nx, j), row(c.v, nx, j), row(c.crust, nx, j));
+        let here = rows3(j);
+        match (down, up) {
+            (Some(d), Some(u)) => smooth_row::<true, true>(c, cells, [d, here, u], (ox, oy)),
+            (Some(d), None) => smooth_row::<true, false>(c, cells, [d, here, here], (ox, oy)),
+            (None, Some(u)) => smooth_row::<false, true>(c, cells, [here, here, u], (ox, oy)),
+            (None, None) => smooth_row::<false, false>(c, cells, [here, here, here], (ox, oy)),
+        }
+    }
+}
+
+/// One row of surface velocities: `3/2 ×` the depth-averaged velocity blended toward the wet
+/// 3×3 mean (`sums` = horizontal sums of the rows below, here and above; the row below or
+/// above only if `DOWN` / `UP`, summed from zero in that order).
+#[inline(always)]
+fn smooth_row<const DOWN: bool, const UP: bool>(
+    c: &VelocityCtx,
+    (h, u, v, crust): (&[f64], &[f64], &[f64], &[f64]),
+    sums: [[&[f64]; 3]; 3],
+    (ox, oy): (&mut [f64], &mut [f64]),
+) {
+    let n = c.nx;
+    let (h, u, v, crust, ox, oy) = (&h[..n], &u[..n], &v[..n], &crust[..n], &mut ox[..n], &mut oy[..n]);
+    let [d, m, p] = sums.map(|r| r.map(|a| &a[..n]));
+    for i in 0..n {
+        let (rx, ry) = (SURFACE_TO_MEAN * u[i], SURFACE_TO_MEAN * v[i]);
+        let w = (crust[i] * c.inv_rigid).min(1.0);
+        let (mut mx, mut my, mut cnt) = (0.0, 0.0, 0.0);
+        if DOWN {
+            mx += d[0][i];
+            my += d[1][i];
+            cnt += d[2][i];
+        }
+        mx += m[0][i];
+        my += m[1][i];
+        cnt += m[2][i];
+        if UP {
+            mx += p[0][i];
+            my += p[1][i];
+            cnt += p[2][i];
+        }
+        let f = SURFACE_TO_MEAN / cnt;
+        let (sx, sy) = ((1.0 - w) * rx + w * mx * f, (1.0 - w) * ry + w * my * f);
+        let (dry, free) = (h[i] < c.min_h, w == 0.0);
+        ox[i] = keep_or_zero(!dry, f64::from_bits(if free { rx.to_bits() } else { sx.to_bits() }));
+        oy[i] = keep_or_zero(!dry, f64::from_bits(if free { ry.to_bits() } else { sy.to_bits() }));
+    }
+}
