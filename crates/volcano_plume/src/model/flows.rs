@@ -43,6 +43,7 @@ use bevy::math::{Vec2, Vec3};
 use volcano_core::parallel::Bands;
 use volcano_core::{Boundary, Grid2, Terrain};
 
+use super::deposit::add_to_nodes;
 use super::plume_to_world;
 use super::pyroclastic::{Particle, collapse, find_clusters, secondary_column, step_particle};
 use super::slice::SliceEnv;
@@ -156,6 +157,8 @@ fn step_particles(
     let surface = ground.and_then(|g| state.grounds[g].surface.as_ref());
     let terrain = ground.map(|g| terrains[g]);
     let (p, py, dt) = (vin.plume, vin.pyroclastic, inputs.dt);
+    // The map the deposits go to, if there is one: its nodes are found in the parallel part.
+    let map = ground.and_then(|g| state.grounds[g].mass.as_ref());
     let outcomes = par_map_ordered(&mut flows.particles, |fp| {
         let wind = |z: f64| p.wind.at(z);
         let vent = fp.vent;
@@ -165,22 +168,25 @@ fn step_particles(
         fp.buoyant = report.buoyant;
         let world = vent + plume_to_world(fp.particle.position);
         let on_map = terrain.is_some_and(|t| t.contains(world.x, world.z));
-        (report, on_map)
+        let node = match map {
+            Some(m) if on_map && report.deposited > 0.0 => {
+                let at = vent + plume_to_world(report.deposit_at.extend(0.0));
+                deposit_node(m, Vec2::new(at.x, at.z))
+            }
+            _ => 0,
+        };
+        (report, on_map, node)
     });
-    for (i, (fp, (step, on_map))) in flows.particles.iter().zip(outcomes).enumerate() {
+    // Deposits on the map, in the particles' order (`deposit::add_to_nodes` keeps it per node).
+    let mut adds: Vec<(u32, f64)> = Vec::new();
+    for (i, (fp, (step, on_map, node))) in flows.particles.iter().zip(outcomes).enumerate() {
         let budget = &mut flows.budget;
         if step.deposited > 0.0 {
-            match ground.filter(|&g| on_map && state.grounds[g].mass.is_some()) {
-                Some(g) => {
-                    let deposit = &mut state.grounds[g];
-                    deposit.bulk_density = py.deposit_density;
-                    deposit.repose_angle_deg = py.repose_angle_deg;
-                    let at = fp.vent + plume_to_world(step.deposit_at.extend(0.0));
-                    deposit.add(Vec2::new(at.x, at.z), step.deposited);
-                    budget.deposited += step.deposited;
-                    report.grounds_changed[g] = true;
-                }
-                None => budget.lost += step.deposited,
+            if on_map && map.is_some() {
+                adds.push((node, step.deposited));
+                budget.deposited += step.deposited;
+            } else {
+                budget.lost += step.deposited;
             }
         }
         if step.settled || !on_map || !finite(&fp.particle) {
@@ -191,6 +197,26 @@ fn step_particles(
             report.removed.push((v, i));
         }
     }
+    if let (Some(g), false) = (ground, adds.is_empty()) {
+        let deposit = &mut state.grounds[g];
+        deposit.bulk_density = py.deposit_density;
+        deposit.repose_angle_deg = py.repose_angle_deg;
+        if let (Some(m), Some(s)) = (deposit.mass.as_mut(), deposit.surface.as_mut()) {
+            let (nx, cell) = (m.nx(), m.cell());
+            add_to_nodes(m.data_mut(), s.data_mut(), nx, &adds, cell, deposit.bulk_density);
+            deposit.revision += adds.len() as u64;
+        }
+        report.grounds_changed[g] = true;
+    }
+}
+
+/// The node `DepositMap::add` puts a deposit at world `(x, z)` = `p` on: the nearest, clamped
+/// to the grid (row-major index).
+fn deposit_node(map: &Grid2<f64>, p: Vec2) -> u32 {
+    let (fx, fy) = map.to_grid(p);
+    let i = (fx.round().max(0.0) as usize).min(map.nx() - 1);
+    let j = (fy.round().max(0.0) as usize).min(map.ny() - 1);
+    (j * map.nx() + i) as u32
 }
 
 /// Step 3: beyond `max` live particles (all volcanoes), the oldest settle where they are.
@@ -350,18 +376,28 @@ pub fn heaviest_clusters(
     rest.into_iter().map(|(g, _)| g).collect()
 }
 
-/// `f` over `items` on the task pool in fixed chunks of 512 ([`Bands`] of
-/// `volcano_core::parallel`); results in item order, independent of the thread count. The
-/// particle step's loop (and its bench's).
+/// `f` over `items` on the task pool in chunks ([`Bands`] of `volcano_core::parallel`): about
+/// 32 of them, at least [`MIN_CHUNK`] items each (enough to balance two to eight cores, few
+/// enough that the tasks' own cost does not show); results in item order. `f` sees one item at
+/// a time, so the results depend neither on the cut nor on the thread count. The particle
+/// step's loop (and its bench's).
 pub fn par_map_ordered<T: Send, R: Send + 'static>(
     items: &mut [T],
     f: impl Fn(&mut T) -> R + Sync,
 ) -> Vec<R> {
-    const CHUNK: usize = 512;
-    // Bands of CHUNK one-item rows (volcano_core::parallel); one band runs inline.
-    let chunks = Bands::of(CHUNK).map(items, 1, |_, chunk| chunk.iter_mut().map(&f).collect::<Vec<R>>());
-    chunks.into_iter().flatten().collect()
+    let n = items.len();
+    let chunk = n.div_ceil(32).max(MIN_CHUNK);
+    // Bands of `chunk` one-item rows; one band runs inline.
+    let chunks = Bands::of(chunk).map(items, 1, |_, chunk| chunk.iter_mut().map(&f).collect::<Vec<R>>());
+    let mut out = Vec::with_capacity(n);
+    for c in chunks {
+        out.extend(c);
+    }
+    out
 }
+
+/// Fewest items in one chunk of [`par_map_ordered`].
+pub const MIN_CHUNK: usize = 256;
 
 /// Height (plume frame, m above the vent at world `vent`) of the collision surface, terrain +
 /// deposit, under plume-frame `(x, y)`; −∞ without a map. Plume frame (x, y horizontal, z up
