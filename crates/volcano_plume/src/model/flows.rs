@@ -32,12 +32,14 @@
 mod inputs;
 mod report;
 mod state;
+mod surface;
 #[cfg(test)]
 mod tests;
 
 pub use inputs::{Collapsed, FlowInputs, VolcanoInputs};
 pub use report::{FlowStarted, FlowsReport, SecondaryColumn, VolcanoFlowsReport};
 pub use state::{FlowParticle, FlowsState, VolcanoFlows};
+pub use surface::Surface;
 
 use bevy::math::{Vec2, Vec3};
 use volcano_core::parallel::Bands;
@@ -154,7 +156,7 @@ fn step_particles(
 ) {
     let vin = &inputs.volcanoes[v];
     let flows = &mut state.volcanoes[v];
-    let surface = ground.and_then(|g| state.grounds[g].surface.as_ref());
+    let surface = ground.and_then(|g| state.grounds[g].surface.as_ref()).map(Surface::new);
     let terrain = ground.map(|g| terrains[g]);
     let (p, py, dt) = (vin.plume, vin.pyroclastic, inputs.dt);
     // The map the deposits go to, if there is one: its nodes are found in the parallel part.
@@ -163,7 +165,7 @@ fn step_particles(
         let wind = |z: f64| p.wind.at(z);
         let vent = fp.vent;
         let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent.y as f64, wind: &wind };
-        let below = |x: f64, y: f64| ground_below(surface, vent, x, y);
+        let below = |x: f64, y: f64| surface.map_or(f64::NEG_INFINITY, |s| s.below(vent, x, y));
         let report = step_particle(&mut fp.particle, py, &env, &below, dt);
         fp.buoyant = report.buoyant;
         let world = vent + plume_to_world(fp.particle.position);
@@ -228,13 +230,13 @@ fn cap_particles(
     alive: &mut [Vec<bool>],
     report: &mut FlowsReport,
 ) {
+    if alive.iter().flatten().filter(|a| **a).count() <= max {
+        return;
+    }
     let mut all: Vec<(u64, usize, usize)> = Vec::new();
     for (v, live) in alive.iter().enumerate() {
         let ps = &state.volcanoes[v].particles;
         all.extend(live.iter().enumerate().filter(|(_, a)| **a).map(|(i, _)| (ps[i].id, v, i)));
-    }
-    if all.len() <= max {
-        return;
     }
     // Stable: equal ids (of different volcanoes) keep the volcanoes' order.
     all.sort_by_key(|&(id, ..)| id);

@@ -155,8 +155,9 @@ pub struct ParticleReport {
     pub buoyant: bool,
 }
 
-/// Ground normal by central differences (unit, pointing up).
-pub fn ground_normal(ground: &dyn Fn(f64, f64) -> f64, x: f64, y: f64, h: f64) -> DVec3 {
+/// Ground normal by central differences (unit, pointing up). Generic over the ground function
+/// (a closure or a `dyn Fn`) so that the particle step's calls can be inlined.
+pub fn ground_normal<G: Fn(f64, f64) -> f64 + ?Sized>(ground: &G, x: f64, y: f64, h: f64) -> DVec3 {
     let dx = (ground(x + h, y) - ground(x - h, y)) / (2.0 * h);
     let dy = (ground(x, y + h) - ground(x, y - h)) / (2.0 * h);
     DVec3::new(-dx, -dy, 1.0).normalize_or(DVec3::Z)
@@ -167,12 +168,13 @@ pub fn ground_normal(ground: &dyn Fn(f64, f64) -> f64, x: f64, y: f64, h: f64) -
 /// (3.5, cross-section π r², implicit) and wind (3.6, exact relaxation of the relative
 /// velocity). Mass loss σ_pyr while moving (§3.6), fixed volume. Heightfield collision: a
 /// particle below the ground is put back on it and loses the velocity component into the
-/// ground; the tangential part is kept, so flows follow valleys.
-pub fn step_particle(
+/// ground; the tangential part is kept, so flows follow valleys. `ground` is a closure or a
+/// `dyn Fn` (generic, so a closure's calls are inlined).
+pub fn step_particle<G: Fn(f64, f64) -> f64 + ?Sized>(
     particle: &mut Particle,
     p: &PyroclasticParams,
     env: &SliceEnv,
-    ground: &dyn Fn(f64, f64) -> f64,
+    ground: &G,
     dt: f64,
 ) -> ParticleReport {
     let mut report = ParticleReport { deposit_at: particle.position.truncate(), ..Default::default() };
