@@ -14,17 +14,11 @@ pub fn thickness(mass: f64, cell: f64, rho: f64) -> f64 {
     if rho > 0.0 && cell > 0.0 { mass / (cell * cell * rho) } else { 0.0 }
 }
 
-/// Writes `surface[k] = ground[k] + thickness(mass[k])` for every node (same layout), in
-/// fixed chunks in parallel (each node on its own: the same values at any thread count).
+/// Writes `surface[k] = ground[k] + thickness(mass[k])` for every node (same layout).
 pub fn deposit_surface(ground: &[f32], mass: &[f64], cell: f64, rho: f64, surface: &mut [f32]) {
-    const CHUNK: usize = 16_384;
-    let n = surface.len().min(ground.len()).min(mass.len());
-    Bands::of(CHUNK).map(&mut surface[..n], 1, |first, s| {
-        let (g, m) = (&ground[first..first + s.len()], &mass[first..first + s.len()]);
-        for ((s, g), m) in s.iter_mut().zip(g).zip(m) {
-            *s = (*g as f64 + thickness(*m, cell, rho)) as f32;
-        }
-    });
+    for ((s, g), m) in surface.iter_mut().zip(ground).zip(mass) {
+        *s = (*g as f64 + thickness(*m, cell, rho)) as f32;
+    }
 }
 
 /// Adds `kg` to node `k` of `mass` and raises `surface` there by its thickness
@@ -87,12 +81,6 @@ pub fn add_to_nodes(
 /// excess. Bare terrain never moves. Mass moves node to node (nothing leaves the grid), so
 /// the total is conserved to rounding and no node goes negative. Returns the mass moved (kg).
 /// Written by hand: no crate relaxes a deposit layer over a fixed heightfield.
-///
-/// Computed in fixed bands of rows in parallel (`volcano_core::parallel`), in three passes:
-/// what each node sheds, then what each node receives, gathered from its neighbours in the
-/// order a row-major scatter loop would add it (above, left, itself, right, below), then the
-/// update. Every node's sum is the scatter loop's, bit for bit, at any thread count; the
-/// returned total is summed in node order. `scratch` holds three values per node.
 pub fn relax_to_repose(
     ground: &[f32],
     mass: &mut [f64],
@@ -106,225 +94,56 @@ pub fn relax_to_repose(
     if n == 0 || ground.len() != n || mass.len() != n || !(cell > 0.0 && rho > 0.0 && tan_repose >= 0.0) {
         return 0.0;
     }
-    let relax = Relax { ground, nx, ny, per_metre: cell * cell * rho, limit: tan_repose * cell };
-    if scratch.len() != 3 * n {
-        scratch.clear();
-        scratch.resize(3 * n, 0.0);
-    }
-    let (out, rest) = scratch.split_at_mut(n);
-    let (total, delta) = rest.split_at_mut(n);
-    // Pass 1: what each node sheds (`out`) and its too-low neighbours' summed excess (`total`;
-    // both 0 where it sheds nothing). Every pass writes every node: no clearing needed.
-    let bands = Bands::DEFAULT;
-    let mass_now: &[f64] = mass;
-    let shed = bands.map((&mut *out, &mut *total), nx, |first, (o, t)| {
-        let mut any = false;
-        for (r, (o, t)) in o.chunks_mut(nx).zip(t.chunks_mut(nx)).enumerate() {
-            for i in 0..nx {
-                let shed = relax.shed(mass_now, i, first + r);
-                any |= shed.is_some();
-                (o[i], t[i]) = shed.unwrap_or((0.0, 0.0));
-            }
-        }
-        any
-    });
-    // Pass 2: what each node receives, less what it sheds.
-    let (out, total): (&[f64], &[f64]) = (out, total);
-    bands.for_each_row(&mut *delta, nx, |j, d| {
-        for (i, d) in d.iter_mut().enumerate() {
-            *d = relax.received(mass_now, (out, total), i, j);
-        }
-    });
-    // Pass 3: the update (every node, as the scatter loop's: it also clamps a node at 0).
-    let delta: &[f64] = delta;
-    bands.for_each_row(&mut *mass, nx, |j, m| {
-        for (m, d) in m.iter_mut().zip(&delta[j * nx..(j + 1) * nx]) {
-            *m = (*m + d).max(0.0);
-        }
-    });
-    // The total moved, in node order (bands where nothing was shed add nothing).
+    let per_metre = cell * cell * rho;
+    let level = |k: usize, mass: &[f64]| ground[k] as f64 + mass[k] / per_metre;
+    scratch.clear();
+    scratch.resize(n, 0.0);
+    let limit = tan_repose * cell;
     let mut moved = 0.0;
-    for (b, _) in shed.iter().enumerate().filter(|(_, s)| **s) {
-        let rows = bands.range(b, ny);
-        let span = rows.start * nx..rows.end * nx;
-        for (o, t) in out[span.clone()].iter().zip(&total[span]) {
-            if *t > 0.0 {
-                moved += o;
+    for j in 0..ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            if mass[k] <= 0.0 {
+                continue;
             }
-        }
-    }
-    moved
-}
-
-/// One relaxation pass's constants (see [`relax_to_repose`]).
-struct Relax<'a> {
-    ground: &'a [f32],
-    nx: usize,
-    ny: usize,
-    /// Mass of one metre of deposit on a node (kg).
-    per_metre: f64,
-    /// Largest drop to a neighbour at the angle of repose (m).
-    limit: f64,
-}
-
-impl Relax<'_> {
-    /// Deposit surface of node `k`.
-    #[inline]
-    fn level(&self, mass: &[f64], k: usize) -> f64 {
-        self.ground[k] as f64 + mass[k] / self.per_metre
-    }
-
-    /// The 4-neighbours of `(i, j)` inside the grid, in the order left, right, above, below.
-    #[inline]
-    fn neighbours(&self, i: usize, j: usize) -> impl Iterator<Item = usize> {
-        let (nx, k) = (self.nx, j * self.nx + i);
-        [
-            (i > 0, k.wrapping_sub(1)),
-            (i + 1 < nx, k + 1),
-            (j > 0, k.wrapping_sub(nx)),
-            (j + 1 < self.ny, k + nx),
-        ]
-        .into_iter()
-        .filter_map(|(inside, q)| inside.then_some(q))
-    }
-
-    /// What node `(i, j)` sheds and the sum of its too-low neighbours' excesses, if it sheds.
-    #[inline]
-    fn shed(&self, mass: &[f64], i: usize, j: usize) -> Option<(f64, f64)> {
-        let k = j * self.nx + i;
-        if mass[k] <= 0.0 {
-            return None;
-        }
-        let here = self.level(mass, k);
-        let (mut total, mut largest, mut count) = (0.0, 0.0f64, 0);
-        for q in self.neighbours(i, j) {
-            let excess = here - self.level(mass, q) - self.limit;
-            if excess > 0.0 {
-                count += 1;
-                total += excess;
-                largest = largest.max(excess);
-            }
-        }
-        (count > 0).then(|| ((0.5 * largest * self.per_metre).min(mass[k]), total))
-    }
-
-    /// Net change of node `(i, j)`: from each neighbour that sheds toward it its share
-    /// `out · excess / total`, and its own `−out`, added in the scatter loop's order (the
-    /// neighbours in node order, itself between the left and the right one).
-    #[inline]
-    fn received(&self, mass: &[f64], (out, total): (&[f64], &[f64]), i: usize, j: usize) -> f64 {
-        let (nx, q) = (self.nx, j * self.nx + i);
-        let share = |k: usize, d: &mut f64| {
-            if total[k] > 0.0 {
-                let excess = self.level(mass, k) - self.level(mass, q) - self.limit;
+            let here = level(k, mass);
+            let mut nb = [(0usize, 0.0f64); 4];
+            let mut count = 0;
+            let (mut total, mut largest) = (0.0, 0.0f64);
+            for (di, dj) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
+                let (a, b) = (i as i64 + di, j as i64 + dj);
+                if a < 0 || b < 0 || a >= nx as i64 || b >= ny as i64 {
+                    continue;
+                }
+                let q = b as usize * nx + a as usize;
+                let excess = here - level(q, mass) - limit;
                 if excess > 0.0 {
-                    *d += out[k] * excess / total[k];
+                    nb[count] = (q, excess);
+                    count += 1;
+                    total += excess;
+                    largest = largest.max(excess);
                 }
             }
-        };
-        let mut d = 0.0;
-        if j > 0 {
-            share(q - nx, &mut d);
+            if count == 0 {
+                continue;
+            }
+            let out = (0.5 * largest * per_metre).min(mass[k]);
+            scratch[k] -= out;
+            for &(q, excess) in &nb[..count] {
+                scratch[q] += out * excess / total;
+            }
+            moved += out;
         }
-        if i > 0 {
-            share(q - 1, &mut d);
-        }
-        if total[q] > 0.0 {
-            d -= out[q];
-        }
-        if i + 1 < nx {
-            share(q + 1, &mut d);
-        }
-        if j + 1 < self.ny {
-            share(q + nx, &mut d);
-        }
-        d
     }
+    for (m, d) in mass.iter_mut().zip(scratch.iter()) {
+        *m = (*m + d).max(0.0);
+    }
+    moved
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The scatter loop `relax_to_repose` was before it ran in bands: the reference its
-    /// results must match bit for bit.
-    fn relax_reference(
-        ground: &[f32],
-        mass: &mut [f64],
-        (nx, ny): (usize, usize),
-        cell: f64,
-        rho: f64,
-        tan_repose: f64,
-    ) -> f64 {
-        let n = nx * ny;
-        let per_metre = cell * cell * rho;
-        let level = |k: usize, mass: &[f64]| ground[k] as f64 + mass[k] / per_metre;
-        let mut scratch = vec![0.0; n];
-        let limit = tan_repose * cell;
-        let mut moved = 0.0;
-        for j in 0..ny {
-            for i in 0..nx {
-                let k = j * nx + i;
-                if mass[k] <= 0.0 {
-                    continue;
-                }
-                let here = level(k, mass);
-                let mut nb = [(0usize, 0.0f64); 4];
-                let mut count = 0;
-                let (mut total, mut largest) = (0.0, 0.0f64);
-                for (di, dj) in [(-1i64, 0i64), (1, 0), (0, -1), (0, 1)] {
-                    let (a, b) = (i as i64 + di, j as i64 + dj);
-                    if a < 0 || b < 0 || a >= nx as i64 || b >= ny as i64 {
-                        continue;
-                    }
-                    let q = b as usize * nx + a as usize;
-                    let excess = here - level(q, mass) - limit;
-                    if excess > 0.0 {
-                        nb[count] = (q, excess);
-                        count += 1;
-                        total += excess;
-                        largest = largest.max(excess);
-                    }
-                }
-                if count == 0 {
-                    continue;
-                }
-                let out = (0.5 * largest * per_metre).min(mass[k]);
-                scratch[k] -= out;
-                for &(q, excess) in &nb[..count] {
-                    scratch[q] += out * excess / total;
-                }
-                moved += out;
-            }
-        }
-        for (m, d) in mass.iter_mut().zip(scratch.iter()) {
-            *m = (*m + d).max(0.0);
-        }
-        moved
-    }
-
-    #[test]
-    fn band_passes_match_the_scatter_loop_bit_for_bit() {
-        use rand::RngExt;
-        // 70 rows: three bands, the last one short; rough ground, patchy random deposit.
-        let (nx, ny, cell, rho) = (53, 70, 10.0, 1000.0);
-        let mut rng = volcano_core::rng::derive_stream(9, 9);
-        let ground: Vec<f32> = (0..nx * ny)
-            .map(|k| ((k % nx) as f32 * 3.0).sin() * 20.0 + rng.random_range(0.0..15.0))
-            .collect();
-        let mut mass: Vec<f64> = (0..nx * ny)
-            .map(|_| if rng.random_range(0.0..1.0) < 0.6 { rng.random_range(0.0..3.0e7) } else { 0.0 })
-            .collect();
-        let mut reference = mass.clone();
-        let tan = 34f64.to_radians().tan();
-        let mut scratch = Vec::new();
-        for pass in 0..40 {
-            let a = relax_to_repose(&ground, &mut mass, (nx, ny), cell, rho, tan, &mut scratch);
-            let b = relax_reference(&ground, &mut reference, (nx, ny), cell, rho, tan);
-            assert_eq!(a.to_bits(), b.to_bits(), "moved, pass {pass}");
-            assert!(mass.iter().zip(&reference).all(|(x, y)| x.to_bits() == y.to_bits()), "pass {pass}");
-        }
-    }
 
     #[test]
     fn a_spike_on_flat_ground_relaxes_to_the_repose_angle_and_keeps_its_mass() {

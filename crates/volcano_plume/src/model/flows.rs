@@ -378,28 +378,24 @@ pub fn heaviest_clusters(
     rest.into_iter().map(|(g, _)| g).collect()
 }
 
-/// `f` over `items` on the task pool in chunks ([`Bands`] of `volcano_core::parallel`): about
-/// 32 of them, at least [`MIN_CHUNK`] items each (enough to balance two to eight cores, few
-/// enough that the tasks' own cost does not show); results in item order. `f` sees one item at
-/// a time, so the results depend neither on the cut nor on the thread count. The particle
-/// step's loop (and its bench's).
+/// `f` over `items` on the task pool in fixed chunks of 512 ([`Bands`] of
+/// `volcano_core::parallel`); results in item order, independent of the thread count. The
+/// particle step's loop (and its bench's). Small chunks on purpose: on a machine whose cores
+/// are shared, a chunk held by a descheduled thread is what the step waits for.
 pub fn par_map_ordered<T: Send, R: Send + 'static>(
     items: &mut [T],
     f: impl Fn(&mut T) -> R + Sync,
 ) -> Vec<R> {
+    const CHUNK: usize = 512;
     let n = items.len();
-    let chunk = n.div_ceil(32).max(MIN_CHUNK);
-    // Bands of `chunk` one-item rows; one band runs inline.
-    let chunks = Bands::of(chunk).map(items, 1, |_, chunk| chunk.iter_mut().map(&f).collect::<Vec<R>>());
+    // Bands of CHUNK one-item rows (volcano_core::parallel); one band runs inline.
+    let chunks = Bands::of(CHUNK).map(items, 1, |_, chunk| chunk.iter_mut().map(&f).collect::<Vec<R>>());
     let mut out = Vec::with_capacity(n);
     for c in chunks {
         out.extend(c);
     }
     out
 }
-
-/// Fewest items in one chunk of [`par_map_ordered`].
-pub const MIN_CHUNK: usize = 256;
 
 /// Height (plume frame, m above the vent at world `vent`) of the collision surface, terrain +
 /// deposit, under plume-frame `(x, y)`; −∞ without a map. Plume frame (x, y horizontal, z up
