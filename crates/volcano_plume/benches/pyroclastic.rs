@@ -4,7 +4,8 @@
 //! clustering of the buoyant ones, over particles spread on the flanks of the procedural
 //! volcano, a quarter of them buoyant. The sequential step is measured too, for the ratio, and
 //! the whole domain step (`model::flows::step`: the same particles, their deposits, books, cap
-//! and lift-off) as the plugin calls it, without the ECS gathering and write-back.
+//! and lift-off) as the plugin calls it, without the ECS gathering and write-back; and one pass
+//! of the deposit's relaxation, which the plugin runs four times a second.
 
 use bevy::math::{DVec2, DVec3};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -119,6 +120,20 @@ fn bench(c: &mut Criterion) {
                     black_box(step_particle(q, &params, &env, &ground, 0.02));
                 }
             },
+            criterion::BatchSize::LargeInput,
+        )
+    });
+    // One deposit relaxation pass (the plugin runs one every quarter second) over the deposit
+    // the particles leave after a while: each has dropped 50 times its mass where it is.
+    let mut map = volcano_plume::DepositMap::default();
+    for q in &base {
+        let at = bevy::math::Vec2::new(q.position.x as f32, -q.position.y as f32);
+        map.add_on(&terrain, at, 50.0 * q.mass, params.deposit_density);
+    }
+    c.bench_function("pyroclastic: one deposit relaxation pass, 512² (+ surface)", |b| {
+        b.iter_batched_ref(
+            || map.clone(),
+            |m| black_box(m.relax(&terrain, 1)),
             criterion::BatchSize::LargeInput,
         )
     });

@@ -5,8 +5,7 @@
 //! the model's [`crate::model::flows::step`]: one system gathers the particles, books and
 //! deposit maps, calls it and writes back (docs/ARCHITECTURE.md §2.1).
 
-use std::collections::HashMap;
-
+use bevy::ecs::entity::EntityHashMap;
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
@@ -135,7 +134,7 @@ fn step_flows(
     // Terrains and their maps (taken out, put back below: no copy, no change flag unless
     // the step changed the map).
     let mut maps: Vec<(Entity, &Terrain, Mut<DepositMap>)> = grounds.iter_mut().collect();
-    let terrain_index: HashMap<Entity, usize> = maps.iter().enumerate().map(|(g, (e, ..))| (*e, g)).collect();
+    let terrain_index: EntityHashMap<usize> = maps.iter().enumerate().map(|(g, (e, ..))| (*e, g)).collect();
     let terrains: Vec<&Terrain> = maps.iter().map(|(_, t, _)| *t).collect();
     let mut state = FlowsState {
         volcanoes: Vec::new(),
@@ -143,7 +142,8 @@ fn step_flows(
     };
     // Volcanoes, their collapsed slices and their particles (in query order).
     let mut volcanoes: Vec<_> = eruptions.iter_mut().collect();
-    let index: HashMap<Entity, usize> = volcanoes.iter().enumerate().map(|(v, e)| (e.0, v)).collect();
+    // Looked up once per particle: Bevy's entity hash, not SipHash.
+    let index: EntityHashMap<usize> = volcanoes.iter().enumerate().map(|(v, e)| (e.0, v)).collect();
     let mut collapses: Vec<Vec<Collapsed>> = vec![Vec::new(); volcanoes.len()];
     for slice in handed {
         if let Some(&v) = index.get(&slice.volcano) {

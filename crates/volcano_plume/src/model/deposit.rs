@@ -7,6 +7,8 @@
 //! deposit slide to lower neighbours; later flows run over the deposit surface
 //! ([`deposit_surface`]), so a filled crater or valley overflows instead of growing a spike.
 
+use volcano_core::parallel::Bands;
+
 /// Deposit thickness (m) of `mass` kg on one node of spacing `cell` at bulk density `rho`.
 pub fn thickness(mass: f64, cell: f64, rho: f64) -> f64 {
     if rho > 0.0 && cell > 0.0 { mass / (cell * cell * rho) } else { 0.0 }
@@ -17,6 +19,59 @@ pub fn deposit_surface(ground: &[f32], mass: &[f64], cell: f64, rho: f64, surfac
     for ((s, g), m) in surface.iter_mut().zip(ground).zip(mass) {
         *s = (*g as f64 + thickness(*m, cell, rho)) as f32;
     }
+}
+
+/// Adds `kg` to node `k` of `mass` and raises `surface` there by its thickness
+/// ([`thickness`] at `cell`, `rho`), for every `(k, kg)` of `adds` in the list's order: what
+/// `DepositMap::add` does one deposit at a time (§3.6: a moving sphere deposits under itself).
+/// The grids (rows of `nx` nodes) are cut into fixed bands of rows that run in parallel; each
+/// band applies the adds that fall in it in the list's order, so every node sums its deposits
+/// in that order, bit for bit as one loop would, at any thread count. Sorting the adds by band
+/// first also keeps each band's writes within a few hundred kB instead of scattering them over
+/// the whole map. Nodes outside the grids are skipped.
+pub fn add_to_nodes(
+    mass: &mut [f64],
+    surface: &mut [f32],
+    nx: usize,
+    adds: &[(u32, f64)],
+    cell: f64,
+    rho: f64,
+) {
+    const BAND_ROWS: usize = 32;
+    let n = mass.len();
+    if adds.is_empty() || nx == 0 || surface.len() != n || !n.is_multiple_of(nx) {
+        return;
+    }
+    let band_len = BAND_ROWS * nx;
+    let bands = n.div_ceil(band_len);
+    // Counting sort by band, stable: each band's adds keep the list's order.
+    let mut start = vec![0usize; bands + 1];
+    for &(k, _) in adds {
+        if (k as usize) < n {
+            start[k as usize / band_len + 1] += 1;
+        }
+    }
+    for b in 1..start.len() {
+        start[b] += start[b - 1];
+    }
+    let mut fill = start.clone();
+    let mut sorted = vec![(0u32, 0.0f64); start[bands]];
+    for &(k, kg) in adds {
+        if (k as usize) < n {
+            let b = k as usize / band_len;
+            sorted[fill[b]] = (k, kg);
+            fill[b] += 1;
+        }
+    }
+    Bands::of(BAND_ROWS).map((mass, surface), nx, |first_row, (m, s)| {
+        let b = first_row / BAND_ROWS;
+        let base = first_row * nx;
+        for &(k, kg) in &sorted[start[b]..start[b + 1]] {
+            let k = k as usize - base;
+            m[k] += kg;
+            s[k] += thickness(kg, cell, rho) as f32;
+        }
+    });
 }
 
 /// One Jacobi pass of granular relaxation ("thermal erosion" restricted to the loose

@@ -32,17 +32,20 @@
 mod inputs;
 mod report;
 mod state;
+mod surface;
 #[cfg(test)]
 mod tests;
 
 pub use inputs::{Collapsed, FlowInputs, VolcanoInputs};
 pub use report::{FlowStarted, FlowsReport, SecondaryColumn, VolcanoFlowsReport};
 pub use state::{FlowParticle, FlowsState, VolcanoFlows};
+pub use surface::Surface;
 
 use bevy::math::{Vec2, Vec3};
 use volcano_core::parallel::Bands;
 use volcano_core::{Boundary, Grid2, Terrain};
 
+use super::deposit::add_to_nodes;
 use super::plume_to_world;
 use super::pyroclastic::{Particle, collapse, find_clusters, secondary_column, step_particle};
 use super::slice::SliceEnv;
@@ -153,34 +156,39 @@ fn step_particles(
 ) {
     let vin = &inputs.volcanoes[v];
     let flows = &mut state.volcanoes[v];
-    let surface = ground.and_then(|g| state.grounds[g].surface.as_ref());
+    let surface = ground.and_then(|g| state.grounds[g].surface.as_ref()).map(Surface::new);
     let terrain = ground.map(|g| terrains[g]);
     let (p, py, dt) = (vin.plume, vin.pyroclastic, inputs.dt);
+    // The map the deposits go to, if there is one: its nodes are found in the parallel part.
+    let map = ground.and_then(|g| state.grounds[g].mass.as_ref());
     let outcomes = par_map_ordered(&mut flows.particles, |fp| {
         let wind = |z: f64| p.wind.at(z);
         let vent = fp.vent;
         let env = SliceEnv { air: p.atmosphere.profile(), vent_altitude: vent.y as f64, wind: &wind };
-        let below = |x: f64, y: f64| ground_below(surface, vent, x, y);
+        let below = |x: f64, y: f64| surface.map_or(f64::NEG_INFINITY, |s| s.below(vent, x, y));
         let report = step_particle(&mut fp.particle, py, &env, &below, dt);
         fp.buoyant = report.buoyant;
         let world = vent + plume_to_world(fp.particle.position);
         let on_map = terrain.is_some_and(|t| t.contains(world.x, world.z));
-        (report, on_map)
+        let node = match map {
+            Some(m) if on_map && report.deposited > 0.0 => {
+                let at = vent + plume_to_world(report.deposit_at.extend(0.0));
+                deposit_node(m, Vec2::new(at.x, at.z))
+            }
+            _ => 0,
+        };
+        (report, on_map, node)
     });
-    for (i, (fp, (step, on_map))) in flows.particles.iter().zip(outcomes).enumerate() {
+    // Deposits on the map, in the particles' order (`deposit::add_to_nodes` keeps it per node).
+    let mut adds: Vec<(u32, f64)> = Vec::new();
+    for (i, (fp, (step, on_map, node))) in flows.particles.iter().zip(outcomes).enumerate() {
         let budget = &mut flows.budget;
         if step.deposited > 0.0 {
-            match ground.filter(|&g| on_map && state.grounds[g].mass.is_some()) {
-                Some(g) => {
-                    let deposit = &mut state.grounds[g];
-                    deposit.bulk_density = py.deposit_density;
-                    deposit.repose_angle_deg = py.repose_angle_deg;
-                    let at = fp.vent + plume_to_world(step.deposit_at.extend(0.0));
-                    deposit.add(Vec2::new(at.x, at.z), step.deposited);
-                    budget.deposited += step.deposited;
-                    report.grounds_changed[g] = true;
-                }
-                None => budget.lost += step.deposited,
+            if on_map && map.is_some() {
+                adds.push((node, step.deposited));
+                budget.deposited += step.deposited;
+            } else {
+                budget.lost += step.deposited;
             }
         }
         if step.settled || !on_map || !finite(&fp.particle) {
@@ -191,6 +199,26 @@ fn step_particles(
             report.removed.push((v, i));
         }
     }
+    if let (Some(g), false) = (ground, adds.is_empty()) {
+        let deposit = &mut state.grounds[g];
+        deposit.bulk_density = py.deposit_density;
+        deposit.repose_angle_deg = py.repose_angle_deg;
+        if let (Some(m), Some(s)) = (deposit.mass.as_mut(), deposit.surface.as_mut()) {
+            let (nx, cell) = (m.nx(), m.cell());
+            add_to_nodes(m.data_mut(), s.data_mut(), nx, &adds, cell, deposit.bulk_density);
+            deposit.revision += adds.len() as u64;
+        }
+        report.grounds_changed[g] = true;
+    }
+}
+
+/// The node `DepositMap::add` puts a deposit at world `(x, z)` = `p` on: the nearest, clamped
+/// to the grid (row-major index).
+fn deposit_node(map: &Grid2<f64>, p: Vec2) -> u32 {
+    let (fx, fy) = map.to_grid(p);
+    let i = (fx.round().max(0.0) as usize).min(map.nx() - 1);
+    let j = (fy.round().max(0.0) as usize).min(map.ny() - 1);
+    (j * map.nx() + i) as u32
 }
 
 /// Step 3: beyond `max` live particles (all volcanoes), the oldest settle where they are.
@@ -202,13 +230,13 @@ fn cap_particles(
     alive: &mut [Vec<bool>],
     report: &mut FlowsReport,
 ) {
+    if alive.iter().flatten().filter(|a| **a).count() <= max {
+        return;
+    }
     let mut all: Vec<(u64, usize, usize)> = Vec::new();
     for (v, live) in alive.iter().enumerate() {
         let ps = &state.volcanoes[v].particles;
         all.extend(live.iter().enumerate().filter(|(_, a)| **a).map(|(i, _)| (ps[i].id, v, i)));
-    }
-    if all.len() <= max {
-        return;
     }
     // Stable: equal ids (of different volcanoes) keep the volcanoes' order.
     all.sort_by_key(|&(id, ..)| id);
@@ -352,15 +380,21 @@ pub fn heaviest_clusters(
 
 /// `f` over `items` on the task pool in fixed chunks of 512 ([`Bands`] of
 /// `volcano_core::parallel`); results in item order, independent of the thread count. The
-/// particle step's loop (and its bench's).
+/// particle step's loop (and its bench's). Small chunks on purpose: on a machine whose cores
+/// are shared, a chunk held by a descheduled thread is what the step waits for.
 pub fn par_map_ordered<T: Send, R: Send + 'static>(
     items: &mut [T],
     f: impl Fn(&mut T) -> R + Sync,
 ) -> Vec<R> {
     const CHUNK: usize = 512;
+    let n = items.len();
     // Bands of CHUNK one-item rows (volcano_core::parallel); one band runs inline.
     let chunks = Bands::of(CHUNK).map(items, 1, |_, chunk| chunk.iter_mut().map(&f).collect::<Vec<R>>());
-    chunks.into_iter().flatten().collect()
+    let mut out = Vec::with_capacity(n);
+    for c in chunks {
+        out.extend(c);
+    }
+    out
 }
 
 /// Height (plume frame, m above the vent at world `vent`) of the collision surface, terrain +

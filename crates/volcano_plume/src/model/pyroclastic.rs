@@ -155,8 +155,9 @@ pub struct ParticleReport {
     pub buoyant: bool,
 }
 
-/// Ground normal by central differences (unit, pointing up).
-pub fn ground_normal(ground: &dyn Fn(f64, f64) -> f64, x: f64, y: f64, h: f64) -> DVec3 {
+/// Ground normal by central differences (unit, pointing up). Generic over the ground function
+/// (a closure or a `dyn Fn`) so that the particle step's calls can be inlined.
+pub fn ground_normal<G: Fn(f64, f64) -> f64 + ?Sized>(ground: &G, x: f64, y: f64, h: f64) -> DVec3 {
     let dx = (ground(x + h, y) - ground(x - h, y)) / (2.0 * h);
     let dy = (ground(x, y + h) - ground(x, y - h)) / (2.0 * h);
     DVec3::new(-dx, -dy, 1.0).normalize_or(DVec3::Z)
@@ -167,12 +168,13 @@ pub fn ground_normal(ground: &dyn Fn(f64, f64) -> f64, x: f64, y: f64, h: f64) -
 /// (3.5, cross-section π r², implicit) and wind (3.6, exact relaxation of the relative
 /// velocity). Mass loss σ_pyr while moving (§3.6), fixed volume. Heightfield collision: a
 /// particle below the ground is put back on it and loses the velocity component into the
-/// ground; the tangential part is kept, so flows follow valleys.
-pub fn step_particle(
+/// ground; the tangential part is kept, so flows follow valleys. `ground` is a closure or a
+/// `dyn Fn` (generic, so a closure's calls are inlined).
+pub fn step_particle<G: Fn(f64, f64) -> f64 + ?Sized>(
     particle: &mut Particle,
     p: &PyroclasticParams,
     env: &SliceEnv,
-    ground: &dyn Fn(f64, f64) -> f64,
+    ground: &G,
     dt: f64,
 ) -> ParticleReport {
     let mut report = ParticleReport { deposit_at: particle.position.truncate(), ..Default::default() };
@@ -254,7 +256,8 @@ pub struct Clusters {
 ///
 /// Neighbours come from a dense horizontal grid over the buoyant particles' bounding box,
 /// filled by a counting sort (cells of at least 2·radius, so a query disc touches at most 2×2
-/// cells): O(N) for bounded density, no hashing. The grid is coarsened if the particles are
+/// cells) that also copies the positions into cell order, so a query reads two contiguous runs
+/// of memory: O(N) for bounded density, no hashing. The grid is coarsened if the particles are
 /// so spread out that it would have more than 4 cells per particle. Written by hand: the
 /// grouping rule is the thesis', and a k-d tree crate would not make it simpler.
 /// Deterministic: each cell lists its particles in index order.
@@ -283,29 +286,38 @@ pub fn find_clusters(particles: &[Particle], buoyant: &[bool], radius: f64, min_
         let f = (p.truncate() - lo) / cell;
         (f.y as usize).min(ny - 1) * nx + (f.x as usize).min(nx - 1)
     };
-    // Counting sort of the live particles by cell (stable: index order within a cell).
+    // Counting sort of the live particles by cell (stable: index order within a cell), their
+    // positions copied in that order: a query reads its cells' particles from one contiguous
+    // run of memory instead of jumping through the particle list.
+    let cells: Vec<u32> = live.iter().map(|&i| cell_of(particles[i].position) as u32).collect();
     let mut start = vec![0u32; nx * ny + 1];
-    for &i in &live {
-        start[cell_of(particles[i].position) + 1] += 1;
+    for &c in &cells {
+        start[c as usize + 1] += 1;
     }
     for k in 1..start.len() {
         start[k] += start[k - 1];
     }
     let mut fill = start.clone();
-    let mut items = vec![0u32; live.len()];
-    for &i in &live {
-        let c = cell_of(particles[i].position);
-        items[fill[c] as usize] = i as u32;
-        fill[c] += 1;
+    // Per slot of the sorted order: position and particle index; per live particle: its slot.
+    let (mut at, mut index) = (vec![DVec3::ZERO; live.len()], vec![0u32; live.len()]);
+    let mut slot_of = vec![0u32; live.len()];
+    for (n, (&i, &c)) in live.iter().zip(&cells).enumerate() {
+        let s = fill[c as usize] as usize;
+        fill[c as usize] += 1;
+        at[s] = particles[i].position;
+        index[s] = i as u32;
+        slot_of[n] = s as u32;
     }
-    let mut taken = vec![false; particles.len()];
+    // Taken, by slot.
+    let mut taken = vec![false; live.len()];
     let r2 = radius * radius;
     let mut group = Vec::new();
-    for &seed in &live {
-        if taken[seed] {
+    for (n, &seed) in live.iter().enumerate() {
+        let s = slot_of[n] as usize;
+        if taken[s] {
             continue;
         }
-        let c = particles[seed].position;
+        let c = at[s];
         // The 2×2 cells that contain the disc of `radius` around c (cell ≥ 2·radius).
         let f = (c.truncate() - lo) / cell - 0.5;
         let i0 = (f.x.floor().max(0.0) as usize).min(nx - 2);
@@ -314,23 +326,23 @@ pub fn find_clusters(particles: &[Particle], buoyant: &[bool], radius: f64, min_
         for j in j0..j0 + 2 {
             let row = j * nx;
             let (a, b) = (start[row + i0] as usize, start[row + i0 + 2] as usize);
-            for &k in &items[a..b] {
-                let k = k as usize;
-                if taken[k] {
+            for t in a..b {
+                if taken[t] {
                     continue;
                 }
                 out.pair_checks += 1;
-                if particles[k].position.distance_squared(c) <= r2 {
-                    group.push(k);
+                if at[t].distance_squared(c) <= r2 {
+                    group.push(t);
                 }
             }
         }
         if group.len() >= min_count.max(1) {
-            group.sort_unstable();
-            for &k in &group {
-                taken[k] = true;
+            let mut members: Vec<usize> = group.iter().map(|&t| index[t] as usize).collect();
+            members.sort_unstable();
+            for &t in &group {
+                taken[t] = true;
             }
-            out.members.push(group.clone());
+            out.members.push(members);
             out.seeds.push(seed);
         }
     }
