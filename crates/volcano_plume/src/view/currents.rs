@@ -183,7 +183,7 @@ pub fn current_clouds(samples: &[FlowSample], settings: &CurrentCloudSettings, o
     }
     let cube_root_every = (settings.every as f32).cbrt();
     for s in samples.iter().filter(|s| finite(s)) {
-        if super::mix32(s.id) % settings.every != 0 {
+        if !super::mix32(s.id).is_multiple_of(settings.every) {
             continue;
         }
         let (k, d) = sector_of(s, settings.sectors);

@@ -62,7 +62,9 @@ pub fn glow_light(
         for i in (SAMPLE_STRIDE / 2..nx).step_by(SAMPLE_STRIDE) {
             let k = j * nx + i;
             let depth = h.data()[k];
-            if !(depth > params.min_thickness) {
+            // NaN counts as dry.
+            let wet = depth > params.min_thickness;
+            if !wet {
                 continue;
             }
             let c = incandescent(surface_temperature(params, temp[k], crust.get(k).copied().unwrap_or(0.0)));
@@ -118,7 +120,7 @@ pub(super) fn update_glow_lights(
     mut frame: Local<u32>,
 ) {
     *frame = frame.wrapping_add(1);
-    let due = *frame % settings.rebuild_every_frames.max(1) == 0;
+    let due = frame.is_multiple_of(settings.rebuild_every_frames.max(1));
     let on = settings.glow_light && *mode == LavaRenderMode::Lit;
     for (entity, state, field, children) in &fields {
         let existing = children.and_then(|c| c.iter().find(|c| lights.contains(*c)));
