@@ -17,7 +17,7 @@ use volcano_plume::view::ParentLight;
 use volcano_plume::view::parent_key;
 use volcano_render::plume::layout::pack_light;
 use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
-use volcano_render::{OrbitCamera, VolcanoViewer, camera_bundle, headless_default_plugins, rgb_region_mean};
+use volcano_render::{VolcanoViewer, headless_default_plugins, rgb_region_mean};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -25,16 +25,6 @@ const H: u32 = 240;
 const RADIUS: f32 = 370.0;
 const DISTANCE: f32 = 2_000.0;
 const CHILDREN: u32 = 300;
-
-fn scene(mut commands: Commands) {
-    let orbit =
-        OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
-    commands.spawn(camera_bundle(orbit));
-    commands.spawn((
-        DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: false, ..default() },
-        Transform::default(),
-    ));
-}
 
 /// Points the sun from behind the camera (a little above) and packs the parent.
 fn parent(
@@ -65,22 +55,18 @@ fn parent(
     list.0 = Arc::new(AshParents { parents: vec![parent], starts: vec![0, 1 + CHILDREN] });
 }
 
-fn luminance(c: [f64; 3]) -> f64 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 #[test]
 fn a_parents_face_is_not_darkened_by_its_back_children() {
     let out = common::out_path("headless_ash_body.png");
     let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
-    app.add_systems(Startup, scene).add_systems(PostUpdate, parent.after(update_parents));
+    app.add_systems(Startup, common::ash_stage).add_systems(PostUpdate, parent.after(update_parents));
     let (_, _, rgb) = common::run_and_read(app, &out);
     let (cx, cy) = (W / 2, H / 2);
-    let face = luminance(rgb_region_mean(&rgb, W, (cx - 15, cx + 15), (cy - 15, cy + 15)));
+    let face = common::luminance(rgb_region_mean(&rgb, W, (cx - 15, cx + 15), (cy - 15, cy + 15)));
     let rim = 0.5
-        * (luminance(rgb_region_mean(&rgb, W, (cx - 55, cx - 44), (cy - 10, cy + 10)))
-            + luminance(rgb_region_mean(&rgb, W, (cx + 44, cx + 55), (cy - 10, cy + 10))));
-    let sky = luminance(rgb_region_mean(&rgb, W, (5, 40), (5, 40)));
+        * (common::luminance(rgb_region_mean(&rgb, W, (cx - 55, cx - 44), (cy - 10, cy + 10)))
+            + common::luminance(rgb_region_mean(&rgb, W, (cx + 44, cx + 55), (cy - 10, cy + 10))));
+    let sky = common::luminance(rgb_region_mean(&rgb, W, (5, 40), (5, 40)));
     eprintln!("face {face:.1}, rim {rim:.1}, sky {sky:.1} ({})", out.display());
     assert!((face - sky).abs() > 10.0, "nothing drawn: face {face:.1}, sky {sky:.1}");
     assert!(face >= rim - 3.0, "the sunlit face ({face:.1}) is darker than the rim ({rim:.1})");

@@ -74,20 +74,16 @@ fn render(with_ash: bool, name: &str) -> ([f64; 3], [f64; 3], Vec<f32>) {
     (left, right, seen.lock().unwrap().clone())
 }
 
-fn luminance(c: [f64; 3]) -> f64 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 #[test]
 fn an_ash_curtain_darkens_the_sky_where_the_ash_is() {
     let (left, right, filled) = render(true, "headless_ash_fall.png");
     assert_eq!(filled.len(), 1, "one ash volume");
     assert!(filled[0] > 0.05, "ash density image nearly empty: {filled:?}");
-    let (l, r) = (luminance(left), luminance(right));
+    let (l, r) = (common::luminance(left), common::luminance(right));
     assert!(l < r - 12.0, "the ash side is not darker: left {left:?} vs right {right:?}");
     // Without ash: no volume, and the two sides match.
     let (left0, right0, filled0) = render(false, "headless_ash_fall_none.png");
     assert!(filled0.is_empty(), "no ash, no volume: {filled0:?}");
-    let d0 = (luminance(left0) - luminance(right0)).abs();
+    let d0 = (common::luminance(left0) - common::luminance(right0)).abs();
     assert!(d0 < 3.0, "sky asymmetric without ash: {left0:?} vs {right0:?}");
 }

@@ -16,7 +16,7 @@ use bevy::prelude::*;
 use volcano_plume::view::{AshLightSettings, ParentSphere, light_parents};
 use volcano_render::plume::layout::pack_light;
 use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
-use volcano_render::{OrbitCamera, VolcanoViewer, camera_bundle, headless_default_plugins, rgb_region_mean};
+use volcano_render::{VolcanoViewer, headless_default_plugins, rgb_region_mean};
 
 const W: u32 = 320;
 const H: u32 = 240;
@@ -26,16 +26,6 @@ const DISTANCE: f32 = 2_000.0;
 
 #[derive(Resource, Clone, Copy)]
 struct Occluded(bool);
-
-fn scene(mut commands: Commands) {
-    let orbit =
-        OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
-    commands.spawn(camera_bundle(orbit));
-    commands.spawn((
-        DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: false, ..default() },
-        Transform::default(),
-    ));
-}
 
 /// Points the sun from the camera's right and replaces the frame's parents with the puff.
 fn puff(
@@ -93,7 +83,7 @@ fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
     let out = common::out_path(name);
     let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
     app.insert_resource(Occluded(occluded))
-        .add_systems(Startup, scene)
+        .add_systems(Startup, common::ash_stage)
         .add_systems(PostUpdate, puff.after(update_parents));
     let (_, _, rgb) = common::run_and_read(app, &out);
     let (cx, cy) = (W / 2, H / 2);
@@ -103,17 +93,13 @@ fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
     (left, right)
 }
 
-fn luminance(c: [f64; 3]) -> f64 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 #[test]
 fn ash_has_a_sun_side_and_is_shadowed_by_ash_toward_the_sun() {
     let (shadow, sun) = render(false);
-    let (ls, lu) = (luminance(shadow), luminance(sun));
+    let (ls, lu) = (common::luminance(shadow), common::luminance(sun));
     assert!(lu > ls + 25.0, "sun side {lu:.1} not clearly brighter than shadow side {ls:.1}");
     let (o_shadow, o_sun) = render(true);
-    let (os, ou) = (luminance(o_shadow), luminance(o_sun));
+    let (os, ou) = (common::luminance(o_shadow), common::luminance(o_sun));
     assert!(ou < lu - 25.0, "behind ash the sun side is {ou:.1}, in the open {lu:.1}");
     assert!(os <= ls + 2.0, "behind ash the shadow side is {os:.1}, in the open {ls:.1}");
 }

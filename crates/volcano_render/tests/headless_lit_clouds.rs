@@ -103,10 +103,6 @@ fn render(name: &str, setup: Setup) -> ([f64; 3], [f64; 3]) {
     (left, right)
 }
 
-fn luminance(c: [f64; 3]) -> f64 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
 #[test]
 fn a_cloud_has_a_sun_side_and_a_shadow_side() {
     // A 1.2 km ball of 0.5 g/m³ with a soft rim, 4 km in front of the camera (≈ 60 px).
@@ -120,7 +116,7 @@ fn a_cloud_has_a_sun_side_and_a_shadow_side() {
     let toward_sun = Vec3::new(1.0, 0.3, 0.3).normalize();
     let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false };
     let (shadow, sun) = render("headless_lit_clouds_ball.png", setup);
-    let (ls, lu) = (luminance(shadow), luminance(sun));
+    let (ls, lu) = (common::luminance(shadow), common::luminance(sun));
     assert!(lu > ls + 30.0, "sun side {lu:.1} not clearly brighter than the shadow side {ls:.1}");
 }
 
@@ -140,11 +136,11 @@ fn a_cloud_slab_shades_the_ground_under_it() {
     let toward_sun = Vec3::new(0.0, 70f32.to_radians().sin(), 70f32.to_radians().cos()).normalize();
     let setup = |density| Setup { lo, hi, density, n: 64, orbit: orbit.clone(), toward_sun, plane: true };
     let (under, open) = render("headless_lit_clouds_shadow.png", setup(volume(64, lo, hi, slab)));
-    let (lu, lo_) = (luminance(under), luminance(open));
+    let (lu, lo_) = (common::luminance(under), common::luminance(open));
     assert!(lu < lo_ - 25.0, "ground under the slab {lu:.1} not clearly darker than open ground {lo_:.1}");
     // Without cloud: both halves alike (the plane and the light are symmetric).
     let (a, b) = render("headless_lit_clouds_no_shadow.png", setup(volume(64, lo, hi, |_| 0.0)));
-    let (la, lb) = (luminance(a), luminance(b));
+    let (la, lb) = (common::luminance(a), common::luminance(b));
     assert!((la - lb).abs() < 5.0, "an empty volume shades the ground: {la:.1} vs {lb:.1}");
     assert!((lb - lo_).abs() < 5.0, "the open half changed with the slab: {lb:.1} vs {lo_:.1}");
 }

@@ -38,3 +38,7 @@ pub fn exp_small(x: f64) -> f64 {
 pub fn exp_taylor(x: f64) -> f64 {
     1.0 + x * (1.0 + x * (0.5 + x * (1.0 / 6.0 + x * (1.0 / 24.0))))
 }
+
+/// Ratio of the surface speed to the depth-averaged speed of a Jeffreys (half-Poiseuille)
+/// profile, `u(h)/ū = 3/2`.
+pub const SURFACE_TO_MEAN: f64 = 1.5;

@@ -13,7 +13,7 @@
 
 use super::bands::band_range;
 use super::field::{Edge, Edges};
-use super::flow::{face_flux, mobility};
+use super::flux::{face_flux, mobility};
 use super::params::ViscosityModel;
 
 /// Read-only inputs of a flux pass.

@@ -10,12 +10,9 @@ use super::surface_rows::{CrustCtx, VelocityCtx, crust_rows, velocity_rows};
 use volcano_core::parallel::par_map;
 
 pub use super::crust::{
-    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
+    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, SURFACE_TO_MEAN, contact_from_crust,
+    crust_from_contact, exp_small,
 };
-
-/// Ratio of the surface speed to the depth-averaged speed of a Jeffreys (half-Poiseuille)
-/// profile, `u(h)/ū = 3/2`.
-pub const SURFACE_TO_MEAN: f64 = 1.5;
 
 /// Per-cell surface state of a lava field.
 #[derive(Debug, Clone, PartialEq)]

@@ -12,10 +12,9 @@
 use std::ops::Range;
 
 use super::crust::{
-    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, contact_from_crust, crust_from_contact, exp_small,
-    exp_taylor,
+    DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, SURFACE_TO_MEAN, contact_from_crust,
+    crust_from_contact, exp_small, exp_taylor,
 };
-use super::surface::SURFACE_TO_MEAN;
 
 /// Row `r` of a row-major grid of rows of `nx`.
 #[inline(always)]

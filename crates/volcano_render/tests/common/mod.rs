@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use bevy::app::PluginGroupBuilder;
 use bevy::prelude::*;
 use volcano_core::VolcanoCorePlugin;
-use volcano_render::{HeadlessCapturePlugin, VolcanoRenderPlugins, VolcanoSkyPlugin, read_png_rgb};
+use volcano_render::{
+    HeadlessCapturePlugin, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyPlugin, camera_bundle, read_png_rgb,
+};
 
 /// `name` in Cargo's scratch directory for integration tests (kept, so the frame can be looked
 /// at), with any frame of an earlier run removed.
@@ -38,4 +40,22 @@ pub fn run_and_read(mut app: App, out: &Path) -> (u32, u32, Vec<u8>) {
     let exit = app.run();
     assert!(exit.is_success(), "app exited with {exit:?}");
     read_png_rgb(out).expect("PNG written")
+}
+
+/// The ash tests' stage: the camera 5 km from a point 500 m up, looking nearly level, and a
+/// shadowless 100,000-lux sun that each test turns where it needs it.
+pub fn ash_stage(mut commands: Commands) {
+    let orbit =
+        OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
+    commands.spawn(camera_bundle(orbit));
+    commands.spawn((
+        DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: false, ..default() },
+        Transform::default(),
+    ));
+}
+
+/// Luminance of an sRGB-encoded mean colour, Rec. 709 weights on the encoded values (what the
+/// tests compare, not a photometric quantity).
+pub fn luminance(c: [f64; 3]) -> f64 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
