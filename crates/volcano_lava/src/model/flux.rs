@@ -1,6 +1,7 @@
-//! The lubrication flux of the lava sheet (thesis §5.2; docs/ARCHITECTURE.md §6): the laws the
-//! flow substep ([`super::flow`]) and its row loops evaluate per face and per cell, as plain
-//! functions. Kept apart from both so neither module depends on the other.
+//! The lubrication (Jeffreys) flux of the lava sheet (docs/ARCHITECTURE.md §6.1; it replaces the
+//! thesis' virtual-pipes simulator, §5.4): the laws the flow substep ([`super::flow`]) and its
+//! row loops evaluate per face and per cell, as plain functions. Kept apart from both so neither
+//! module depends on the other.
 
 use super::params::ViscosityModel;
 
