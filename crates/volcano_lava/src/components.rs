@@ -200,7 +200,7 @@ pub struct LavaProbe {
     /// Depth-averaged lava temperature (K).
     pub temperature: f64,
     /// Temperature at the top of the crust (K), see
-    /// [`surface_temperature`](crate::model::thermal::surface_temperature).
+    /// [`crate::model::thermal::surface_temperature`].
     pub surface_temperature: f64,
     /// Crust thickness (m).
     pub crust: f64,

@@ -16,8 +16,8 @@ pub fn band_range(b: usize, ny: usize) -> std::ops::Range<usize> {
     Bands::of(BAND_ROWS).range(b, ny)
 }
 
-/// True if this CPU runs the AVX2 copies of the row loops ([`super::flow_rows`],
-/// [`super::surface_rows`]); they give the same bits as the baseline copies.
+/// True if this CPU runs the AVX2 copies of the row loops (`flow_rows`,
+/// `surface_rows`); they give the same bits as the baseline copies.
 pub fn use_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {

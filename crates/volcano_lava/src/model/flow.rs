@@ -14,7 +14,7 @@
 //! fluxes, then the global substep, then limiter and cell update. Each band computes what it
 //! needs of its neighbours' rows (mobility one row below, limiter one row each side) into its
 //! own buffer instead of waiting for a separate pass over the whole grid. The row loops of
-//! both passes are in [`super::flow_rows`] (branch-free, vectorised, bit-identical on any CPU).
+//! both passes are in `flow_rows` (branch-free, vectorised, bit-identical on any CPU).
 
 use super::field::{Edge, FlowField};
 

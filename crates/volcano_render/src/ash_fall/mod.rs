@@ -13,7 +13,7 @@
 //! bounding radius (tens of km), which turns any such fog black. As for the clouds, the peak
 //! extinction is chosen from that radius ([`AshFallSettings::light_depth`]); a renderer that
 //! marches toward the sun is the look issue's work.
-//! The ground tint of the fall deposit is [`crate::deposit`]'s (the coupling writes the fall
+//! The ground tint of the fall deposit is [`crate::terrain::deposit`]'s (the coupling writes the fall
 //! into the same `DepositMap` as the pyroclastic flows).
 
 pub mod volume;
