@@ -161,13 +161,11 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
     }
     if !flows.is_empty() {
         let settings = world.get_resource::<CurrentCloudSettings>().cloned().unwrap_or_default();
-        if let Err(e) = settings.validate() {
+        // In the query's order: each cloud depends only on its particle and its sector's front
+        // (a maximum), and the sort below orders them with the rest.
+        if let Err(e) = current_clouds(&flows, &settings, &mut parents) {
             warn_once!("volcano: no clouds over pyroclastic currents: {e}");
         }
-        // The query's order depends on archetype layout: sort first, so the clouds come out
-        // the same on every run.
-        flows.sort_by_key(|f| (f.eruption, f.id));
-        current_clouds(&flows, &settings, &mut parents);
     }
     parents.sort_by_key(|p| (p.eruption, p.flow, p.cloud, p.umbrella, p.id));
     (eruptions.into_iter().map(|(_, v)| v).collect(), parents)

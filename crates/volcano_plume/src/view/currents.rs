@@ -159,14 +159,19 @@ fn sector_of(s: &FlowSample, sectors: u32) -> (usize, f32) {
 }
 
 /// The clouds over the currents of `samples`, appended to `out` in the samples' order (so the
-/// result does not depend on anything but the samples). Invalid settings draw nothing; a sample
-/// with a non-finite value is skipped. A cloud's density is the air's (sea level, scale height
+/// result does not depend on anything but the samples). Invalid settings draw nothing and are
+/// the error; a sample with a non-finite value is skipped. A cloud's density is the air's (sea level, scale height
 /// 8.4 km) times `1 ± Δρ/ρ` (denser while it runs, lighter where it lifts): it sets the shade,
 /// so the clouds are lighter than the dense underflow but darker than ash diluted aloft.
-pub fn current_clouds(samples: &[FlowSample], settings: &CurrentCloudSettings, out: &mut Vec<ParentSphere>) {
-    if !settings.enabled || settings.validate().is_err() {
-        return;
+pub fn current_clouds(
+    samples: &[FlowSample],
+    settings: &CurrentCloudSettings,
+    out: &mut Vec<ParentSphere>,
+) -> Result<(), CurrentCloudError> {
+    if !settings.enabled {
+        return Ok(());
     }
+    settings.validate()?;
     let finite = |s: &FlowSample| {
         s.center.is_finite()
             && s.vent.is_finite()
@@ -210,6 +215,7 @@ pub fn current_clouds(samples: &[FlowSample], settings: &CurrentCloudSettings, o
             cloud: true,
         });
     }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -253,7 +259,7 @@ mod tests {
         let samples: Vec<FlowSample> =
             (0..6).map(|i| sample(i, 500.0 + 500.0 * i as f32, 15.0, false)).collect();
         let mut out = Vec::new();
-        current_clouds(&samples, &every_one(), &mut out);
+        current_clouds(&samples, &every_one(), &mut out).unwrap();
         assert_eq!(out.len(), 6);
         let body = out[0].radius;
         assert_eq!(out[1].radius, body, "inside the body");
@@ -262,7 +268,7 @@ mod tests {
         let mut other = samples.clone();
         other.push(FlowSample { center: Vec3::new(0.0, 100.0, 600.0), ..sample(9, 0.0, 15.0, false) });
         out.clear();
-        current_clouds(&other, &every_one(), &mut out);
+        current_clouds(&other, &every_one(), &mut out).unwrap();
         assert!(out[6].radius > 1.9 * body);
     }
 
@@ -273,7 +279,8 @@ mod tests {
             &[sample(1, 500.0, 15.0, false), sample(2, 500.0, 15.0, true)],
             &every_one(),
             &mut out,
-        );
+        )
+        .unwrap();
         let (ground, lifting) = (out[0], out[1]);
         assert!(lifting.center.y > ground.center.y + ground.radius, "{lifting:?} vs {ground:?}");
         assert!(lifting.density < ground.density);
@@ -294,10 +301,10 @@ mod tests {
     fn thinning_keeps_about_one_in_every_and_grows_the_puffs() {
         let samples: Vec<FlowSample> = (0..3_000).map(|i| sample(i, 100.0 + i as f32, 10.0, false)).collect();
         let mut all = Vec::new();
-        current_clouds(&samples, &every_one(), &mut all);
+        current_clouds(&samples, &every_one(), &mut all).unwrap();
         let mut some = Vec::new();
         let settings = CurrentCloudSettings { every: 3, ..Default::default() };
-        current_clouds(&samples, &settings, &mut some);
+        current_clouds(&samples, &settings, &mut some).unwrap();
         assert_eq!(all.len(), 3_000);
         assert!((900..1_100).contains(&some.len()), "{} of 3000", some.len());
         // Body clouds (same speed, not in the head): larger by ∛3.
@@ -308,7 +315,7 @@ mod tests {
     fn bad_samples_and_settings_draw_nothing_wrong() {
         let mut out = Vec::new();
         let bad = FlowSample { speed: f32::NAN, ..sample(1, 100.0, 1.0, false) };
-        current_clouds(&[bad, sample(2, 200.0, 10.0, false)], &every_one(), &mut out);
+        current_clouds(&[bad, sample(2, 200.0, 10.0, false)], &every_one(), &mut out).unwrap();
         assert_eq!(out.len(), 1);
         assert!(out.iter().all(|p| p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0));
         for broken in [
@@ -320,7 +327,7 @@ mod tests {
         ] {
             assert!(broken.validate().is_err(), "{broken:?}");
             out.clear();
-            current_clouds(&[sample(2, 200.0, 10.0, false)], &broken, &mut out);
+            assert!(current_clouds(&[sample(2, 200.0, 10.0, false)], &broken, &mut out).is_err());
             assert!(out.is_empty());
         }
         assert!(CurrentCloudSettings::default().validate().is_ok());
