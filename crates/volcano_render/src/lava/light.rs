@@ -17,7 +17,7 @@ use bevy::prelude::*;
 use volcano_lava::view::surface_temperature;
 use volcano_lava::{FlowField, LavaParams, LavaState};
 
-use super::{LavaRenderMode, LavaRenderSettings, incandescent};
+use super::{LavaRenderMode, LavaRenderSettings, LavaSurface, incandescent};
 
 /// Every `SAMPLE_STRIDE`-th cell along each axis is summed, standing for its block (a 256²
 /// field: 4,096 samples; the light changes slowly over metres).
@@ -109,29 +109,29 @@ pub fn glow_range(lumens: f32) -> f32 {
 pub struct LavaGlow;
 
 /// Keeps one [`LavaGlow`] point light under every lava field whose surface glows (lit view,
-/// [`LavaRenderSettings::glow_light`] on), moved and re-powered when the lava changed, at
-/// most every `rebuild_every_frames` frames like the surface.
+/// [`LavaRenderSettings::glow_light`] on), moved and re-powered on the frames its surface was
+/// rebuilt ([`LavaSurface::rebuilt_this_frame`]: after the lava or the look changed, at most
+/// every `rebuild_every_frames` frames), so the light follows the drawn surface.
 pub(super) fn update_glow_lights(
     mut commands: Commands,
     mode: Res<LavaRenderMode>,
     settings: Res<LavaRenderSettings>,
-    fields: Query<(Entity, Ref<LavaState>, &volcano_lava::LavaField, Option<&Children>)>,
+    fields: Query<(Entity, &LavaState, &volcano_lava::LavaField, &Children)>,
+    surfaces: Query<&LavaSurface>,
     mut lights: Query<(&mut PointLight, &mut Transform, &mut Visibility), With<LavaGlow>>,
-    mut frame: Local<u32>,
 ) {
-    *frame = frame.wrapping_add(1);
-    let due = frame.is_multiple_of(settings.rebuild_every_frames.max(1));
     let on = settings.glow_light && *mode == LavaRenderMode::Lit;
     for (entity, state, field, children) in &fields {
-        let existing = children.and_then(|c| c.iter().find(|c| lights.contains(*c)));
-        let glow = if on && (due || existing.is_none()) && (state.is_changed() || settings.is_changed()) {
+        let rebuilt =
+            children.iter().filter_map(|c| surfaces.get(c).ok()).any(LavaSurface::rebuilt_this_frame);
+        let existing = children.iter().find(|c| lights.contains(*c));
+        let glow = if on && rebuilt {
             Some(glow_light(&state.flow, &state.surface.crust, &field.params, settings.emissive_nits))
         } else {
             None
         };
         match (existing, glow) {
             (None, Some(Some(g))) => {
-                commands.entity(entity).insert_if_new((Transform::IDENTITY, Visibility::default()));
                 commands.spawn((
                     Name::new("Lava glow"),
                     LavaGlow,

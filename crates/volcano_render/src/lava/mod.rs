@@ -112,6 +112,13 @@ pub struct LavaSurface {
     pattern: GlowPattern,
 }
 
+impl LavaSurface {
+    /// Whether [`update_surfaces`] rebuilt this surface (mesh and glow) in the current frame.
+    pub fn rebuilt_this_frame(&self) -> bool {
+        self.frames == 0 && !self.dirty
+    }
+}
+
 /// The crust's tileable detail textures (albedo grain, roughness, normal map), shared by every
 /// lava surface.
 #[derive(Resource, Debug, Clone)]
@@ -142,7 +149,11 @@ impl Plugin for LavaRenderPlugin {
             .register_type::<LavaGlow>()
             .add_systems(
                 PostUpdate,
-                (update_surfaces, folds::update_fold_instances, light::update_glow_lights)
+                (
+                    update_surfaces,
+                    folds::update_fold_instances,
+                    light::update_glow_lights.after(update_surfaces),
+                )
                     .before(TransformSystems::Propagate),
             );
     }
