@@ -8,7 +8,9 @@
 //! layers it crosses, dense where the field is dense. The field is piecewise constant in
 //! altitude (one value per layer); streaks — a horizontal noise at a few voxels, constant along
 //! the fall — break the curtain into shafts, with a mean factor of 1 so the drawn mass follows
-//! the field. Below the terrain nothing is drawn.
+//! the field. Below the terrain nothing is drawn, and above the top layer's centre the ash fades
+//! linearly to nothing at the stack's top ([`lid_fade`]): held at the top layer's value up to
+//! its top, the curtain had a flat, hard lid above the umbrella.
 
 use bevy::math::Vec2;
 use noise::{NoiseFn, Perlin};
@@ -74,7 +76,7 @@ impl AshVolumeSpec {
 /// fastest, then grid y, then altitude — the layout of `fog_volume::density_texels`): each voxel
 /// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
 /// by [`layer_blend`] (a curtain sheared by the winds leans smoothly instead of in steps),
-/// times the streak factor of its column; 0 above the layers and under `ground` (terrain altitude at
+/// times the streak factor of its column and [`lid_fade`]; 0 above the layers and under `ground` (terrain altitude at
 /// the atmosphere's cell centres, if given). Non-finite or negative ash counts as none.
 pub fn ash_density_volume(
     layers: &[&LayerFields],
@@ -88,11 +90,11 @@ pub fn ash_density_volume(
     let streak = streak_factors(spec, extent);
     // World position of each voxel column's centre.
     let column_xy = |i: usize| -0.5 * extent + (i as f64 + 0.5) * extent / nxy as f64;
-    type Level = (f64, Option<(usize, usize, f64)>);
+    type Level = (f64, Option<(usize, usize, f64)>, f64);
     let levels: Vec<Level> = (0..nz)
         .map(|iz| {
             let z = spec.level_altitude(iz);
-            (z, layer_blend(layers, z))
+            (z, layer_blend(layers, z), lid_fade(layers, z))
         })
         .collect();
     let mut out = vec![0.0f32; nxy * nxy * nz];
@@ -101,16 +103,27 @@ pub fn ash_density_volume(
             let p = Vec2::new(column_xy(ix) as f32, column_xy(jy) as f32);
             let floor = ground.map_or(f64::NEG_INFINITY, |g| g.sample(p, Boundary::Clamp) as f64);
             let s = streak[jy * nxy + ix];
-            for (iz, &(z, blend)) in levels.iter().enumerate() {
+            for (iz, &(z, blend, fade)) in levels.iter().enumerate() {
                 let Some(blend) = blend else { continue };
                 if z < floor {
                     continue;
                 }
-                out[(iz * nxy + jy) * nxy + ix] = (ash_blended(layers, blend, p) * s) as f32;
+                out[(iz * nxy + jy) * nxy + ix] = (ash_blended(layers, blend, p) * s * fade) as f32;
             }
         }
     }
     Ok(out)
+}
+
+/// How much of the ash is drawn at altitude `z`: 1 up to the top layer's centre, then falling
+/// linearly to 0 at its top. The layers hold one value per slab; where the stack ends, this
+/// reads the air above as ash-free (as [`layer_blend`] blends adjacent layers between their
+/// centres), so the top layer's upper half is drawn at half its mass on average. A rendering
+/// choice: the air-ash query (`air_ash_at`) keeps the slab's value.
+pub fn lid_fade(layers: &[&LayerFields], z: f64) -> f64 {
+    let Some(top) = layers.last() else { return 0.0 };
+    let (centre, lid) = (top.altitude, top.bottom + top.thickness);
+    if z <= centre || lid <= centre { 1.0 } else { ((lid - z) / (lid - centre)).clamp(0.0, 1.0) }
 }
 
 /// Streak factor of each voxel column (`nxy²`, x fastest): `max(0, 1 + a·p)` with `p` a Perlin
@@ -160,7 +173,8 @@ mod tests {
             assert!(l.iter().all(|&c| c == l[0]), "uniform field, uniform level");
             l[0]
         };
-        let expect = [0.0, 0.5, 1.5, 2.0 - 0.25 * 1.5, 2.0 - 0.75 * 1.5, 0.5];
+        // The top level (2,750 m) is half-way from the top layer's centre to the lid: half drawn.
+        let expect = [0.0, 0.5, 1.5, 2.0 - 0.25 * 1.5, 2.0 - 0.75 * 1.5, 0.5 * 0.5];
         for (iz, e) in expect.iter().enumerate() {
             assert!((level(iz) - e).abs() < 1e-6, "level {iz}: {} vs {e}", level(iz));
         }
