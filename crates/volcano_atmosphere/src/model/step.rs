@@ -11,7 +11,7 @@ use serde::Serialize;
 use volcano_core::ConfigError;
 use volcano_core::parallel;
 
-use super::advection::{Staggering, Transport, advect_conservative, advect_field, apertures};
+use super::advection::{Transport, advect_conservative, advect_wind_and_temperature, apertures};
 use super::ash::{AshReport, step_ash};
 use super::fields::{AtmosphereState, LayerFields};
 use super::params::AtmosphereParams;
@@ -265,32 +265,15 @@ fn layer_dynamics(
     for &(k, t_outside) in &layer.entraining {
         w.t_old[k as usize] = t_outside;
     }
-    {
-        let (u_old, v_old, t_old, scratch) = (&w.a, &w.b, &w.t_old, &mut w.scratch);
-        advect_field(
-            u_old,
-            layer.u.data_mut(),
-            scratch,
-            u_old,
-            v_old,
-            n,
-            c,
-            Staggering::FaceX,
-            params.wind_advection,
-        );
-        advect_field(
-            v_old,
-            layer.v.data_mut(),
-            scratch,
-            u_old,
-            v_old,
-            n,
-            c,
-            Staggering::FaceY,
-            params.wind_advection,
-        );
-        advect_field(t_old, layer.t.data_mut(), scratch, u_old, v_old, n, c, Staggering::Centre, scheme);
-    }
+    advect_wind_and_temperature(
+        (&w.a, &w.b, &w.t_old),
+        (layer.u.data_mut(), layer.v.data_mut(), layer.t.data_mut()),
+        &mut w.scratch,
+        n,
+        c,
+        params.wind_advection,
+        scheme,
+    );
     for (&(k, _), &t) in layer.entraining.iter().zip(&held) {
         layer.t.data_mut()[k as usize] = t;
     }
