@@ -18,7 +18,7 @@ use super::params::AtmosphereParams;
 use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
 use super::sun::sun_position;
 use super::terrain::ground_exchange;
-use super::thermo::{phase_change_fraction, wedge_air};
+use super::thermo::{phase_change_fraction, saturation_humidity_floor, wedge_air};
 use super::vertical::{divergence_target, precipitate, transfer, vertical_velocity};
 
 /// Scratch buffers of one layer, kept between steps.
@@ -213,11 +213,20 @@ pub fn step(
 /// Evaporation/condensation with latent heat in every free cell of a layer (rows in
 /// parallel; cells are independent). In cells where the terrain cuts the layer's slab the
 /// saturation is evaluated for the wedge's air, lifted within the layer ([`wedge_air`]).
+///
+/// An open cell (σ = 1) without condensed water and with its humidity below the layer's
+/// [`saturation_humidity_floor`] over the range of its temperatures is skipped: there the
+/// transfer `(1 − e^{−γΔt})(H' − H)` is ≥ 0 and limited to W = 0, so the phase change would
+/// leave T, H and W exactly as they are (bit for bit); it saves the saturation law where
+/// the air is dry.
 fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f64) {
     let pi = layer.pi;
     let (altitude, thickness) = (layer.altitude, layer.thickness);
     let n = layer.t.nx();
     let rate = 1.0 - (-params.phase_rate * dt).exp();
+    let (t_lo, t_hi) =
+        layer.t.data().iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &t| (lo.min(t), hi.max(t)));
+    let dry = saturation_humidity_floor(t_lo as f64, t_hi as f64, pi);
     let sigma = layer.sigma.data();
     let rows = (layer.t.data_mut(), layer.h.data_mut(), layer.w.data_mut());
     parallel::for_each_row(rows, n, |j, (t, h, w)| {
@@ -232,6 +241,10 @@ fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f6
                 t[i] = (t[i] as f64 + (pc.t - tw)) as f32;
                 h[i] = pc.h;
                 w[i] = pc.w;
+                continue;
+            }
+            // W = +0 and H ≥ +0 exactly: then `H + 0`, `W − 0` and `T − 0` keep every bit.
+            if w[i].to_bits() == 0 && !h[i].is_sign_negative() && h[i] <= dry && (t_lo..=t_hi).contains(&t[i]) {
                 continue;
             }
             let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
