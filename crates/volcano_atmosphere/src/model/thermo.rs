@@ -76,7 +76,13 @@ pub fn saturation_humidity_floor(t_lo: f64, t_hi: f64, pi: f64) -> f64 {
     if !(t_lo.is_finite() && t_hi.is_finite() && t_lo <= t_hi) {
         return -1.0;
     }
-    saturation_humidity(t_lo, pi).min(saturation_humidity(t_hi, pi)) * (1.0 - 1e-3)
+    saturation_floor(saturation_humidity(t_lo, pi).min(saturation_humidity(t_hi, pi)))
+}
+
+/// The floor of [`saturation_humidity_floor`] from the smaller of the saturation humidities at
+/// the two ends of a temperature range: 0.1 % below it.
+pub fn saturation_floor(smaller_end: f64) -> f64 {
+    smaller_end * (1.0 - 1e-3)
 }
 
 /// Moist static energy (J/kg), thesis eq. (4.5): `MSE = c_p T + g Θ + L_v Q`, with the
