@@ -19,7 +19,7 @@ use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_w
 use super::sun::sun_position;
 use super::terrain::ground_exchange;
 use super::thermo::{phase_change_fraction, saturation_humidity_floor, wedge_air};
-use super::vertical::{divergence_target, precipitate, transfer, vertical_velocity};
+use super::vertical::{VerticalWork, divergence_target, precipitate, transfer, vertical_velocity_in};
 
 /// Scratch buffers of one layer, kept between steps.
 #[derive(Debug, Clone)]
@@ -40,6 +40,7 @@ pub struct LayerWork {
 #[derive(Debug, Clone)]
 pub struct Workspace {
     layers: Vec<LayerWork>,
+    vertical: VerticalWork,
 }
 
 impl Workspace {
@@ -62,7 +63,7 @@ impl Workspace {
                 })
             })
             .collect::<Result<Vec<_>, ConfigError>>()?;
-        Ok(Self { layers })
+        Ok(Self { layers, vertical: VerticalWork::default() })
     }
 
     fn matches(&self, state: &AtmosphereState) -> bool {
@@ -146,7 +147,8 @@ pub fn step(
     lap(1, &mut report);
 
     // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
-    let vert = vertical_velocity(&mut state.layers, state.ground.height.data(), state.grid.dx, params, dt);
+    let heights = state.ground.height.data();
+    let vert = vertical_velocity_in(&mut state.layers, heights, state.grid.dx, params, dt, &mut work.vertical);
     report.max_vertical_speed = vert.max_speed;
     report.max_unlimited_vertical_speed = vert.max_unlimited_speed;
     report.vertical_limited_cells = vert.limited_cells;
