@@ -146,6 +146,10 @@ fn absorbed_flux_through(
 /// non-absorbing cloud, `1 / (1 + 0.75 τ (1 − g))` with asymmetry g = 0.85. Vertical column
 /// (the slant path is ignored).
 pub fn cloud_transmission(lwp: f64) -> f64 {
+    if lwp <= 0.0 {
+        // τ = 0: all of it (what the formula gives, without its division).
+        return 1.0;
+    }
     let tau = 0.15 * lwp.max(0.0);
     1.0 / (1.0 + 0.75 * tau * (1.0 - 0.85))
 }
@@ -314,12 +318,19 @@ pub fn ground_exchange(
             let cap = heat_capacity_per_m2(cover, params);
             let (i, j) = (k % n, k / n);
             // Surface normal from central differences on the torus.
-            let hx = (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64
-                / (2.0 * dx);
-            let hy = (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64
-                / (2.0 * dx);
-            let norm = (hx * hx + hy * hy + 1.0).sqrt();
-            let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
+            let (east, west) = (heights[j * n + ((i + 1) & mask)], heights[j * n + ((i + n - 1) & mask)]);
+            let (north, south) = (heights[((j + 1) & mask) * n + i], heights[((j + n - 1) & mask) * n + i]);
+            let cos_inc = if east == west && north == south {
+                // No slope (the sea, a plain): the normal is vertical, cos θ the sun's height
+                // as the general formula gives it, bit for bit (≤ 0, no sunlight, either way
+                // when the sun is on the horizon).
+                sun.direction[2]
+            } else {
+                let hx = (east - west) as f64 / (2.0 * dx);
+                let hy = (north - south) as f64 / (2.0 * dx);
+                let norm = (hx * hx + hy * hy + 1.0).sqrt();
+                (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm
+            };
             let lit = sunlit[k] as f64;
             let tg = *tg_cell as f64;
             let ta = t_rows[r] as f64;
