@@ -44,7 +44,16 @@ pub fn flux_divergence(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, d
 /// The flux divergence of [`flux_divergence`] at cell `(i, j)`; `inv = 1/Δx`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn flux_divergence_at(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, inv: f64, i: usize, j: usize) -> f64 {
+fn flux_divergence_at(
+    u: &[f32],
+    v: &[f32],
+    ax: &[f32],
+    ay: &[f32],
+    n: usize,
+    inv: f64,
+    i: usize,
+    j: usize,
+) -> f64 {
     let mask = n - 1;
     let f = |a: f32, w: f32| a as f64 * w as f64;
     let (k, ke, kn) = (j * n + i, j * n + ((i + 1) & mask), ((j + 1) & mask) * n + i);

@@ -148,7 +148,8 @@ pub fn step(
 
     // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
     let heights = state.ground.height.data();
-    let vert = vertical_velocity_in(&mut state.layers, heights, state.grid.dx, params, dt, &mut work.vertical);
+    let vert =
+        vertical_velocity_in(&mut state.layers, heights, state.grid.dx, params, dt, &mut work.vertical);
     report.max_vertical_speed = vert.max_speed;
     report.max_unlimited_vertical_speed = vert.max_unlimited_speed;
     report.vertical_limited_cells = vert.limited_cells;
@@ -246,7 +247,8 @@ fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f6
                 continue;
             }
             // W = +0 and H ≥ +0 exactly: then `H + 0`, `W − 0` and `T − 0` keep every bit.
-            if w[i].to_bits() == 0 && !h[i].is_sign_negative() && h[i] <= dry && (t_lo..=t_hi).contains(&t[i]) {
+            if w[i].to_bits() == 0 && !h[i].is_sign_negative() && h[i] <= dry && (t_lo..=t_hi).contains(&t[i])
+            {
                 continue;
             }
             let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);

@@ -340,7 +340,13 @@ pub fn ground_exchange(
             let lwp: f64 = columns.iter().map(|l| l.w[k] * l.sigma[k] as f64 * l.thickness).sum();
             let absorbed = lit
                 * cloud_transmission(lwp)
-                * absorbed_flux_through(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith, sun_air_mass);
+                * absorbed_flux_through(
+                    params.solar_constant,
+                    props.albedo as f64,
+                    cos_inc,
+                    cos_zenith,
+                    sun_air_mass,
+                );
             let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
             let (tg_heat, ta_new) = ground_heat_step(
                 tg,

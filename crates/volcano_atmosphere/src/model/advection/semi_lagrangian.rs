@@ -74,7 +74,15 @@ fn velocity<const S: u8>(u: &[f32], v: &[f32], n: usize, i: usize, j: usize) -> 
 /// The backward semi-Lagrangian sample of `f` (staggering `S`) at `(i, j)` over `c = Δt/Δx`,
 /// with the min and max of its four corners.
 #[inline(always)]
-fn back<const S: u8>(f: &[f32], u: &[f32], v: &[f32], n: usize, c: f32, i: usize, j: usize) -> (f32, f32, f32) {
+fn back<const S: u8>(
+    f: &[f32],
+    u: &[f32],
+    v: &[f32],
+    n: usize,
+    c: f32,
+    i: usize,
+    j: usize,
+) -> (f32, f32, f32) {
     let (vx, vy) = velocity::<S>(u, v, n, i, j);
     bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c)
 }
