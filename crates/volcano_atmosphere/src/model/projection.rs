@@ -74,6 +74,10 @@ pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32],
     let power = steps as f32;
     let rel = |a: f32, s0: f32, s1: f32| {
         let s = s0.max(s1);
+        if a >= s && s > 0.0 {
+            // a / s ≥ 1 (correctly rounded): no damping, without the division (open air).
+            return 1.0;
+        }
         let f = if s > 0.0 { (a / s).min(1.0) } else { 0.0 };
         if f >= 1.0 { 1.0 } else { f.powf(power) }
     };
