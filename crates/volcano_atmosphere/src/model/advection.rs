@@ -8,113 +8,11 @@
 //!
 //! All grids are `n × n`, `n` a power of two, toroidal. Displacements are in cells.
 
+mod semi_lagrangian;
+
+pub use semi_lagrangian::{Staggering, advect_field, advect_wind_and_temperature};
+
 use volcano_core::parallel;
-
-use super::params::AdvectionScheme;
-
-/// Bilinear periodic sample of `f` at index coordinates `(x, y)`; also returns the min and
-/// max of the four corners (for the MacCormack limiter).
-#[inline]
-fn bilerp(f: &[f32], n: usize, x: f32, y: f32) -> (f32, f32, f32) {
-    let mask = n - 1;
-    // floor() is a libm call on baseline x86-64 (no SSE4.1 round): truncate and correct.
-    let floor = |v: f32| {
-        let t = v as i64;
-        t - ((v < t as f32) as i64)
-    };
-    let (fx, fy) = (floor(x), floor(y));
-    let (tx, ty) = (x - fx as f32, y - fy as f32);
-    let i0 = (fx as usize) & mask;
-    let j0 = (fy as usize) & mask;
-    let i1 = (i0 + 1) & mask;
-    let j1 = (j0 + 1) & mask;
-    let (a, b) = (f[j0 * n + i0], f[j0 * n + i1]);
-    let (c, d) = (f[j1 * n + i0], f[j1 * n + i1]);
-    let lo = a.min(b).min(c.min(d));
-    let hi = a.max(b).max(c.max(d));
-    let top = a + (b - a) * tx;
-    let bot = c + (d - c) * tx;
-    (top + (bot - top) * ty, lo, hi)
-}
-
-/// Where each sample of a staggered/centred field sits, for computing its velocity.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Staggering {
-    /// Cell centres (T).
-    Centre,
-    /// West faces (u).
-    FaceX,
-    /// South faces (v).
-    FaceY,
-}
-
-/// Velocity (in cells per second × dt = cells) at sample `(i, j)` of a field with the given
-/// staggering, from the MAC components.
-#[inline]
-fn velocity_at(u: &[f32], v: &[f32], n: usize, i: usize, j: usize, s: Staggering) -> (f32, f32) {
-    let mask = n - 1;
-    let ip = (i + 1) & mask;
-    let im = (i + n - 1) & mask;
-    let jp = (j + 1) & mask;
-    let jm = (j + n - 1) & mask;
-    match s {
-        Staggering::Centre => (0.5 * (u[j * n + i] + u[j * n + ip]), 0.5 * (v[j * n + i] + v[jp * n + i])),
-        Staggering::FaceX => {
-            (u[j * n + i], 0.25 * (v[j * n + im] + v[j * n + i] + v[jp * n + im] + v[jp * n + i]))
-        }
-        Staggering::FaceY => {
-            (0.25 * (u[jm * n + i] + u[jm * n + ip] + u[j * n + i] + u[j * n + ip]), v[j * n + i])
-        }
-    }
-}
-
-/// Advects `f` (staggering `s`) by the MAC velocity `(u, v)` over `c = Δt/Δx` into `out`,
-/// using `scratch` (3n²: predictor and the limiter's bounds).
-#[allow(clippy::too_many_arguments)]
-pub fn advect_field(
-    f: &[f32],
-    out: &mut [f32],
-    scratch: &mut [f32],
-    u: &[f32],
-    v: &[f32],
-    n: usize,
-    c: f32,
-    s: Staggering,
-    scheme: AdvectionScheme,
-) {
-    if scheme == AdvectionScheme::SemiLagrangian {
-        parallel::for_each_row(&mut *out, n, |j, row| {
-            for (i, o) in row.iter_mut().enumerate() {
-                let (vx, vy) = velocity_at(u, v, n, i, j, s);
-                *o = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c).0;
-            }
-        });
-        return;
-    }
-    assert!(scratch.len() >= 3 * n * n, "advection scratch must hold 3n² values");
-    let (pred, rest) = scratch.split_at_mut(n * n);
-    let (lo, hi) = rest.split_at_mut(n * n);
-    let hi = &mut hi[..n * n];
-    // Predictor: backward semi-Lagrangian step (rows in parallel; each row reads only `f`),
-    // keeping the corners' min and max of each backward sample for the limiter.
-    parallel::for_each_row((&mut *pred, &mut *lo, &mut *hi), n, |j, (pr, lr, hr)| {
-        for i in 0..n {
-            let (vx, vy) = velocity_at(u, v, n, i, j, s);
-            (pr[i], lr[i], hr[i]) = bilerp(f, n, i as f32 - vx * c, j as f32 - vy * c);
-        }
-    });
-    let (pred, lo, hi) = (&*pred, &*lo, &*hi);
-    parallel::for_each_row(&mut *out, n, |j, row| {
-        for (i, o) in row.iter_mut().enumerate() {
-            let (vx, vy) = velocity_at(u, v, n, i, j, s);
-            // Corrector: advect the prediction forward, halve the round-trip error, and clamp
-            // to the corners of the backward sample (stability).
-            let (back, _, _) = bilerp(pred, n, i as f32 + vx * c, j as f32 + vy * c);
-            let k = j * n + i;
-            *o = (pred[k] + 0.5 * (f[k] - back)).clamp(lo[k], hi[k]);
-        }
-    });
-}
 
 /// Face apertures from the free fractions σ of the cells: `ax[i, j] = min(σ(i−1, j), σ(i, j))`
 /// on west faces, `ay` likewise on south faces.
@@ -385,50 +283,6 @@ fn fused_flux_step(src: &[&[f64]], dst: &mut [&mut [f64]], w: &Faces, c: f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn uniform_wind_translates_exactly_by_whole_cells() {
-        let n = 32;
-        let mut f = vec![0.0f32; n * n];
-        f[5 * n + 5] = 1.0;
-        let u = vec![2.0f32; n * n];
-        let v = vec![-1.0f32; n * n];
-        let mut out = vec![0.0; n * n];
-        let mut scratch = vec![0.0; 3 * n * n];
-        for scheme in [AdvectionScheme::SemiLagrangian, AdvectionScheme::MacCormack] {
-            advect_field(&f, &mut out, &mut scratch, &u, &v, n, 1.0, Staggering::Centre, scheme);
-            // Moves by (+2, −1) cells.
-            assert_eq!(out[4 * n + 7], 1.0, "{scheme:?}");
-            assert!((out.iter().sum::<f32>() - 1.0).abs() < 1e-6);
-        }
-    }
-
-    #[test]
-    fn maccormack_is_less_diffusive_and_bounded() {
-        let n = 64;
-        let f: Vec<f32> = (0..n * n)
-            .map(|k| if (k % n) >= 20 && (k % n) < 30 && (k / n) >= 20 && (k / n) < 30 { 1.0 } else { 0.0 })
-            .collect();
-        let u = vec![0.37f32; n * n];
-        let v = vec![0.21f32; n * n];
-        let mut scratch = vec![0.0; 3 * n * n];
-        let run = |scheme| {
-            let mut a = f.clone();
-            let mut b = vec![0.0; n * n];
-            let mut s2 = scratch.clone();
-            for _ in 0..40 {
-                advect_field(&a, &mut b, &mut s2, &u, &v, n, 1.0, Staggering::Centre, scheme);
-                std::mem::swap(&mut a, &mut b);
-            }
-            a
-        };
-        let sl = run(AdvectionScheme::SemiLagrangian);
-        let mc = run(AdvectionScheme::MacCormack);
-        let peak = |g: &[f32]| g.iter().cloned().fold(0.0, f32::max);
-        assert!(peak(&mc) > peak(&sl) + 0.1, "MacCormack {} vs SL {}", peak(&mc), peak(&sl));
-        assert!(mc.iter().all(|&x| (-1e-6..=1.0 + 1e-6).contains(&x)));
-        scratch[0] = 0.0;
-    }
 
     #[test]
     fn fused_substeps_equal_the_flux_steps_bit_for_bit() {

@@ -33,16 +33,31 @@ pub fn divergence(u: &[f32], v: &[f32], n: usize, dx: f64, out: &mut [f64]) {
 
 /// Discrete divergence (1/s) of the face fluxes `a·V` (aperture × wind) into `out`.
 pub fn flux_divergence(u: &[f32], v: &[f32], ax: &[f32], ay: &[f32], n: usize, dx: f64, out: &mut [f64]) {
-    let mask = n - 1;
     let inv = 1.0 / dx;
-    let f = |a: f32, w: f32| a as f64 * w as f64;
     parallel::for_each_row(out, n, |j, row| {
-        let jp = (j + 1) & mask;
         for (i, o) in row.iter_mut().enumerate() {
-            let (k, ke, kn) = (j * n + i, j * n + ((i + 1) & mask), jp * n + i);
-            *o = (f(ax[ke], u[ke]) - f(ax[k], u[k]) + f(ay[kn], v[kn]) - f(ay[k], v[k])) * inv;
+            *o = flux_divergence_at(u, v, ax, ay, n, inv, i, j);
         }
     });
+}
+
+/// The flux divergence of [`flux_divergence`] at cell `(i, j)`; `inv = 1/Δx`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn flux_divergence_at(
+    u: &[f32],
+    v: &[f32],
+    ax: &[f32],
+    ay: &[f32],
+    n: usize,
+    inv: f64,
+    i: usize,
+    j: usize,
+) -> f64 {
+    let mask = n - 1;
+    let f = |a: f32, w: f32| a as f64 * w as f64;
+    let (k, ke, kn) = (j * n + i, j * n + ((i + 1) & mask), ((j + 1) & mask) * n + i);
+    (f(ax[ke], u[ke]) - f(ax[k], u[k]) + f(ay[kn], v[kn]) - f(ay[k], v[k])) * inv
 }
 
 /// Orographic damping of the wind, thesis eq. (4.8) "σ is used for damping the velocity field
@@ -59,6 +74,10 @@ pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32],
     let power = steps as f32;
     let rel = |a: f32, s0: f32, s1: f32| {
         let s = s0.max(s1);
+        if a >= s && s > 0.0 {
+            // a / s ≥ 1 (correctly rounded): no damping, without the division (open air).
+            return 1.0;
+        }
         let f = if s > 0.0 { (a / s).min(1.0) } else { 0.0 };
         if f >= 1.0 { 1.0 } else { f.powf(power) }
     };
@@ -235,36 +254,59 @@ pub fn project(
     let (region, region_mean) = (&work.region, &work.region_mean);
     let goal = |k: usize| target[k] - region_mean[region[k] as usize];
     flux_divergence(u, v, ax, ay, n, dx, &mut work.div);
-    let mut initial_error = 0.0f64;
+    // The right-hand side, its largest entry and its sum of squares (for its RMS, in the order
+    // `multigrid::rms` sums them).
+    let (mut initial_error, mut squares) = (0.0f64, 0.0f64);
     for (k, r) in work.rhs.iter_mut().enumerate() {
         *r = if region[k] == u32::MAX { 0.0 } else { work.div[k] - goal(k) };
         initial_error = initial_error.max(r.abs());
+        squares += *r * *r;
     }
     remove_mean(p);
-    let scale = super::multigrid::rms(&work.rhs);
+    let scale = if work.rhs.is_empty() { 0.0 } else { (squares / work.rhs.len() as f64).sqrt() };
     let solve = work.poisson.solve(p, &work.rhs, max_cycles, tol * scale);
-    // V ← V − ∇P on the open faces, no wind through closed ones.
+    // V ← V − ∇P on the open faces, no wind through closed ones; the largest wind left on a
+    // closed face (a maximum: the same in any order of the rows).
     let mask = n - 1;
     let inv = 1.0 / dx;
     let p = &*p;
-    parallel::for_each_row((&mut *u, &mut *v), n, |j, (ur, vr)| {
+    let solid_face_speed = parallel::map_rows((&mut *u, &mut *v), n, |j, (ur, vr)| {
         let jm = (j + n - 1) & mask;
+        let mut solid = 0.0f64;
         for i in 0..n {
             let im = (i + n - 1) & mask;
             let k = j * n + i;
             ur[i] = if ax[k] > 0.0 { ur[i] - ((p[k] - p[j * n + im]) * inv) as f32 } else { 0.0 };
             vr[i] = if ay[k] > 0.0 { vr[i] - ((p[k] - p[jm * n + i]) * inv) as f32 } else { 0.0 };
+            if ax[k] == 0.0 {
+                solid = solid.max(ur[i].abs() as f64);
+            }
+            if ay[k] == 0.0 {
+                solid = solid.max(vr[i].abs() as f64);
+            }
         }
-    });
-    flux_divergence(u, v, ax, ay, n, dx, &mut work.div);
-    let final_error = (0..n * n)
-        .filter(|&k| region[k] != u32::MAX)
-        .map(|k| (work.div[k] - goal(k)).abs())
+        solid
+    })
+    .into_iter()
+    .fold(0.0, f64::max);
+    // Largest |∇·(aV) − target| over the open cells after the projection (bands in parallel;
+    // a maximum).
+    let (u, v) = (&*u, &*v);
+    let final_error = parallel::Bands::DEFAULT
+        .map_ranges(n, |rows| {
+            let mut worst = 0.0f64;
+            for j in rows {
+                for i in 0..n {
+                    let k = j * n + i;
+                    if region[k] != u32::MAX {
+                        worst = worst.max((flux_divergence_at(u, v, ax, ay, n, inv, i, j) - goal(k)).abs());
+                    }
+                }
+            }
+            worst
+        })
+        .into_iter()
         .fold(0.0, f64::max);
-    let solid = |w: &[f32], a: &[f32]| {
-        w.iter().zip(a).filter(|(_, a)| **a == 0.0).map(|(w, _)| w.abs() as f64).fold(0.0, f64::max)
-    };
-    let solid_face_speed = solid(u, ax).max(solid(v, ay));
     Ok(ProjectionReport { initial_error, final_error, target_mean, solid_face_speed, solve })
 }
 

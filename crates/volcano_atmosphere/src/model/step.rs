@@ -11,15 +11,15 @@ use serde::Serialize;
 use volcano_core::ConfigError;
 use volcano_core::parallel;
 
-use super::advection::{Staggering, Transport, advect_conservative, advect_field, apertures};
+use super::advection::{Transport, advect_conservative, advect_wind_and_temperature, apertures};
 use super::ash::{AshReport, step_ash};
 use super::fields::{AtmosphereState, LayerFields};
 use super::params::AtmosphereParams;
 use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
 use super::sun::sun_position;
 use super::terrain::ground_exchange;
-use super::thermo::{phase_change_fraction, wedge_air};
-use super::vertical::{divergence_target, precipitate, transfer, vertical_velocity};
+use super::thermo::{phase_change_fraction, saturation_humidity_floor, wedge_air};
+use super::vertical::{VerticalWork, divergence_target, precipitate, transfer, vertical_velocity_in};
 
 /// Scratch buffers of one layer, kept between steps.
 #[derive(Debug, Clone)]
@@ -40,6 +40,7 @@ pub struct LayerWork {
 #[derive(Debug, Clone)]
 pub struct Workspace {
     layers: Vec<LayerWork>,
+    vertical: VerticalWork,
 }
 
 impl Workspace {
@@ -62,7 +63,7 @@ impl Workspace {
                 })
             })
             .collect::<Result<Vec<_>, ConfigError>>()?;
-        Ok(Self { layers })
+        Ok(Self { layers, vertical: VerticalWork::default() })
     }
 
     fn matches(&self, state: &AtmosphereState) -> bool {
@@ -146,7 +147,9 @@ pub fn step(
     lap(1, &mut report);
 
     // 3. Vertical exchange: C, U, D (4.5), transfers (4.6), precipitation.
-    let vert = vertical_velocity(&mut state.layers, state.ground.height.data(), state.grid.dx, params, dt);
+    let heights = state.ground.height.data();
+    let vert =
+        vertical_velocity_in(&mut state.layers, heights, state.grid.dx, params, dt, &mut work.vertical);
     report.max_vertical_speed = vert.max_speed;
     report.max_unlimited_vertical_speed = vert.max_unlimited_speed;
     report.vertical_limited_cells = vert.limited_cells;
@@ -213,11 +216,20 @@ pub fn step(
 /// Evaporation/condensation with latent heat in every free cell of a layer (rows in
 /// parallel; cells are independent). In cells where the terrain cuts the layer's slab the
 /// saturation is evaluated for the wedge's air, lifted within the layer ([`wedge_air`]).
+///
+/// An open cell (σ = 1) without condensed water and with its humidity below the layer's
+/// [`saturation_humidity_floor`] over the range of its temperatures is skipped: there the
+/// transfer `(1 − e^{−γΔt})(H' − H)` is ≥ 0 and limited to W = 0, so the phase change would
+/// leave T, H and W exactly as they are (bit for bit); it saves the saturation law where
+/// the air is dry.
 fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f64) {
     let pi = layer.pi;
     let (altitude, thickness) = (layer.altitude, layer.thickness);
     let n = layer.t.nx();
     let rate = 1.0 - (-params.phase_rate * dt).exp();
+    let (t_lo, t_hi) =
+        layer.t.data().iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &t| (lo.min(t), hi.max(t)));
+    let dry = saturation_humidity_floor(t_lo as f64, t_hi as f64, pi);
     let sigma = layer.sigma.data();
     let rows = (layer.t.data_mut(), layer.h.data_mut(), layer.w.data_mut());
     parallel::for_each_row(rows, n, |j, (t, h, w)| {
@@ -232,6 +244,11 @@ fn layer_phase_change(layer: &mut LayerFields, params: &AtmosphereParams, dt: f6
                 t[i] = (t[i] as f64 + (pc.t - tw)) as f32;
                 h[i] = pc.h;
                 w[i] = pc.w;
+                continue;
+            }
+            // W = +0 and H ≥ +0 exactly: then `H + 0`, `W − 0` and `T − 0` keep every bit.
+            if w[i].to_bits() == 0 && !h[i].is_sign_negative() && h[i] <= dry && (t_lo..=t_hi).contains(&t[i])
+            {
                 continue;
             }
             let pc = phase_change_fraction(t[i] as f64, h[i], w[i], pi, rate);
@@ -265,32 +282,15 @@ fn layer_dynamics(
     for &(k, t_outside) in &layer.entraining {
         w.t_old[k as usize] = t_outside;
     }
-    {
-        let (u_old, v_old, t_old, scratch) = (&w.a, &w.b, &w.t_old, &mut w.scratch);
-        advect_field(
-            u_old,
-            layer.u.data_mut(),
-            scratch,
-            u_old,
-            v_old,
-            n,
-            c,
-            Staggering::FaceX,
-            params.wind_advection,
-        );
-        advect_field(
-            v_old,
-            layer.v.data_mut(),
-            scratch,
-            u_old,
-            v_old,
-            n,
-            c,
-            Staggering::FaceY,
-            params.wind_advection,
-        );
-        advect_field(t_old, layer.t.data_mut(), scratch, u_old, v_old, n, c, Staggering::Centre, scheme);
-    }
+    advect_wind_and_temperature(
+        (&w.a, &w.b, &w.t_old),
+        (layer.u.data_mut(), layer.v.data_mut(), layer.t.data_mut()),
+        &mut w.scratch,
+        n,
+        c,
+        params.wind_advection,
+        scheme,
+    );
     for (&(k, _), &t) in layer.entraining.iter().zip(&held) {
         layer.t.data_mut()[k as usize] = t;
     }

@@ -16,7 +16,7 @@ use volcano_core::{LandCover, Terrain};
 use super::fields::{AtmosphereState, GridSpec, Ground, LayerFields, cover_props};
 use super::params::AtmosphereParams;
 use super::sun::{SunPosition, air_mass};
-use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
+use super::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_floor, saturation_humidity};
 
 /// Stefan–Boltzmann constant (W/(m²·K⁴)).
 pub const STEFAN_BOLTZMANN: f64 = 5.670_374e-8;
@@ -123,10 +123,21 @@ pub struct GroundFluxes {
 /// Absorbed solar flux (W/m²), eq. (4.9) before dividing by the heat capacity:
 /// `F_s (1 − B) cos θ / D(θ)`, with θ the angle between the surface normal and the sun.
 pub fn absorbed_flux(solar_constant: f64, albedo: f64, cos_incidence: f64, cos_zenith: f64) -> f64 {
+    absorbed_flux_through(solar_constant, albedo, cos_incidence, cos_zenith, air_mass(cos_zenith))
+}
+
+/// [`absorbed_flux`] with the sun's air mass `D(θ)` given (the same for every cell of a step).
+fn absorbed_flux_through(
+    solar_constant: f64,
+    albedo: f64,
+    cos_incidence: f64,
+    cos_zenith: f64,
+    air_mass: f64,
+) -> f64 {
     if cos_zenith <= 0.0 || cos_incidence <= 0.0 {
         return 0.0;
     }
-    solar_constant * (1.0 - albedo) * cos_incidence / air_mass(cos_zenith)
+    solar_constant * (1.0 - albedo) * cos_incidence / air_mass
 }
 
 /// Fraction of sunlight a cloud column of liquid water path `lwp` (g/m²) lets through to the
@@ -135,6 +146,10 @@ pub fn absorbed_flux(solar_constant: f64, albedo: f64, cos_incidence: f64, cos_z
 /// non-absorbing cloud, `1 / (1 + 0.75 τ (1 − g))` with asymmetry g = 0.85. Vertical column
 /// (the slant path is ignored).
 pub fn cloud_transmission(lwp: f64) -> f64 {
+    if lwp <= 0.0 {
+        // τ = 0: all of it (what the formula gives, without its division).
+        return 1.0;
+    }
     let tau = 0.15 * lwp.max(0.0);
     1.0 / (1.0 + 0.75 * tau * (1.0 - 0.85))
 }
@@ -166,60 +181,70 @@ pub fn ground_heat_step(
     air_cap: f64,
     dt: f64,
 ) -> (f64, f64) {
-    let (t1, _) = linear_heat_step(tg, ta, tg, gain, emissivity, kappa, ground_cap, air_cap, dt);
+    let sys = HeatSystem::new(kappa, ground_cap, air_cap);
+    let (t1, _) = sys.linear_step(tg, ta, tg, gain, emissivity, dt);
     let t_lin = if t1.is_finite() && t1 > 0.0 { t1 } else { tg };
-    linear_heat_step(tg, ta, t_lin, gain, emissivity, kappa, ground_cap, air_cap, dt)
+    sys.linear_step(tg, ta, t_lin, gain, emissivity, dt)
 }
 
-/// One exact integration of the ground–air system with the emission linearised about
-/// `t_lin`: `ε σ_B T⁴ ≈ R + G (T − t_lin)`, `R = ε σ_B t_lin⁴`, `G = 4R / t_lin`.
-#[allow(clippy::too_many_arguments)]
-fn linear_heat_step(
-    tg: f64,
-    ta: f64,
-    t_lin: f64,
-    gain: f64,
-    emissivity: f64,
+/// The ground–air system of [`ground_heat_step`] without the emission: the coupling κ, the
+/// heat capacities, and the parts of its matrix that do not depend on the linearisation
+/// (computed once for both integrations).
+struct HeatSystem {
     kappa: f64,
     cg: f64,
     ca: f64,
-    dt: f64,
-) -> (f64, f64) {
-    let r = grey_body(emissivity, t_lin);
-    let g = 4.0 * r / t_lin;
-    // C_g T_g' = f − G T_g − κ (T_g − T_a).
-    let f = gain - r + g * t_lin;
-    if !(kappa > 0.0 && ca.is_finite() && ca > 0.0) {
-        // The air is held (or not coupled): one mode.
-        let k = g + kappa.max(0.0);
-        if k <= 0.0 {
-            return (tg + (gain - r) * dt / cg, ta);
+    /// `κ / C_g`.
+    a12: f64,
+    /// `κ / C_a` (and `a22 = −a21`: IEEE division is symmetric in sign).
+    a21: f64,
+}
+
+impl HeatSystem {
+    fn new(kappa: f64, cg: f64, ca: f64) -> Self {
+        Self { kappa, cg, ca, a12: kappa / cg, a21: kappa / ca }
+    }
+
+    /// One exact integration of the ground–air system with the emission linearised about
+    /// `t_lin`: `ε σ_B T⁴ ≈ R + G (T − t_lin)`, `R = ε σ_B t_lin⁴`, `G = 4R / t_lin`.
+    fn linear_step(&self, tg: f64, ta: f64, t_lin: f64, gain: f64, emissivity: f64, dt: f64) -> (f64, f64) {
+        let Self { kappa, cg, ca, a12, a21 } = *self;
+        let r = grey_body(emissivity, t_lin);
+        let g = 4.0 * r / t_lin;
+        // C_g T_g' = f − G T_g − κ (T_g − T_a).
+        let f = gain - r + g * t_lin;
+        if !(kappa > 0.0 && ca.is_finite() && ca > 0.0) {
+            // The air is held (or not coupled): one mode.
+            let k = g + kappa.max(0.0);
+            if k <= 0.0 {
+                return (tg + (gain - r) * dt / cg, ta);
+            }
+            let eq = (f + kappa.max(0.0) * ta) / k;
+            return (eq + (tg - eq) * (-k * dt / cg).exp(), ta);
         }
-        let eq = (f + kappa.max(0.0) * ta) / k;
-        return (eq + (tg - eq) * (-k * dt / cg).exp(), ta);
+        if g <= 0.0 {
+            // No emission: heat only moves between ground and air (their mean is kept).
+            let eq = (cg * tg + ca * ta + gain * dt) / (cg + ca);
+            let decay = (-kappa * (1.0 / cg + 1.0 / ca) * dt).exp();
+            let d = (tg - ta) * decay;
+            return (eq + d * ca / (cg + ca), eq - d * cg / (cg + ca));
+        }
+        // x' = A (x − x*), x* = (f/G, f/G): both at the radiative equilibrium.
+        let eq = f / g;
+        let (a11, a22) = (-(g + kappa) / cg, -a21);
+        let s = 0.5 * (a11 + a22);
+        let q = (0.25 * (a11 - a22).powi(2) + a12 * a21).sqrt();
+        let (e1, e2) = (((s + q) * dt).exp(), ((s - q) * dt).exp());
+        // exp(A t) = e^{st} [cosh(qt) I + sinh(qt)/q (A − s I)].
+        let ch = 0.5 * (e1 + e2);
+        let sh = if q * dt < 1e-4 {
+            (s * dt).exp() * dt * (1.0 + (q * dt).powi(2) / 6.0)
+        } else {
+            (e1 - e2) / (2.0 * q)
+        };
+        let (y1, y2) = (tg - eq, ta - eq);
+        (eq + (ch + sh * (a11 - s)) * y1 + sh * a12 * y2, eq + sh * a21 * y1 + (ch + sh * (a22 - s)) * y2)
     }
-    if g <= 0.0 {
-        // No emission: heat only moves between ground and air (their mean is kept).
-        let eq = (cg * tg + ca * ta + gain * dt) / (cg + ca);
-        let decay = (-kappa * (1.0 / cg + 1.0 / ca) * dt).exp();
-        let d = (tg - ta) * decay;
-        return (eq + d * ca / (cg + ca), eq - d * cg / (cg + ca));
-    }
-    // x' = A (x − x*), x* = (f/G, f/G): both at the radiative equilibrium.
-    let eq = f / g;
-    let (a11, a12, a21, a22) = (-(g + kappa) / cg, kappa / cg, kappa / ca, -kappa / ca);
-    let s = 0.5 * (a11 + a22);
-    let q = (0.25 * (a11 - a22).powi(2) + a12 * a21).sqrt();
-    let (e1, e2) = (((s + q) * dt).exp(), ((s - q) * dt).exp());
-    // exp(A t) = e^{st} [cosh(qt) I + sinh(qt)/q (A − s I)].
-    let ch = 0.5 * (e1 + e2);
-    let sh = if q * dt < 1e-4 {
-        (s * dt).exp() * dt * (1.0 + (q * dt).powi(2) / 6.0)
-    } else {
-        (e1 - e2) / (2.0 * q)
-    };
-    let (y1, y2) = (tg - eq, ta - eq);
-    (eq + (ch + sh * (a11 - s)) * y1 + sh * a12 * y2, eq + sh * a21 * y1 + (ch + sh * (a22 - s)) * y2)
 }
 
 /// One step of ground physics under `sun`: radiation (4.9, 4.10 and the sky's back
@@ -248,6 +273,7 @@ pub fn ground_exchange(
         state.ground.sunlit_for = Some(sun_key);
     }
     let cos_zenith = sun.direction[2];
+    let sun_air_mass = air_mass(cos_zenith);
     let mask = n - 1;
     // Each cell reads and writes only its own cell of the ground and of its lowest free layer
     // (and reads the heights and every layer's condensed water and σ, which nothing here
@@ -292,12 +318,19 @@ pub fn ground_exchange(
             let cap = heat_capacity_per_m2(cover, params);
             let (i, j) = (k % n, k / n);
             // Surface normal from central differences on the torus.
-            let hx = (heights[j * n + ((i + 1) & mask)] - heights[j * n + ((i + n - 1) & mask)]) as f64
-                / (2.0 * dx);
-            let hy = (heights[((j + 1) & mask) * n + i] - heights[((j + n - 1) & mask) * n + i]) as f64
-                / (2.0 * dx);
-            let norm = (hx * hx + hy * hy + 1.0).sqrt();
-            let cos_inc = (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm;
+            let (east, west) = (heights[j * n + ((i + 1) & mask)], heights[j * n + ((i + n - 1) & mask)]);
+            let (north, south) = (heights[((j + 1) & mask) * n + i], heights[((j + n - 1) & mask) * n + i]);
+            let cos_inc = if east == west && north == south {
+                // No slope (the sea, a plain): the normal is vertical, cos θ the sun's height
+                // as the general formula gives it, bit for bit (≤ 0, no sunlight, either way
+                // when the sun is on the horizon).
+                sun.direction[2]
+            } else {
+                let hx = (east - west) as f64 / (2.0 * dx);
+                let hy = (north - south) as f64 / (2.0 * dx);
+                let norm = (hx * hx + hy * hy + 1.0).sqrt();
+                (-hx * sun.direction[0] - hy * sun.direction[1] + sun.direction[2]) / norm
+            };
             let lit = sunlit[k] as f64;
             let tg = *tg_cell as f64;
             let ta = t_rows[r] as f64;
@@ -307,7 +340,13 @@ pub fn ground_exchange(
             let lwp: f64 = columns.iter().map(|l| l.w[k] * l.sigma[k] as f64 * l.thickness).sum();
             let absorbed = lit
                 * cloud_transmission(lwp)
-                * absorbed_flux(params.solar_constant, props.albedo as f64, cos_inc, cos_zenith);
+                * absorbed_flux_through(
+                    params.solar_constant,
+                    props.albedo as f64,
+                    cos_inc,
+                    cos_zenith,
+                    sun_air_mass,
+                );
             let back = props.emissivity as f64 * grey_body(params.sky_emissivity, ta);
             let (tg_heat, ta_new) = ground_heat_step(
                 tg,
@@ -329,15 +368,26 @@ pub fn ground_exchange(
             } else {
                 1.0 - (-params.ground_evaporation_velocity * dt / vol).exp()
             };
-            let slope = (saturation_humidity(tg_heat + 0.5, layer.pi)
-                - saturation_humidity(tg_heat - 0.5, layer.pi))
-            .max(0.0);
+            let (warmer, colder) =
+                (saturation_humidity(tg_heat + 0.5, layer.pi), saturation_humidity(tg_heat - 0.5, layer.pi));
+            let slope = (warmer - colder).max(0.0);
             // Latent heat taken from (evaporation) or given to (dew) the ground, eq. (4.12),
             // with the flux at the end temperature: g(T₁) = g(T) + relax·vol·H'·(T₁ − T).
             let implicit = 1.0 + relax * vol * slope * L_V_PER_G / cap;
             let mut grams = relax * (target - hum) * vol / implicit;
             let linear_end = tg_heat - grams * L_V_PER_G / cap;
-            if (saturation_humidity(linear_end, layer.pi) - hum) * (target - hum) < 0.0 {
+            // Evaporating, the linearised end lies in [T_heat − 0.5, T_heat] (cooler): if the
+            // floor of the saturation humidity there is above the air's humidity, the flux
+            // keeps its sign at the end and the test below is false without evaluating it
+            // (bit for bit the same decision). Likewise when the flux is zero.
+            let kept = if target > hum {
+                linear_end >= tg_heat - 0.5
+                    && linear_end <= tg_heat
+                    && saturation_floor(colder.min(target)) > hum
+            } else {
+                target == hum
+            };
+            if !kept && (saturation_humidity(linear_end, layer.pi) - hum) * (target - hum) < 0.0 {
                 // The linearisation overshot the temperature where the flux vanishes (a
                 // long step over a thin soil: dew heated it hundreds of kelvin, or
                 // evaporation cooled it below absolute zero, the next step). Solve the

@@ -65,6 +65,26 @@ pub fn saturation_humidity(t_kelvin: f64, pi: f64) -> f64 {
     mixing * air_density(pi, t_kelvin) * 1000.0
 }
 
+/// A lower bound of [`saturation_humidity`] at pressure `pi` over every temperature in
+/// `[t_lo, t_hi]` (K): the smaller of its values at the two ends, less 0.1 %. Over that range
+/// the saturation humidity of eq. (4.4) rises with T up to the 350 K clamp of the vapour
+/// pressure and falls beyond (the air density still falls), except for one step down of
+/// 0.06 % at 0 °C, where Arden Buck over ice (611.15 Pa) hands over to Tetens over water
+/// (610.78 Pa); the 0.1 % covers that step and rounding. `-1` (no bound) for an empty or
+/// non-finite range.
+pub fn saturation_humidity_floor(t_lo: f64, t_hi: f64, pi: f64) -> f64 {
+    if !(t_lo.is_finite() && t_hi.is_finite() && t_lo <= t_hi) {
+        return -1.0;
+    }
+    saturation_floor(saturation_humidity(t_lo, pi).min(saturation_humidity(t_hi, pi)))
+}
+
+/// The floor of [`saturation_humidity_floor`] from the smaller of the saturation humidities at
+/// the two ends of a temperature range: 0.1 % below it.
+pub fn saturation_floor(smaller_end: f64) -> f64 {
+    smaller_end * (1.0 - 1e-3)
+}
+
 /// Moist static energy (J/kg), thesis eq. (4.5): `MSE = c_p T + g Θ + L_v Q`, with the
 /// specific humidity `Q` derived from `H` (g/m³) and the air density.
 pub fn moist_static_energy(t: f64, theta: f64, h: f64, pi: f64) -> f64 {
@@ -200,6 +220,23 @@ mod tests {
         let wedge = phase_change(tw, h, 0.0, pw, 0.1, 30.0);
         assert_eq!(open.w, 0.0);
         assert!(wedge.w > 0.1 && wedge.t > tw, "{wedge:?}");
+    }
+
+    /// The floor is below the saturation humidity at every temperature of its range, across
+    /// the ice/water switch at 0 °C and the 350 K clamp.
+    #[test]
+    fn saturation_floor_bounds_every_temperature_of_its_range() {
+        let pi = 80_000.0;
+        for (lo, hi) in [(200.0, 300.0), (270.0, 273.15), (273.0, 273.2), (260.0, 600.0), (340.0, 420.0)] {
+            let floor = saturation_humidity_floor(lo, hi, pi);
+            assert!(floor > 0.0, "{lo}..{hi}");
+            for k in 0..=20_000 {
+                let t = lo + (hi - lo) * k as f64 / 20_000.0;
+                assert!(saturation_humidity(t, pi) >= floor, "{t} K in {lo}..{hi}");
+            }
+        }
+        assert_eq!(saturation_humidity_floor(f64::NAN, 300.0, pi), -1.0);
+        assert_eq!(saturation_humidity_floor(300.0, 200.0, pi), -1.0);
     }
 
     #[test]

@@ -102,13 +102,54 @@ pub fn vertical_velocity(
     params: &AtmosphereParams,
     dt: f64,
 ) -> VerticalReport {
+    vertical_velocity_in(layers, terrain, dx, params, dt, &mut VerticalWork::default())
+}
+
+/// Scratch of [`vertical_velocity_in`] (kept between steps: no allocation per step).
+#[derive(Debug, Clone, Default)]
+pub struct VerticalWork {
+    /// Terrain gradient per cell.
+    grad: Vec<(f64, f64)>,
+    /// MSE of the lower layer of the current pair, then the pair's MSE difference.
+    lower: Vec<f64>,
+    /// MSE of the upper layer of the current pair (the lower one of the next).
+    upper: Vec<f64>,
+}
+
+/// Moist static energy (4.5) of every cell of `layer` with air (σ > 0; 0 elsewhere) into `out`.
+fn layer_mse(layer: &LayerFields, n: usize, out: &mut [f64]) {
+    let (t, h, sigma) = (layer.t.data(), layer.h.data(), layer.sigma.data());
+    parallel::for_each_row(out, n, |j, row| {
+        for (i, x) in row.iter_mut().enumerate() {
+            let k = j * n + i;
+            *x = if sigma[k] > 0.0 {
+                moist_static_energy(t[k] as f64, layer.altitude, h[k], layer.pi)
+            } else {
+                0.0
+            };
+        }
+    });
+}
+
+/// [`vertical_velocity`] with its scratch buffers given. Each layer's MSE is evaluated once
+/// (as the upper layer of one pair and the lower of the next), the same values as evaluating
+/// it for both pairs.
+pub fn vertical_velocity_in(
+    layers: &mut [LayerFields],
+    terrain: &[f32],
+    dx: f64,
+    params: &AtmosphereParams,
+    dt: f64,
+    work: &mut VerticalWork,
+) -> VerticalReport {
     let nl = layers.len();
     let mut report = VerticalReport::default();
     let cells = terrain.len();
     let n = (cells as f64).sqrt() as usize;
     // Terrain gradient (central differences, toroidal).
     let mask = n.wrapping_sub(1);
-    let mut grad = vec![(0.0f64, 0.0f64); cells];
+    let VerticalWork { grad, lower, upper } = work;
+    grad.resize(cells, (0.0, 0.0));
     parallel::for_each_row(grad.as_mut_slice(), n, |j, row| {
         for (i, g) in row.iter_mut().enumerate() {
             let gx = (terrain[j * n + ((i + 1) & mask)] - terrain[j * n + ((i + n - 1) & mask)]) as f64;
@@ -116,8 +157,12 @@ pub fn vertical_velocity(
             *g = (gx / (2.0 * dx), gy / (2.0 * dx));
         }
     });
-    // One buffer for the MSE differences of every interface.
-    let mut diff = vec![0.0f64; if nl > 1 { cells } else { 0 }];
+    let grad = &grad[..];
+    if nl > 1 {
+        lower.resize(cells, 0.0);
+        upper.resize(cells, 0.0);
+        layer_mse(&layers[0], n, lower);
+    }
     for i in 0..nl {
         if i + 1 == nl {
             let top = &mut layers[i];
@@ -126,22 +171,22 @@ pub fn vertical_velocity(
             top.d.data_mut().fill(0.0);
             continue;
         }
+        layer_mse(&layers[i + 1], n, upper);
         let (lo, hi) = layers.split_at_mut(i + 1);
         let (a, b) = (&mut lo[i], &hi[0]);
         let open = |k: usize| a.sigma.data()[k] > 0.0 && b.sigma.data()[k] > 0.0;
         // MSE difference per cell (f64, 0 where closed), its mass-weighted (σ) mean over open
         // cells.
-        parallel::for_each_row(diff.as_mut_slice(), n, |j, row| {
-            for (i, x) in row.iter_mut().enumerate() {
-                let k = j * n + i;
-                *x = if open(k) {
-                    moist_static_energy(a.t.data()[k] as f64, a.altitude, a.h.data()[k], a.pi)
-                        - moist_static_energy(b.t.data()[k] as f64, b.altitude, b.h.data()[k], b.pi)
-                } else {
-                    0.0
-                };
-            }
-        });
+        {
+            let upper = &upper[..];
+            parallel::for_each_row(lower.as_mut_slice(), n, |j, row| {
+                for (i, x) in row.iter_mut().enumerate() {
+                    let k = j * n + i;
+                    *x = if open(k) { *x - upper[k] } else { 0.0 };
+                }
+            });
+        }
+        let diff = &lower[..];
         let (sum, mass) = (0..cells).filter(|&k| open(k)).fold((0.0, 0.0), |(s, m), k| {
             let w = a.sigma.data()[k] as f64;
             (s + w * diff[k], m + w)
@@ -189,6 +234,7 @@ pub fn vertical_velocity(
         .into_iter()
         .fold(VerticalReport::default(), VerticalReport::merge);
         report = report.merge(rows);
+        std::mem::swap(lower, upper);
     }
     report
 }
