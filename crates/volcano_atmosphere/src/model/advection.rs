@@ -164,7 +164,7 @@ pub struct Transport {
 /// eruption) are skipped: their fluxes are zero.
 ///
 /// Within the substep cap the fields move together, up to three at a time, in one pass per
-/// substep ([`fused_flux_step`], out of place into `fluxes` and back): the same arithmetic as
+/// substep (`fused_flux_step`, out of place into `fluxes` and back): the same arithmetic as
 /// [`flux_step`] without the limiter, bit for bit, with the wind, apertures and σ read once
 /// for all fields and the face fluxes never stored.
 #[allow(clippy::too_many_arguments)]

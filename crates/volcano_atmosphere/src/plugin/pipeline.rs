@@ -1,14 +1,14 @@
 //! Weather steps off the main thread, pipelined deterministically (docs/ARCHITECTURE.md §3.3).
 //!
 //! At a weather tick k the domain schedule ([`WeatherStep`]) copies the ground, shares the
-//! layers' fields ([`SharedFields`](super::shared::SharedFields), copy-on-write) and starts the
+//! layers' fields ([`SharedFields`], copy-on-write) and starts the
 //! model step: on Bevy's `AsyncComputeTaskPool` when the pool exists and
 //! [`WeatherPipelineSettings::off_thread`] is set, otherwise at once on the main thread. The
 //! step first copies the shared layers into its own buffers (so that copy, most of a snapshot's
 //! bytes, is off the main thread too), applies the timeline events due, then steps. The result
 //! is written back at the next weather tick (k + k_cadence for `EveryNthTick(k_cadence)`), in
-//! [`WeatherSystems::Apply`] before the coupling's transfers; that join only blocks if the
-//! worker has not finished. The components therefore always hold a complete state one weather
+//! [`WeatherSystems::Apply`](crate::WeatherSystems::Apply) before the coupling's transfers;
+//! that join only blocks if the worker has not finished. The components therefore always hold a complete state one weather
 //! step behind the weather clock, and the state at every tick is the same whichever thread ran
 //! the step and whatever the frame rate.
 

@@ -25,7 +25,7 @@ use slice::{Phase, Slice, SliceEnv, StepReport};
 impl Slice {
     /// Advances the slice by `dt` seconds (`p.dt` in stand-alone runs, the plume domain's step
     /// in the plugin) while it rises (jet or buoyant), by the thesis' slice law
-    /// ([`Dynamics::Thesis`]) or the physical column ([`Dynamics::Column`], [`column`]).
+    /// ([`Dynamics::Thesis`]) or the physical column ([`Dynamics::Column`], [`column`](mod@column)).
     /// Umbrella and collapsed slices are left to the umbrella and pyroclastic models and are
     /// not changed here. A non-finite or non-positive `dt` does nothing.
     pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
