@@ -8,9 +8,9 @@
 //! bytes, is off the main thread too), applies the timeline events due, then steps. The result
 //! is written back at the next weather tick (k + k_cadence for `EveryNthTick(k_cadence)`), in
 //! [`WeatherSystems::Apply`](crate::WeatherSystems::Apply) before the coupling's transfers;
-//! that join only blocks if the worker has not finished. The components therefore always hold a complete state one weather
-//! step behind the weather clock, and the state at every tick is the same whichever thread ran
-//! the step and whatever the frame rate.
+//! that join only blocks if the worker has not finished. The components therefore always hold
+//! a complete state one weather step behind the weather clock, and the state at every tick is
+//! the same whichever thread ran the step and whatever the frame rate.
 
 use std::sync::Arc;
 use std::time::Instant;
