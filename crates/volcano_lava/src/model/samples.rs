@@ -58,15 +58,17 @@ const AHEAD: usize = 16;
 /// hint that changes no result.
 #[inline(always)]
 fn prefetch<T>(a: &[T], k: usize) {
-    #[cfg(all(target_arch = "x86_64", target_feature = "sse"))]
-    if let Some(x) = a.get(k) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(x) = a.get(k)
+        && std::arch::is_x86_feature_detected!("sse")
+    {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: `_mm_prefetch` needs SSE, which this code is only compiled with (the `cfg`
-        // above; every x86_64 target has it); a prefetch reads nothing and never faults,
+        // SAFETY: `_mm_prefetch` needs SSE, checked just above (every x86-64 CPU has it, so
+        // the check is decided at compile time); a prefetch reads nothing and never faults,
         // and the pointer is in bounds anyway.
         unsafe { _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast()) };
     }
-    #[cfg(not(all(target_arch = "x86_64", target_feature = "sse")))]
+    #[cfg(not(target_arch = "x86_64"))]
     let _ = (a, k);
 }
 
