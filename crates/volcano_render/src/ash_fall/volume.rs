@@ -76,8 +76,8 @@ impl AshVolumeSpec {
 /// fastest, then grid y, then altitude — the layout of `fog_volume::density_texels`): each voxel
 /// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
 /// by [`layer_blend`] (a curtain sheared by the winds leans smoothly instead of in steps),
-/// times the streak factor of its column and [`lid_fade`]; 0 above the layers and under `ground` (terrain altitude at
-/// the atmosphere's cell centres, if given). Non-finite or negative ash counts as none.
+/// times the streak factor of its column and [`lid_fade`]; 0 above the layers and under
+/// `ground` (terrain altitude at the atmosphere's cell centres, if given). Non-finite or negative ash counts as none.
 pub fn ash_density_volume(
     layers: &[&LayerFields],
     grid: GridSpec,
