@@ -1,7 +1,7 @@
 //! A slice of a sustained eruption column ([`Dynamics::Column`](super::Dynamics::Column), the
-//! `physical` preset; docs/ARCHITECTURE.md §4.5). The thesis' structure is kept — Lagrangian slices that
-//! entrain air (eq 3.7), feel weight, buoyancy, drag and wind (3.4–3.6), phases jet → buoyant →
-//! umbrella or collapse (§3.6) — with what a sustained column needs:
+//! `physical` preset; docs/ARCHITECTURE.md §4.5). The thesis' structure is kept — Lagrangian
+//! slices that entrain air (eq 3.7), feel weight, buoyancy, drag and wind (3.4–3.6), phases
+//! jet → buoyant → umbrella or collapse (§3.6) — with what a sustained column needs:
 //!
 //! - **The slice is a segment of the column** (the wake of the slice ahead): a cylinder of
 //!   radius `r` and length `h = |v| Δt_e`, the distance to the next slice emitted `Δt_e` later.
