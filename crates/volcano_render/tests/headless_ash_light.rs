@@ -15,14 +15,10 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use volcano_plume::view::{AshLightSettings, ParentSphere, light_parents};
 use volcano_render::plume::layout::pack_light;
-use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
+use volcano_render::plume::{AshParents, PlumeParents, update_parents};
 use volcano_render::{VolcanoViewer, headless_default_plugins, rgb_region_mean};
 
-const W: u32 = 320;
-const H: u32 = 240;
-/// Puff radius (m), 2 km in front of the camera: ≈ 72 px on screen.
-const RADIUS: f32 = 500.0;
-const DISTANCE: f32 = 2_000.0;
+use common::{PUFF_DISTANCE as DISTANCE, PUFF_H as H, PUFF_RADIUS as RADIUS, PUFF_W as W};
 
 #[derive(Resource, Clone, Copy)]
 struct Occluded(bool);
@@ -61,19 +57,7 @@ fn puff(
         }
     }
     let light = light_parents(&spheres, &AshLightSettings { sun: toward, ..default() });
-    let parent = AshParent {
-        center: center.to_array(),
-        radius: RADIUS / 1.35,
-        rotation: Quat::IDENTITY.to_array(),
-        angle: 0.3,
-        shade: 0.5,
-        coverage: 1.0,
-        variant: 0.4,
-        key: 11,
-        flags: AshParent::BILLBOARD,
-        billboard_radius: RADIUS,
-        light: pack_light(light[0]),
-    };
+    let parent = common::puff_parent(center, pack_light(light[0]));
     list.0 = Arc::new(AshParents { parents: vec![parent], starts: vec![0, 1] });
 }
 

@@ -19,14 +19,10 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use volcano_plume::view::ParentLight;
 use volcano_render::plume::layout::pack_light;
-use volcano_render::plume::{AshParent, AshParents, PlumeParents, update_parents};
+use volcano_render::plume::{AshParents, PlumeParents, update_parents};
 use volcano_render::{VolcanoViewer, headless_default_plugins, rgb_region_mean};
 
-const W: u32 = 320;
-const H: u32 = 240;
-/// Puff radius (m), 2 km in front of the camera: ≈ 72 px on screen.
-const RADIUS: f32 = 500.0;
-const DISTANCE: f32 = 2_000.0;
+use common::{PUFF_DISTANCE as DISTANCE, PUFF_H as H, PUFF_W as W};
 
 #[derive(Resource, Clone, Copy)]
 struct Vent(f32);
@@ -46,19 +42,7 @@ fn puff(
         light.illuminance = 4_000.0;
     }
     let center = cam.translation() + fwd * DISTANCE;
-    let parent = AshParent {
-        center: center.to_array(),
-        radius: RADIUS / 1.35,
-        rotation: Quat::IDENTITY.to_array(),
-        angle: 0.3,
-        shade: 0.5,
-        coverage: 1.0,
-        variant: 0.4,
-        key: 11,
-        flags: AshParent::BILLBOARD,
-        billboard_radius: RADIUS,
-        light: pack_light(ParentLight { sun: 1.0, sky: 1.0, vent: vent.0 }),
-    };
+    let parent = common::puff_parent(center, pack_light(ParentLight { sun: 1.0, sky: 1.0, vent: vent.0 }));
     list.0 = Arc::new(AshParents { parents: vec![parent], starts: vec![0, 1] });
 }
 

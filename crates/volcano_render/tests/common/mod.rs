@@ -59,3 +59,30 @@ pub fn ash_stage(mut commands: Commands) {
 pub fn luminance(c: [f64; 3]) -> f64 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
+
+/// Frame size of the one-puff ash tests (px).
+pub const PUFF_W: u32 = 320;
+pub const PUFF_H: u32 = 240;
+/// On-screen radius (m) of the one-puff tests' smoke billboard, [`PUFF_DISTANCE`] in front of
+/// the camera: ≈ 72 px.
+pub const PUFF_RADIUS: f32 = 500.0;
+pub const PUFF_DISTANCE: f32 = 2_000.0;
+
+/// The one-puff tests' parent: a smoke billboard of [`PUFF_RADIUS`] at `center` (no detail
+/// spheres), mid shade, full coverage, with the packed light word `light`.
+pub fn puff_parent(center: Vec3, light: u32) -> volcano_render::plume::AshParent {
+    use volcano_render::plume::AshParent;
+    AshParent {
+        center: center.to_array(),
+        radius: PUFF_RADIUS / 1.35,
+        rotation: Quat::IDENTITY.to_array(),
+        angle: 0.3,
+        shade: 0.5,
+        coverage: 1.0,
+        variant: 0.4,
+        key: 11,
+        flags: AshParent::BILLBOARD,
+        billboard_radius: PUFF_RADIUS,
+        light,
+    }
+}
