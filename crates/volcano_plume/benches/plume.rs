@@ -78,6 +78,7 @@ fn plume_domain(c: &mut Criterion) {
         caps: StepCaps::default(),
         rings: None,
         dt: 0.002,
+        umbrella_dt: 0.002,
     };
     let mut state = PlumeState::default();
     let mut steps = 0;

@@ -56,9 +56,12 @@ fn model_run(
         caps: StepCaps::default(),
         rings: None,
         dt,
+        umbrella_dt: 0.0,
     };
     for n in 1..=steps {
-        let report = step(&mut state, &inputs);
+        // As the plugin: the umbrella steps once per base tick (ten steps), on its last step.
+        let umbrella_dt = if n % 10 == 0 { Duration::from_millis(20).as_secs_f64() } else { 0.0 };
+        let report = step(&mut state, &PlumeInputs { umbrella_dt, ..inputs });
         each(n, &state, &report);
     }
     state

@@ -77,9 +77,11 @@ impl LayeredAmbient {
         if z <= l[0].altitude {
             return Bracket::Below;
         }
-        match l.iter().position(|v| v.altitude > z) {
-            None => Bracket::Above,
-            Some(i) => {
+        // The first level above `z` (levels are strictly increasing: a binary search).
+        match l.partition_point(|v| v.altitude <= z) {
+            // 0 only for a NaN `z` (it failed the test above): the top level, as before.
+            i if i == l.len() || i == 0 => Bracket::Above,
+            i => {
                 let (a, b) = (&l[i - 1], &l[i]);
                 Bracket::Between(i - 1, (z - a.altitude) / (b.altitude - a.altitude))
             }
@@ -87,7 +89,11 @@ impl LayeredAmbient {
     }
 
     fn lerp_by(&self, z: f64, f: impl Fn(&AmbientLevel) -> f64) -> f64 {
-        match self.bracket(z) {
+        self.lerp_in(self.bracket(z), f)
+    }
+
+    fn lerp_in(&self, bracket: Bracket, f: impl Fn(&AmbientLevel) -> f64) -> f64 {
+        match bracket {
             Bracket::Below => f(&self.levels[0]),
             Bracket::Above => f(self.levels.last().expect("non-empty")),
             Bracket::Between(i, t) => f(&self.levels[i]) + (f(&self.levels[i + 1]) - f(&self.levels[i])) * t,
@@ -112,10 +118,12 @@ impl LayeredAmbient {
 
     /// Wind (plume frame, m/s) at `z` m above sea level.
     pub fn wind_at(&self, z: f64) -> DVec2 {
-        DVec2::new(self.lerp_by(z, |l| l.wind.x), self.lerp_by(z, |l| l.wind.y))
+        let bracket = self.bracket(z);
+        DVec2::new(self.lerp_in(bracket, |l| l.wind.x), self.lerp_in(bracket, |l| l.wind.y))
     }
 }
 
+#[derive(Clone, Copy)]
 enum Bracket {
     Below,
     Above,

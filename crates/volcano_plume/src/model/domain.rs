@@ -92,8 +92,11 @@ pub fn step(state: &mut PlumeState, inputs: &PlumeInputs) -> PlumeReport {
     ring_positions(&state.rings, &mut report.retired);
     ring_positions(&state.rings, &mut report.non_finite);
     let mut gone_spheres = vec![None; state.umbrella.len()];
-    step_umbrella(state, inputs, &mut gone_spheres, &mut report);
-    cap_umbrella(state, inputs.caps.max_umbrella_spheres, &mut gone_spheres, &mut report);
+    let umbrella_dt = inputs.umbrella_dt;
+    if umbrella_dt.is_finite() && umbrella_dt > 0.0 {
+        step_umbrella(state, inputs, umbrella_dt, &mut gone_spheres, &mut report);
+        cap_umbrella(state, inputs.caps.max_umbrella_spheres, &mut gone_spheres, &mut report);
+    }
     compact(state, gone, gone_spheres, &mut report);
     report
 }
@@ -310,10 +313,11 @@ fn ring_positions(rings: &[RingSphere], removed: &mut [RemovedSlice]) {
 fn step_umbrella(
     state: &mut PlumeState,
     inputs: &PlumeInputs,
+    dt: f64,
     gone: &mut [Option<SphereFate>],
     report: &mut PlumeReport,
 ) {
-    let (p, dt) = (inputs.params, inputs.dt);
+    let p = inputs.params;
     for (k, u) in state.umbrella.iter_mut().enumerate() {
         u.sphere.step(dt);
         // The spreading cloud drifts with the wind at its altitude (the column axis moves).
@@ -351,8 +355,13 @@ fn cap_umbrella(
         return;
     }
     let u = &state.umbrella;
-    list.sort_by(|&a, &b| u[b].age.total_cmp(&u[a].age).then(u[a].id.cmp(&u[b].id)));
-    for &k in &list[..list.len() - max] {
+    let older = |a: &usize, b: &usize| u[*b].age.total_cmp(&u[*a].age).then(u[*a].id.cmp(&u[*b].id));
+    // Only the excess is ordered: at the cap a few spheres arrive per step among tens of
+    // thousands (a full sort of them every step was most of a soak's tick).
+    let excess = list.len() - max;
+    list.select_nth_unstable_by(excess - 1, older);
+    list[..excess].sort_by(older);
+    for &k in &list[..excess] {
         let sphere = &state.umbrella[k];
         let ash = sphere.ash.max(0.0) + sphere.ash_pending.max(0.0);
         if ash > 0.0 {

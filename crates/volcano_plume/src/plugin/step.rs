@@ -15,6 +15,7 @@ use std::collections::HashSet;
 use bevy::ecs::entity::EntityHashMap;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
+use volcano_core::clock::crossed_period;
 use volcano_core::prelude::*;
 
 use super::{orientation, spawn_with_ring};
@@ -97,6 +98,7 @@ type Spheres<'w, 's> = Query<
 #[allow(clippy::too_many_arguments)]
 pub(super) fn step_plume(
     time: Res<Time>,
+    fixed: Res<Time<Fixed>>,
     caps: Res<PlumeCaps>,
     mut cap_report: ResMut<PlumeCapReport>,
     mut commands: Commands,
@@ -107,6 +109,12 @@ pub(super) fn step_plume(
     mut out: PlumeMessages,
 ) {
     let dt = time.delta_secs_f64();
+    // The umbrella steps once per base tick of domain time, on the step that crosses it, not
+    // in each of the column's substeps (`PlumeInputs::umbrella_dt`): its spheres are gathered
+    // and written back only then.
+    let period = fixed.timestep();
+    let umbrella_dt =
+        if crossed_period(time.elapsed(), time.delta(), period) { period.as_secs_f64() } else { 0.0 };
     let caps = checked(&caps);
     let step_caps = StepCaps {
         max_live_slices: caps.max_live_slices as usize,
@@ -150,7 +158,8 @@ pub(super) fn step_plume(
         });
     }
     let mut sphere_order: Vec<Entry> = Vec::new();
-    for (entity, u, _) in &spheres {
+    let gathered_spheres = if umbrella_dt > 0.0 { Some(&spheres) } else { None };
+    for (entity, u, _) in gathered_spheres.into_iter().flatten() {
         let Some(v) = slot_of(u.volcano) else {
             sphere_order.push((entity, None));
             continue;
@@ -191,6 +200,7 @@ pub(super) fn step_plume(
             caps: step_caps,
             rings: Some(RingSource(&source)),
             dt,
+            umbrella_dt,
         };
         g.report = domain::step(&mut g.state, &inputs);
         g.found = found.into_inner();

@@ -69,6 +69,13 @@ pub struct PlumeInputs<'a> {
     pub rings: Option<RingSource<'a>>,
     /// Step length (s).
     pub dt: f64,
+    /// Time the umbrella phase advances in this step (s): the spheres' spreading, drift,
+    /// fallout, ageing and expiry, then the umbrella cap. `dt` steps the umbrella with the
+    /// column; 0 skips the phase (the spheres keep their state, spheres detached in this step
+    /// included, and the cap waits). The plugin steps the umbrella once per base tick instead
+    /// of in each of the column's ten substeps (docs/ARCHITECTURE.md §2.2): its laws are exact
+    /// for any step, its motion slow. Negative or non-finite values count as 0.
+    pub umbrella_dt: f64,
 }
 
 /// Rings kept by the caller (the plugin keeps them on the s1 entities, and looks them up only
