@@ -11,8 +11,7 @@ use bevy::prelude::*;
 
 use crate::sky::{SkySettings, VolcanoSkyCamera, sky_camera_components};
 
-/// Marks the camera the volcano is watched from: the ash billboards face it, the ash fall adds
-/// `VolumetricFog` to it (only while an ash-fall volume exists), [`crate::HeadlessCapturePlugin`]
+/// Marks the camera the volcano is watched from: the ash billboards face it, [`crate::HeadlessCapturePlugin`]
 /// renders it, and the debug panels pick the terrain through it. A game tags its own camera;
 /// without one the plume and clouds still simulate, they are just drawn for no viewer.
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]

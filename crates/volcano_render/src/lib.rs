@@ -4,8 +4,7 @@
 //! ([`sky`]) and windowless offscreen capture for tests and the CLI ([`headless`]).
 //!
 //! [`VolcanoRenderPlugins`] draws the simulation and touches nothing of the game's lighting or
-//! cameras, except that the camera tagged [`VolcanoViewer`] gets `VolumetricFog` while an ash-fall volume
-//! exists (and a camera the game tags [`GlowCamera`] is HDR with bloom). Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
+//! cameras, except that a camera the game tags [`GlowCamera`] is HDR with bloom. Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
 //! with [`camera_bundle`] (a [`VolcanoViewer`] and [`VolcanoSkyCamera`]); the same scene code
 //! renders to a window (with `DefaultPlugins`) or to a PNG (with [`headless_default_plugins`]
 //! and [`HeadlessCapturePlugin`]). Any member of the group can be left out:
@@ -29,7 +28,7 @@
 pub mod ash_fall;
 pub mod camera;
 pub mod clouds;
-pub mod fog_volume;
+pub mod density_volume;
 pub mod headless;
 pub mod lava;
 pub mod plume;
@@ -40,7 +39,7 @@ pub mod window_capture;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 
-pub use ash_fall::{AshFallFog, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
+pub use ash_fall::{AshFallDraw, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
 pub use camera::{
     GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
 };

@@ -17,7 +17,7 @@ mod common;
 use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
 use volcano_render::clouds::{CloudMaterial, CloudUniform};
-use volcano_render::fog_volume::density_image;
+use volcano_render::density_volume::density_image;
 use volcano_render::{
     CloudRenderSettings, OrbitCamera, camera_bundle, headless_default_plugins, rgb_region_mean,
 };

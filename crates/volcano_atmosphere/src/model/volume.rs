@@ -1,7 +1,7 @@
 //! Procedural amplification (thesis §4.2.6), model side: coherent cloud forms by k-means++
 //! where the per-cell classification fragments, and a 3D density volume from the layers'
-//! condensed water with type-keyed vertical placement and noise. Rendering (FogVolume) is
-//! done elsewhere.
+//! condensed water with type-keyed vertical placement and noise. Rendering (the lit cloud pass
+//! of `volcano_render::clouds`) is done elsewhere.
 
 use bevy::reflect::Reflect;
 use noise::{NoiseFn, OpenSimplex};

@@ -1,24 +1,26 @@
 //! Ash fall (issue 13 item 4, thesis §4.3: ash carried by the layers): each [`Atmosphere`]
-//! holding ash gets one dark [`FogVolume`] over its footprint whose 3D density image is the
-//! layers' ash concentration ([`volume`]): curtains falling from the umbrella and the column,
-//! bent by the layer winds, denser where the field is denser, broken into shafts. Rebuilt when
-//! the weather steps (that is when the ash field changes), not every frame; no volume exists
-//! while the layers hold no ash, so an atmosphere without an eruption pays nothing.
+//! holding ash gets one box over its footprint drawn by the lit ray-marching pass of the clouds
+//! ([`CloudMaterial`], `clouds.wgsl`: a march toward the sun per sample, ambient sky light,
+//! the shadow on the ground behind) whose 3D density image is the layers' ash concentration
+//! ([`volume`]): curtains falling from the umbrella and the column, bent by the layer winds,
+//! denser where the field is denser, broken into shafts. Rebuilt when the weather steps (that
+//! is when the ash field changes), not every frame; no box exists while the layers hold no
+//! ash, so an atmosphere without an eruption pays nothing.
 //!
-//! Ash absorbs far more than cloud droplets (single-scattering albedo of volcanic ash ≈ 0.6–0.8
-//! in the visible; cloud water ≈ 1): the fog's absorption is high, its colour a brown grey.
-//! The texel follows the concentration (`1 − exp(−c / density_scale)`), but the extinction is
-//! not physical: fine ash has a mass extinction of ≈ 0.5 m²/g, so 0.05 g/m³ is opaque within
-//! 40 m, and Bevy 0.19's fog shader attenuates the light reaching a sample by the whole volume's
-//! bounding radius (tens of km), which turns any such fog black. As for the clouds, the peak
-//! extinction is chosen from that radius ([`AshFallSettings::light_depth`]); a renderer that
-//! marches toward the sun is the look issue's work.
+//! Ash absorbs far more than cloud droplets: its single-scattering albedo is ≈ 0.6–0.8 in the
+//! visible (cloud water ≈ 1), its colour a brown grey (the pass's `tint`), and it scatters
+//! forward less. Its mass extinction is ≈ 0.5 m²/g for fine ash, so 0.05 g/m³ would be opaque
+//! within 40 m; [`AshFallSettings::extinction_per_gram`] is lower than that so that the
+//! curtain, drawn from voxels of a few hundred metres, shows its shafts and thins at its edges
+//! instead of standing as a wall. Until 2026-11-26 the ash was a Bevy `FogVolume`, whose shader
+//! attenuates the light reaching a sample by the whole volume's bounding radius (tens of km):
+//! any fog dense enough to see turned black, the curtain a dark box.
 //! The ground tint of the fall deposit is [`crate::terrain::deposit`]'s (the coupling writes the fall
 //! into the same `DepositMap` as the pyroclastic flows).
 
 pub mod volume;
 
-use bevy::light::FogVolume;
+use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
 use volcano_atmosphere::plugin::AtmosphereGround;
 use volcano_atmosphere::view::GridSpec;
@@ -26,7 +28,8 @@ use volcano_atmosphere::{AirLayer, Atmosphere, LayerFields};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
 
-use crate::fog_volume::{VolcanoFogVolume, bounding_radius, density_factor, density_image, volume_transform};
+use crate::clouds::{CloudMaterial, CloudUniform, volume_bounds};
+use crate::density_volume::{density_image, volume_transform};
 use volume::{AshVolumeSpec, ash_density_volume};
 
 /// How the layers' ash is drawn (a resource; edits rebuild the volumes).
@@ -39,16 +42,30 @@ pub struct AshFallSettings {
     pub voxels_xy: u32,
     /// Voxels vertically (4–256).
     pub voxels_z: u32,
-    /// Ash concentration (g/m³) at which a texel reaches 1 − 1/e; concentrations far above it
-    /// saturate (they are opaque anyway).
+    /// Ash concentration (g/m³) at which a texel reaches 1 − 1/e (the image's encoding; the
+    /// pass decodes texels back to g/m³); concentrations far above it saturate.
     pub density_scale: f32,
-    /// Optical depth of the light path at full density over the volume's bounding radius
-    /// (see the module docs): peak extinction = `light_depth / bounding_radius`.
-    pub light_depth: f32,
-    /// Colour of the ash (sRGB).
+    /// Extinction (1/m) per g/m³ of ash (physical ≈ 0.5 for fine ash; lower keeps the
+    /// curtain's shafts and edges visible at the voxel size, see the module docs).
+    pub extinction_per_gram: f32,
+    /// Single-scattering albedo of ash (0.6–0.8 in the visible).
+    pub albedo: f32,
+    /// Colour of the ash (sRGB): the tint of the light it scatters.
     pub colour: Srgba,
-    /// Multiplier of the in-scattered sunlight.
-    pub light_intensity: f32,
+    /// Multiplier of the sun's light in the ash (multiple scattering the march misses).
+    pub sun_gain: f32,
+    /// Multiplier of the view's ambient light as sky light in the ash.
+    pub ambient_gain: f32,
+    /// Henyey–Greenstein asymmetry of the ash's forward lobe (0–0.99).
+    pub forward_g: f32,
+    /// Ray-march steps per pixel along the view ray (8–1024).
+    pub step_count: u32,
+    /// Steps of the march toward the sun per sample (1–32).
+    pub sun_steps: u32,
+    /// Length (m) of the march toward the sun.
+    pub sun_distance_m: f32,
+    /// How much of the ground's sunlight a fully shadowing curtain removes (0–1).
+    pub shadow_strength: f32,
     /// Strength of the fall streaks (0 smooth – 1 shafts and gaps).
     pub streaks: f32,
     /// Size of a streak (m).
@@ -64,9 +81,16 @@ impl Default for AshFallSettings {
             voxels_xy: 128,
             voxels_z: 64,
             density_scale: 0.02,
-            light_depth: 6.0,
-            colour: Srgba::rgb(0.33, 0.30, 0.27),
-            light_intensity: 6.0,
+            extinction_per_gram: 0.03,
+            albedo: 0.7,
+            colour: Srgba::rgb(0.45, 0.41, 0.37),
+            sun_gain: 2.0,
+            ambient_gain: 1.0,
+            forward_g: 0.5,
+            step_count: 128,
+            sun_steps: 6,
+            sun_distance_m: 4_000.0,
+            shadow_strength: 0.5,
             streaks: 0.6,
             streak_m: 350.0,
             min_grams: 1.0,
@@ -80,26 +104,36 @@ impl AshFallSettings {
         in_range("voxels_xy", self.voxels_xy as f64, 8.0, 512.0)?;
         in_range("voxels_z", self.voxels_z as f64, 4.0, 256.0)?;
         in_range("density_scale", self.density_scale as f64, 1e-6, 1e3)?;
-        in_range("light_depth", self.light_depth as f64, 1e-3, 50.0)?;
-        in_range("light_intensity", self.light_intensity as f64, 0.0, 1e4)?;
+        in_range("extinction_per_gram", self.extinction_per_gram as f64, 1e-6, 10.0)?;
+        in_range("albedo", self.albedo as f64, 0.0, 1.0)?;
+        for (name, c) in [("colour.red", self.colour.red), ("colour.green", self.colour.green)] {
+            in_range(name, c as f64, 0.0, 1.0)?;
+        }
+        in_range("colour.blue", self.colour.blue as f64, 0.0, 1.0)?;
+        in_range("sun_gain", self.sun_gain as f64, 0.0, 100.0)?;
+        in_range("ambient_gain", self.ambient_gain as f64, 0.0, 100.0)?;
+        in_range("forward_g", self.forward_g as f64, 0.0, 0.99)?;
+        in_range("step_count", self.step_count as f64, 8.0, 1024.0)?;
+        in_range("sun_steps", self.sun_steps as f64, 1.0, 32.0)?;
+        in_range("sun_distance_m", self.sun_distance_m as f64, 10.0, 100_000.0)?;
+        in_range("shadow_strength", self.shadow_strength as f64, 0.0, 1.0)?;
         in_range("streaks", self.streaks as f64, 0.0, 1.0)?;
         in_range("streak_m", self.streak_m as f64, 1.0, 1e6)?;
         in_range("min_grams", self.min_grams, 0.0, 1e30)?;
         Ok(())
     }
-
-    /// The fog's absorption and scattering fractions (sum 1): ash single-scattering albedo 0.7.
-    pub const ABSORPTION_SCATTERING: (f32, f32) = (0.3, 0.7);
 }
 
-/// On an [`Atmosphere`] entity: the fog volume drawing its ash and what it was built from.
+/// On an [`Atmosphere`] entity: the box drawing its ash and what it was built from.
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(Component, Debug)]
 pub struct AshFallVolume {
-    /// The [`FogVolume`] entity.
-    pub fog: Entity,
+    /// The drawn box ([`AshFallDraw`]).
+    pub draw: Entity,
     /// The 3D density image.
     pub image: Handle<Image>,
+    /// The box's material.
+    pub material: Handle<CloudMaterial>,
     /// Weather time (s) the image was built for.
     pub built_at_s: f64,
     /// Ash in the layers at that time (g).
@@ -108,16 +142,15 @@ pub struct AshFallVolume {
     pub filled_fraction: f32,
 }
 
-/// Marks the fog volume entity of an atmosphere's ash.
+/// Marks the box entity drawing an atmosphere's ash.
 #[derive(Component, Debug, Clone, Copy, Reflect)]
 #[reflect(Component, Debug)]
-#[require(VolcanoFogVolume)]
-pub struct AshFallFog {
+pub struct AshFallDraw {
     /// The atmosphere it shows.
     pub atmosphere: Entity,
 }
 
-/// Ash-fall fog volumes for every [`Atmosphere`] whose layers hold ash.
+/// Lit ash-fall volumes for every [`Atmosphere`] whose layers hold ash.
 #[derive(Debug, Default, Clone)]
 pub struct AshFallRenderPlugin;
 
@@ -125,7 +158,7 @@ impl Plugin for AshFallRenderPlugin {
     fn build(&self, app: &mut App) {
         app.register_type::<AshFallSettings>()
             .register_type::<AshFallVolume>()
-            .register_type::<AshFallFog>()
+            .register_type::<AshFallDraw>()
             .init_resource::<AshFallSettings>()
             .add_systems(PostUpdate, update_ash_volumes);
     }
@@ -147,7 +180,7 @@ pub fn airborne_grams(layers: &[&LayerFields], dx: f64) -> f64 {
         .sum()
 }
 
-/// Density image, fog transform and filled fraction of an atmosphere's ash.
+/// Density image, volume transform and filled fraction of an atmosphere's ash.
 pub fn build_ash_image(
     layers: &[&LayerFields],
     grid: GridSpec,
@@ -168,42 +201,52 @@ pub fn build_ash_image(
     Ok((image, transform, filled))
 }
 
-/// The [`FogVolume`] drawing an ash density image in a volume of this transform.
-pub fn ash_fog(image: Handle<Image>, transform: &Transform, settings: &AshFallSettings) -> FogVolume {
-    let (absorption, scattering) = AshFallSettings::ABSORPTION_SCATTERING;
-    let sigma_max = settings.light_depth / bounding_radius(transform).max(1.0);
-    FogVolume {
-        fog_color: settings.colour.into(),
-        density_factor: density_factor(sigma_max, absorption, scattering).unwrap_or(0.0),
-        density_texture: Some(image),
-        absorption,
-        scattering,
-        // Ash scatters forward less than cloud droplets.
-        scattering_asymmetry: 0.3,
-        light_intensity: settings.light_intensity,
-        ..default()
-    }
+/// The lit pass's material for an ash density image in a volume of this transform.
+pub fn ash_material(
+    image: Handle<Image>,
+    transform: &Transform,
+    settings: &AshFallSettings,
+) -> CloudMaterial {
+    let (lo, hi) = volume_bounds(transform);
+    let s = settings;
+    let colour = LinearRgba::from(s.colour);
+    let uniform = CloudUniform {
+        volume_min: lo,
+        extinction: s.extinction_per_gram,
+        volume_max: hi,
+        density_scale: s.density_scale,
+        // Forward lobe, a weak backward one; no powder (ash is not a droplet cloud).
+        phase: Vec4::new(s.forward_g, -0.2, 0.3, 0.0),
+        march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
+        light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, 60.0),
+        tint: Vec4::new(colour.red, colour.green, colour.blue, 0.0),
+    };
+    CloudMaterial { uniform, density: image }
 }
 
-#[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's ash fog in step")]
+/// What the ash system creates and replaces.
+type AshAssets<'w> = (ResMut<'w, Assets<Image>>, ResMut<'w, Assets<CloudMaterial>>, ResMut<'w, Assets<Mesh>>);
+
+#[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's ash box in step")]
 fn update_ash_volumes(
     mut commands: Commands,
     settings: Res<AshFallSettings>,
-    atmospheres: Query<(Entity, &Atmosphere, Option<&AtmosphereGround>, Option<&AshFallVolume>)>,
+    atmospheres: Query<(Entity, &Atmosphere, Option<&AshFallVolume>)>,
+    grounds: Query<&AtmosphereGround>,
     layers: Query<&AirLayer>,
-    mut fogs: Query<(&mut FogVolume, &mut Transform, &mut Visibility), With<AshFallFog>>,
-    mut images: ResMut<Assets<Image>>,
+    mut draws: Query<(&mut Transform, &mut Visibility), With<AshFallDraw>>,
+    (mut images, mut materials, mut meshes): AshAssets,
     mut removed: RemovedComponents<Atmosphere>,
-    orphans: Query<(Entity, &AshFallFog)>,
+    orphans: Query<(Entity, &AshFallDraw)>,
 ) {
     for gone in removed.read() {
-        for (fog, owner) in &orphans {
+        for (draw, owner) in &orphans {
             if owner.atmosphere == gone {
-                commands.entity(fog).despawn();
+                commands.entity(draw).despawn();
             }
         }
     }
-    for (entity, atmo, ground, volume) in &atmospheres {
+    for (entity, atmo, volume) in &atmospheres {
         if let Some(v) = volume
             && v.built_at_s == atmo.time_s
             && !settings.is_changed()
@@ -214,15 +257,16 @@ fn update_ash_volumes(
         let grams = airborne_grams(&fields, atmo.dx);
         let show = settings.enabled && grams >= settings.min_grams;
         if let Some(v) = volume
-            && let Ok((_, _, mut vis)) = fogs.get_mut(v.fog)
+            && let Ok((_, mut vis)) = draws.get_mut(v.draw)
         {
             vis.set_if_neq(if show { Visibility::Inherited } else { Visibility::Hidden });
         }
         if !show {
             continue;
         }
-        let built = GridSpec::new(atmo.n, atmo.dx)
-            .and_then(|grid| build_ash_image(&fields, grid, ground.map(|g| &g.0.height), &settings));
+        let ground = grounds.get(entity).ok().map(|g| &g.0.height);
+        let built =
+            GridSpec::new(atmo.n, atmo.dx).and_then(|grid| build_ash_image(&fields, grid, ground, &settings));
         let (image, transform, filled) = match built {
             Ok(b) => b,
             Err(e) => {
@@ -235,8 +279,15 @@ fn update_ash_volumes(
                 if images.insert(v.image.id(), image).is_err() {
                     warn_once!("ash density image of {entity} could not be replaced");
                 }
-                if let Ok((mut fog, mut t, _)) = fogs.get_mut(v.fog) {
-                    *fog = ash_fog(v.image.clone(), &transform, &settings);
+                // Replacing the material (not only the image) makes the renderer bind the new
+                // image.
+                if materials
+                    .insert(v.material.id(), ash_material(v.image.clone(), &transform, &settings))
+                    .is_err()
+                {
+                    warn_once!("ash material of {entity} could not be replaced");
+                }
+                if let Ok((mut t, _)) = draws.get_mut(v.draw) {
                     *t = transform;
                 }
                 commands.entity(entity).insert(AshFallVolume {
@@ -248,17 +299,22 @@ fn update_ash_volumes(
             }
             None => {
                 let handle = images.add(image);
-                let fog = commands
+                let material = materials.add(ash_material(handle.clone(), &transform, &settings));
+                let draw = commands
                     .spawn((
                         Name::new("Ash fall"),
-                        AshFallFog { atmosphere: entity },
-                        ash_fog(handle.clone(), &transform, &settings),
+                        AshFallDraw { atmosphere: entity },
+                        Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
+                        MeshMaterial3d(material.clone()),
                         transform,
+                        NotShadowCaster,
+                        NotShadowReceiver,
                     ))
                     .id();
                 commands.entity(entity).insert(AshFallVolume {
-                    fog,
+                    draw,
                     image: handle,
+                    material,
                     built_at_s: atmo.time_s,
                     airborne_g: grams,
                     filled_fraction: filled,

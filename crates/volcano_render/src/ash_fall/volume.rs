@@ -1,5 +1,5 @@
 //! Pure part of the ash-fall renderer: the layers' ash concentration (g/m³) resampled on a
-//! voxel grid for a fog volume, with fall streaks.
+//! voxel grid for the lit volume pass, with fall streaks.
 //!
 //! The atmosphere holds ash per layer (`LayerFields::ash`, g/m³; the coupling feeds it from the
 //! column and the umbrella, the atmosphere's weather step advects and settles it). Ash
@@ -37,6 +37,9 @@ pub struct AshVolumeSpec {
     pub streak_m: f64,
     /// Seed of the streak noise.
     pub seed: u32,
+    /// Width of the band along the footprint's sides over which the ash fades to nothing, as
+    /// a fraction of the footprint's side (0–0.5; [`edge_fade`]).
+    pub edge_fraction: f64,
 }
 
 impl AshVolumeSpec {
@@ -47,7 +50,7 @@ impl AshVolumeSpec {
         let z_max = layers.iter().map(|l| l.bottom + l.thickness).fold(f64::NEG_INFINITY, f64::max);
         let z_min = if z_min.is_finite() { z_min.max(0.0) } else { 0.0 };
         let z_max = if z_max.is_finite() { z_max.max(z_min + 1.0) } else { z_min + 1.0 };
-        Self { nxy, nz, z_min, z_max, streaks: 0.6, streak_m: 400.0, seed: 11 }
+        Self { nxy, nz, z_min, z_max, streaks: 0.6, streak_m: 400.0, seed: 11, edge_fraction: 0.08 }
     }
 
     /// Checks the sizes and the streak parameters; the error names the field.
@@ -56,6 +59,7 @@ impl AshVolumeSpec {
         in_range("ash voxels_z", self.nz as f64, 2.0, 512.0)?;
         in_range("ash streaks", self.streaks, 0.0, 1.0)?;
         in_range("ash streak_m", self.streak_m, 1.0, 1e6)?;
+        in_range("ash edge_fraction", self.edge_fraction, 0.0, 0.5)?;
         if !(self.z_min.is_finite() && self.z_max.is_finite() && self.z_max > self.z_min) {
             return Err(ConfigError::InvalidParameter {
                 name: "ash volume altitudes",
@@ -73,10 +77,10 @@ impl AshVolumeSpec {
 }
 
 /// Ash concentration (g/m³) of the voxels of `spec` over an atmosphere of grid `grid` (x
-/// fastest, then grid y, then altitude — the layout of `fog_volume::density_texels`): each voxel
+/// fastest, then grid y, then altitude — the layout of `density_volume::density_texels`): each voxel
 /// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
 /// by [`layer_blend`] (a curtain sheared by the winds leans smoothly instead of in steps),
-/// times the streak factor of its column and [`lid_fade`]; 0 above the layers and under
+/// times the streak factor and [`edge_fade`] of its column and [`lid_fade`]; 0 above the layers and under
 /// `ground` (terrain altitude at the atmosphere's cell centres, if given). Non-finite or negative ash counts as none.
 pub fn ash_density_volume(
     layers: &[&LayerFields],
@@ -87,7 +91,13 @@ pub fn ash_density_volume(
     spec.validate()?;
     let (nxy, nz) = (spec.nxy, spec.nz);
     let extent = grid.extent();
-    let streak = streak_factors(spec, extent);
+    let mut streak = streak_factors(spec, extent);
+    let band = spec.edge_fraction * extent;
+    for (k, f) in streak.iter_mut().enumerate() {
+        let (ix, jy) = ((k % nxy) as f64 + 0.5, (k / nxy) as f64 + 0.5);
+        let inside = (ix.min(nxy as f64 - ix).min(jy).min(nxy as f64 - jy)) * extent / nxy as f64;
+        *f *= edge_fade(inside, band);
+    }
     // World position of each voxel column's centre.
     let column_xy = |i: usize| -0.5 * extent + (i as f64 + 0.5) * extent / nxy as f64;
     type Level = (f64, Option<(usize, usize, f64)>, f64);
@@ -126,6 +136,19 @@ pub fn lid_fade(layers: &[&LayerFields], z: f64) -> f64 {
     if z <= centre || lid <= centre { 1.0 } else { ((lid - z) / (lid - centre)).clamp(0.0, 1.0) }
 }
 
+/// How much of the ash is drawn `inside` metres from the nearest side of the footprint: 0 at
+/// the side, rising smoothly (smoothstep) to 1 at `band` metres in. The atmosphere's grid
+/// ends there but the air does not: drawn at full value up to the side, an umbrella's ash that
+/// reached the boundary stood as a wall with straight vertical edges (the box's own). A
+/// rendering choice, like [`lid_fade`]; the ash budget is the layers'.
+pub fn edge_fade(inside: f64, band: f64) -> f64 {
+    if band.is_nan() || band <= 0.0 {
+        return 1.0;
+    }
+    let t = (inside / band).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
 /// Streak factor of each voxel column (`nxy²`, x fastest): `max(0, 1 + a·p)` with `p` a Perlin
 /// noise (mean 0, |p| ≤ 1) over `streak_m`-sized features, `a` = `spec.streaks`, so the factors
 /// average ≈ 1 and the drawn ash mass follows the field.
@@ -156,7 +179,16 @@ mod tests {
     }
 
     fn spec(nxy: usize, nz: usize, streaks: f64) -> AshVolumeSpec {
-        AshVolumeSpec { nxy, nz, z_min: 0.0, z_max: 3000.0, streaks, streak_m: 400.0, seed: 3 }
+        AshVolumeSpec {
+            nxy,
+            nz,
+            z_min: 0.0,
+            z_max: 3000.0,
+            streaks,
+            streak_m: 400.0,
+            seed: 3,
+            edge_fraction: 0.0,
+        }
     }
 
     #[test]
@@ -213,6 +245,31 @@ mod tests {
         assert_eq!(g[iz * 256 + 16 * 8 + 1], 0.0, "under the ridge");
         assert_eq!(g[iz * 256 + 16 * 8 + 14], v[iz * 256 + 16 * 8 + 14], "beside it");
         assert!(g[3 * 256 + 16 * 8 + 1] > 0.0, "above the ridge (1,750 m)");
+    }
+
+    #[test]
+    fn the_ash_fades_out_toward_the_sides_of_the_footprint() {
+        let grid = GridSpec::new(16, 250.0).unwrap();
+        let mut ls = layers(grid);
+        ls[1].ash.data_mut().fill(1.0);
+        let refs: Vec<&LayerFields> = ls.iter().collect();
+        // 16 columns of 250 m; a 1,000 m band (4 columns) along each side.
+        let s = AshVolumeSpec { edge_fraction: 0.25, ..spec(16, 6, 0.0) };
+        let v = ash_density_volume(&refs, grid, None, &s).unwrap();
+        let row = |jy: usize| -> Vec<f32> { (0..16).map(|ix| v[(2 * 16 + jy) * 16 + ix]).collect() };
+        let mid = row(8);
+        // Rising from the west side to the middle, symmetric, full value well inside.
+        assert!(mid[0] < 0.05 && mid[0] > 0.0, "{mid:?}");
+        assert!(mid.windows(2).take(4).all(|w| w[1] > w[0]), "{mid:?}");
+        assert!((mid[0] - mid[15]).abs() < 1e-6 && (mid[2] - mid[13]).abs() < 1e-6, "{mid:?}");
+        assert!((mid[8] - 0.75).abs() < 1e-6, "{mid:?}");
+        // By the distance to the nearest side: the south side fades row 1 as the west side
+        // fades column 1.
+        assert!((row(1)[8] - mid[1]).abs() < 1e-6 && (row(1)[1] - mid[1]).abs() < 1e-6, "{:?}", row(1));
+        assert_eq!(edge_fade(0.0, 100.0), 0.0);
+        assert_eq!(edge_fade(100.0, 100.0), 1.0);
+        assert!((edge_fade(50.0, 100.0) - 0.5).abs() < 1e-12);
+        assert_eq!(edge_fade(10.0, 0.0), 1.0);
     }
 
     #[test]

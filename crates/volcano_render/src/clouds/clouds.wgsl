@@ -1,5 +1,5 @@
-// Lit volumetric clouds (module `clouds::material`): the back faces of a box around the
-// atmosphere's cloud density volume, drawn without a depth test, march the view ray through
+// Lit volumetric clouds (module `clouds::material`), and with a tint the ash fall
+// (module `ash_fall`): the back faces of a box around the atmosphere's density volume, drawn without a depth test, march the view ray through
 // the 3D density texture from the camera (or the box's entry) to the box's exit or the opaque
 // scene (depth prepass, when the camera has one). Per sample: a short march toward the sun
 // (Beer–Lambert), three octaves of approximated multiple scattering, a two-lobe
@@ -31,6 +31,8 @@ struct CloudUniform {
     march: vec4<f32>,
     // x sun gain, y ambient gain, z single-scattering albedo, w powder length (m).
     light: vec4<f32>,
+    // Colour of the scattered light (linear RGB; white for cloud water, brown grey for ash).
+    tint: vec4<f32>,
 }
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> cloud: CloudUniform;
@@ -130,7 +132,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     }
     let ambient = lights.ambient_color.rgb * view.exposure * cloud.light.y;
     let cos_theta = dot(ray, l);
-    let albedo = cloud.light.z;
+    let albedo = cloud.light.z * cloud.tint.rgb;
     // Multiple scattering, three octaves (a, b, c = ½): light deeper in a cloud arrives
     // through less extinction and a broader phase, so dense cores are not black.
     let p0 = phase(cos_theta, 1.0);

@@ -43,6 +43,9 @@ pub struct CloudUniform {
     pub march: Vec4,
     /// Sun gain, ambient gain, single-scattering albedo, powder length (m).
     pub light: Vec4,
+    /// Colour of the scattered light (linear RGB, multiplies the albedo; w unused): white for
+    /// cloud water, a brown grey for the ash fall ([`crate::ash_fall`]).
+    pub tint: Vec4,
 }
 
 impl CloudUniform {
@@ -57,12 +60,13 @@ impl CloudUniform {
             phase: Vec4::new(s.forward_g, s.backward_g, s.backward_weight, s.powder),
             march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
             light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, s.powder_length_m),
+            tint: Vec4::ONE,
         }
     }
 }
 
 /// The cloud pass's material: the uniform and the 3D density image (`R8Unorm`, u = x,
-/// v = altitude, w = z; [`crate::fog_volume::density_image`]).
+/// v = altitude, w = z; [`crate::density_volume::density_image`]).
 #[derive(Asset, AsBindGroup, Debug, Clone, Reflect)]
 pub struct CloudMaterial {
     /// Volume, extinction, phase and march settings.
@@ -137,7 +141,7 @@ mod tests {
 
     #[test]
     fn the_box_reaches_down_to_the_floor_and_keeps_its_top() {
-        let t = crate::fog_volume::volume_transform(1000.0, 500.0, 2500.0);
+        let t = crate::density_volume::volume_transform(1000.0, 500.0, 2500.0);
         let b = box_transform(&t, -200.0);
         let (lo, hi) = volume_bounds(&b);
         assert!((lo.y + 200.0).abs() < 1e-3 && (hi.y - 2500.0).abs() < 1e-3, "{lo} {hi}");

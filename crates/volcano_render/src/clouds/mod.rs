@@ -9,22 +9,16 @@
 //! powder), adds ambient sky light, and shades the opaque scene behind by the clouds' shadow
 //! (module [`material`]). It reads the first `DirectionalLight` and the ambient light of the
 //! view, so it follows a game's own sun; it adds nothing to cameras or lights.
-//!
-//! [`volumetric_views`] still gives [`VolcanoViewer`] cameras Bevy's `VolumetricFog` (and suns
-//! `VolumetricLight`) while a [`VolcanoFogVolume`](crate::fog_volume::VolcanoFogVolume) exists:
-//! the ash fall uses Bevy's `FogVolume`; the clouds no longer do.
+//! The ash fall ([`crate::ash_fall`]) is drawn by the same pass with its own material.
 
 pub mod material;
 mod rebuild;
 
-pub use crate::fog_volume::{
-    bounding_radius, density_factor, density_image, density_texels, smooth_density, texel, volume_transform,
-};
+pub use crate::density_volume::{density_image, density_texels, smooth_density, texel, volume_transform};
 pub use material::{CloudMaterial, CloudUniform, box_transform, volume_bounds};
 pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 
 use bevy::asset::embedded_asset;
-use bevy::light::{VolumetricFog, VolumetricLight};
 use bevy::pbr::MaterialPlugin;
 use bevy::prelude::*;
 use bevy::render::RenderApp;
@@ -32,9 +26,6 @@ use volcano_atmosphere::view::{AtmosphereState, ClusterMemory, VolumeSpec, cloud
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
-
-use crate::camera::VolcanoViewer;
-use crate::sky::Sun;
 
 /// How clouds are built and lit (a resource; edits rebuild the volumes and their material).
 #[derive(Resource, Debug, Clone, PartialEq, Reflect)]
@@ -197,14 +188,10 @@ impl Plugin for CloudRenderPlugin {
             .register_type::<CloudVolume>()
             .register_type::<CloudDraw>()
             .register_type::<CloudMaterial>()
-            .register_type::<crate::fog_volume::VolcanoFogVolume>()
             .register_type::<CloudBuildStatus>()
             .init_resource::<CloudRenderSettings>()
             .init_resource::<CloudBuildStatus>()
-            .add_systems(
-                PostUpdate,
-                (rebuild::start_cloud_builds, rebuild::apply_cloud_builds, volumetric_views).chain(),
-            );
+            .add_systems(PostUpdate, (rebuild::start_cloud_builds, rebuild::apply_cloud_builds).chain());
     }
 }
 
@@ -280,46 +267,4 @@ pub fn cloud_material(
 ) -> CloudMaterial {
     let (lo, hi) = volume_bounds(transform);
     CloudMaterial { uniform: CloudUniform::new(lo, hi, settings), density: image }
-}
-
-/// Steps of the cameras' `VolumetricFog` (the ash fall's fog volumes).
-pub const FOG_STEPS: u32 = 192;
-
-/// Fog volumes that need the cameras' volumetric fog (the ash fall).
-type FogVolumes = With<crate::fog_volume::VolcanoFogVolume>;
-
-/// Adds [`VolumetricFog`] to [`VolcanoViewer`] cameras and [`VolumetricLight`] to suns while
-/// ash-fall fog volumes exist, and removes them when none is left.
-pub fn volumetric_views(
-    mut commands: Commands,
-    fogs: Query<(), FogVolumes>,
-    cameras: Query<(Entity, Option<&VolumetricFog>), With<VolcanoViewer>>,
-    suns: Query<(Entity, Has<VolumetricLight>), With<Sun>>,
-) {
-    let want = !fogs.is_empty();
-    for (camera, fog) in &cameras {
-        match (want, fog) {
-            (true, Some(f)) if f.step_count == FOG_STEPS => {}
-            (true, _) => {
-                commands.entity(camera).insert(VolumetricFog {
-                    ambient_intensity: 0.0,
-                    step_count: FOG_STEPS,
-                    // Metres: breaks the banding of thin layers into fine noise.
-                    jitter: 300.0,
-                    ..default()
-                });
-            }
-            (false, Some(_)) => {
-                commands.entity(camera).remove::<VolumetricFog>();
-            }
-            (false, None) => {}
-        }
-    }
-    for (sun, has) in &suns {
-        if want && !has {
-            commands.entity(sun).insert(VolumetricLight);
-        } else if !want && has {
-            commands.entity(sun).remove::<VolumetricLight>();
-        }
-    }
 }

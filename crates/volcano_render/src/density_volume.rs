@@ -1,15 +1,14 @@
 //! What the cloud and ash-fall renderers share: a 3D density (condensed water or ash, x
-//! fastest, then grid y, then altitude) as an `R8Unorm` 3D [`Image`] laid out for
-//! [`bevy::light::FogVolume`] (u = world x, v = altitude, w = world z = grid y), the fog
-//! volume's placement and coefficients, and [`VolcanoFogVolume`], the marker of every fog
-//! volume this crate spawns (the cameras get volumetric fog while one exists).
+//! fastest, then grid y, then altitude) as an `R8Unorm` 3D [`Image`] (u = world x,
+//! v = altitude, w = world z = grid y; the layout Bevy's `FogVolume` reads too, which both
+//! used before the lit pass of [`crate::clouds::material`]) and the volume's placement.
 
 use bevy::asset::RenderAssetUsages;
 use bevy::image::{ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
 use bevy::prelude::*;
 use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
 use volcano_core::ConfigError;
-use volcano_core::error::{in_range, positive};
+use volcano_core::error::positive;
 
 /// Texel value (0–1) of a condensed-water density `d` (g/m³): `1 − exp(−d / d₀)`, linear for
 /// thin cloud and saturating for dense cores, so the 8-bit texture keeps thin cirrus
@@ -114,27 +113,6 @@ pub fn volume_transform(extent: f32, z_min: f32, z_max: f32) -> Transform {
     ))
 }
 
-/// Radius of the sphere bounding a fog volume of this transform (what Bevy's fog shader uses
-/// to attenuate the light reaching a sample: `exp(−density · radius · extinction)`).
-pub fn bounding_radius(transform: &Transform) -> f32 {
-    (transform.scale * 0.5).length()
-}
-
-/// `FogVolume::density_factor` for a peak extinction `sigma_max` (1/m at texel 1) given the
-/// volume's absorption + scattering coefficients.
-pub fn density_factor(sigma_max: f32, absorption: f32, scattering: f32) -> Result<f32, ConfigError> {
-    positive("peak cloud extinction", sigma_max as f64)?;
-    in_range("fog absorption", absorption as f64, 0.0, 1e3)?;
-    in_range("fog scattering", scattering as f64, 1e-6, 1e3)?;
-    Ok(sigma_max / (absorption + scattering))
-}
-
-/// Marks every fog volume this crate spawns (clouds, ash fall): while one exists, the
-/// [`crate::VolcanoViewer`] cameras get `VolumetricFog` ([`crate::CloudRenderPlugin`]).
-#[derive(Component, Debug, Default, Clone, Copy, Reflect)]
-#[reflect(Component, Default)]
-pub struct VolcanoFogVolume;
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -196,10 +174,6 @@ mod tests {
         assert_eq!(img.data.as_ref().map(|d| d.len()), Some(256));
         let t = volume_transform(51_200.0, 0.0, 10_000.0);
         assert_eq!(t.translation.y, 5_000.0);
-        let r = bounding_radius(&t);
-        assert!((r - 0.5 * (2.0f32 * 51_200.0 * 51_200.0 + 1e8).sqrt()).abs() < 1.0, "{r}");
-        assert!((density_factor(1e-3, 0.0, 1.0).unwrap() - 1e-3).abs() < 1e-9);
-        assert!(density_factor(0.0, 0.0, 1.0).is_err());
-        assert!(density_factor(1e-3, -1.0, 1.0).is_err());
+        assert_eq!(t.scale, Vec3::new(51_200.0, 10_000.0, 51_200.0));
     }
 }
