@@ -175,3 +175,52 @@ fn a_game_system_after_the_step_sees_the_stepped_plume() {
     });
     assert!(checked > 1_000, "{checked} steps with slices compared");
 }
+
+/// The plugin steps the umbrella once per base tick of plume time, by every tick a step
+/// crossed: umbrella spheres age with the plume's clock at the default ten substeps per tick,
+/// at one step per tick, and at one step every three ticks (a step of three ticks steps them by
+/// three ticks; with one tick per crossing step they would fall behind to a third).
+#[test]
+fn umbrella_spheres_age_with_the_plume_clock_at_any_cadence() {
+    use volcano_plume::model::umbrella::{Spread, UmbrellaSphere};
+    for cadence in [Cadence::Substeps(10), Cadence::Substeps(1), Cadence::EveryNthTick(3)] {
+        let mut app = app(Eruption { active: false, ..Eruption::plinian() }, 1);
+        run(&mut app, 1);
+        let world = app.world_mut();
+        world.resource_mut::<Time<DomainClock<PlumeStep>>>().context_mut().set_cadence(cadence).unwrap();
+        let volcano = world.query_filtered::<Entity, With<Eruption>>().single(world).unwrap();
+        let sphere = UmbrellaSphere {
+            axis: bevy::math::DVec2::ZERO,
+            direction: bevy::math::DVec2::X,
+            d: 500.0,
+            r: 500.0,
+            v_neutral: 20.0,
+            z_apex: 9_000.0,
+            z_neutral: 8_000.0,
+            spread: Spread::Thesis,
+        };
+        world.spawn((
+            Transform::default(),
+            Umbrella {
+                volcano,
+                sphere,
+                radius: 200.0,
+                density: 0.5,
+                age: 0.0,
+                vent: Vec3::ZERO,
+                id: 1,
+                ash: 1.0,
+                ash_pending: 0.0,
+            },
+        ));
+        let before = world.resource::<Time<DomainClock<PlumeStep>>>().elapsed_secs_f64();
+        run(&mut app, 1 + 60);
+        let world = app.world_mut();
+        let after = world.resource::<Time<DomainClock<PlumeStep>>>().elapsed_secs_f64();
+        let u = world.query::<&Umbrella>().single(world).unwrap().clone();
+        let elapsed = after - before;
+        assert!(elapsed > 1.1, "{cadence:?}: plume time {elapsed}");
+        assert!((u.age - elapsed).abs() < 1e-9, "{cadence:?}: age {} after {elapsed} s of plume time", u.age);
+        assert!(u.sphere.d > 500.0 && u.ash < 1.0, "{cadence:?}: not stepped");
+    }
+}

@@ -11,11 +11,12 @@
 
 use std::cell::RefCell;
 use std::collections::HashSet;
+use std::time::Duration;
 
 use bevy::ecs::entity::EntityHashMap;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
-use volcano_core::clock::crossed_period;
+use volcano_core::clock::crossings;
 use volcano_core::prelude::*;
 
 use super::{orientation, spawn_with_ring};
@@ -111,10 +112,11 @@ pub(super) fn step_plume(
     let dt = time.delta_secs_f64();
     // The umbrella steps once per base tick of domain time, on the step that crosses it, not
     // in each of the column's substeps (`PlumeInputs::umbrella_dt`): its spheres are gathered
-    // and written back only then.
+    // and written back only then. A step longer than a tick (a slower cadence, a higher
+    // speed) crosses several and steps the umbrella by all of them.
     let period = fixed.timestep();
-    let umbrella_dt =
-        if crossed_period(time.elapsed(), time.delta(), period) { period.as_secs_f64() } else { 0.0 };
+    let crossed = crossings(time.elapsed(), time.delta(), period, Duration::ZERO);
+    let umbrella_dt = crossed as f64 * period.as_secs_f64();
     let caps = checked(&caps);
     let step_caps = StepCaps {
         max_live_slices: caps.max_live_slices as usize,
