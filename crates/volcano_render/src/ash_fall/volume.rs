@@ -40,6 +40,9 @@ pub struct AshVolumeSpec {
     /// Width of the band along the footprint's sides over which the ash fades to nothing, as
     /// a fraction of the footprint's side (0–0.5; [`edge_fade`]).
     pub edge_fraction: f64,
+    /// Horizontal blur (m): half-width of the box filter run twice over each level
+    /// ([`blur_level`]); 0 for none.
+    pub blur_m: f64,
 }
 
 impl AshVolumeSpec {
@@ -50,7 +53,17 @@ impl AshVolumeSpec {
         let z_max = layers.iter().map(|l| l.bottom + l.thickness).fold(f64::NEG_INFINITY, f64::max);
         let z_min = if z_min.is_finite() { z_min.max(0.0) } else { 0.0 };
         let z_max = if z_max.is_finite() { z_max.max(z_min + 1.0) } else { z_min + 1.0 };
-        Self { nxy, nz, z_min, z_max, streaks: 0.6, streak_m: 400.0, seed: 11, edge_fraction: 0.08 }
+        Self {
+            nxy,
+            nz,
+            z_min,
+            z_max,
+            streaks: 0.6,
+            streak_m: 400.0,
+            seed: 11,
+            edge_fraction: 0.08,
+            blur_m: 600.0,
+        }
     }
 
     /// Checks the sizes and the streak parameters; the error names the field.
@@ -60,6 +73,7 @@ impl AshVolumeSpec {
         in_range("ash streaks", self.streaks, 0.0, 1.0)?;
         in_range("ash streak_m", self.streak_m, 1.0, 1e6)?;
         in_range("ash edge_fraction", self.edge_fraction, 0.0, 0.5)?;
+        in_range("ash blur_m", self.blur_m, 0.0, 1e6)?;
         if !(self.z_min.is_finite() && self.z_max.is_finite() && self.z_max > self.z_min) {
             return Err(ConfigError::InvalidParameter {
                 name: "ash volume altitudes",
@@ -108,17 +122,25 @@ pub fn ash_density_volume(
         })
         .collect();
     let mut out = vec![0.0f32; nxy * nxy * nz];
+    // The field, blurred level by level, then streaks, fades and the ground.
+    for (iz, &(_, blend, _)) in levels.iter().enumerate() {
+        let Some(blend) = blend else { continue };
+        let level = &mut out[iz * nxy * nxy..(iz + 1) * nxy * nxy];
+        for (k, v) in level.iter_mut().enumerate() {
+            let p = Vec2::new(column_xy(k % nxy) as f32, column_xy(k / nxy) as f32);
+            *v = ash_blended(layers, blend, p) as f32;
+        }
+        let radius = (spec.blur_m * nxy as f64 / extent).round() as usize;
+        blur_level(level, nxy, radius);
+    }
     for jy in 0..nxy {
         for ix in 0..nxy {
             let p = Vec2::new(column_xy(ix) as f32, column_xy(jy) as f32);
             let floor = ground.map_or(f64::NEG_INFINITY, |g| g.sample(p, Boundary::Clamp) as f64);
             let s = streak[jy * nxy + ix];
-            for (iz, &(z, blend, fade)) in levels.iter().enumerate() {
-                let Some(blend) = blend else { continue };
-                if z < floor {
-                    continue;
-                }
-                out[(iz * nxy + jy) * nxy + ix] = (ash_blended(layers, blend, p) * s * fade) as f32;
+            for (iz, &(z, _, fade)) in levels.iter().enumerate() {
+                let v = &mut out[(iz * nxy + jy) * nxy + ix];
+                *v = if z < floor { 0.0 } else { (*v as f64 * s * fade) as f32 };
             }
         }
     }
@@ -134,6 +156,39 @@ pub fn lid_fade(layers: &[&LayerFields], z: f64) -> f64 {
     let Some(top) = layers.last() else { return 0.0 };
     let (centre, lid) = (top.altitude, top.bottom + top.thickness);
     if z <= centre || lid <= centre { 1.0 } else { ((lid - z) / (lid - centre)).clamp(0.0, 1.0) }
+}
+
+/// Blurs one `nxy × nxy` level (x fastest) in place: a box filter of half-width `radius`
+/// voxels along x, then y, twice (close to a Gaussian of σ ≈ 0.8 · radius), edges clamped.
+/// The atmosphere's ash is advected with little diffusion, so where it begins upwind of the
+/// column it begins within a cell, the same cell in every layer: drawn as sampled, the curtain
+/// had a straight vertical edge kilometres tall. A rendering choice; the mass stays where the
+/// layers hold it, spread over a few hundred metres. Written by hand: a running sum per row.
+pub fn blur_level(level: &mut [f32], nxy: usize, radius: usize) {
+    if radius == 0 || nxy < 2 || level.len() != nxy * nxy {
+        return;
+    }
+    let r = radius as isize;
+    let n = nxy as isize;
+    let mut line = vec![0.0f32; nxy];
+    let width = (2 * radius + 1) as f32;
+    for _ in 0..2 {
+        for axis in 0..2 {
+            for a in 0..nxy {
+                let at = |b: usize| if axis == 0 { a * nxy + b } else { b * nxy + a };
+                for (b, v) in line.iter_mut().enumerate() {
+                    *v = level[at(b)];
+                }
+                let clamp = |i: isize| line[i.clamp(0, n - 1) as usize];
+                let mut sum: f32 = (-r..=r).map(clamp).sum();
+                for b in 0..nxy {
+                    level[at(b)] = sum / width;
+                    let b = b as isize;
+                    sum += clamp(b + r + 1) - clamp(b - r);
+                }
+            }
+        }
+    }
 }
 
 /// How much of the ash is drawn `inside` metres from the nearest side of the footprint: 0 at
@@ -188,6 +243,7 @@ mod tests {
             streak_m: 400.0,
             seed: 3,
             edge_fraction: 0.0,
+            blur_m: 0.0,
         }
     }
 
@@ -270,6 +326,28 @@ mod tests {
         assert_eq!(edge_fade(100.0, 100.0), 1.0);
         assert!((edge_fade(50.0, 100.0) - 0.5).abs() < 1e-12);
         assert_eq!(edge_fade(10.0, 0.0), 1.0);
+    }
+
+    #[test]
+    fn the_blur_softens_an_upwind_edge_and_keeps_the_mass() {
+        // A step: no ash in the west half, 1 g/m³ in the east half, on 64 columns.
+        let n = 64;
+        let mut level: Vec<f32> = (0..n * n).map(|k| if k % n >= n / 2 { 1.0 } else { 0.0 }).collect();
+        let before: f32 = level.iter().sum();
+        blur_level(&mut level, n, 3);
+        let row = &level[20 * n..21 * n];
+        // A ramp twelve columns wide (two passes of seven) instead of a jump between two.
+        assert!(row[n / 2 - 7] < 1e-6 && row[n / 2 + 6] > 0.999, "{row:?}");
+        assert!(row[n / 2 - 6] > 0.01 && row[n / 2 + 5] < 0.99, "{row:?}");
+        assert!((row[n / 2 - 1] + row[n / 2] - 1.0).abs() < 1e-5, "symmetric: {row:?}");
+        assert!(row.windows(2).all(|w| w[1] >= w[0] - 1e-6), "{row:?}");
+        // Mass kept (edges clamped: the step does not touch the east and west sides' ends).
+        let after: f32 = level.iter().sum();
+        assert!((after - before).abs() < 1e-3 * before, "{before} → {after}");
+        // No blur: unchanged.
+        let mut same = vec![0.5f32; 16];
+        blur_level(&mut same, 4, 0);
+        assert!(same.iter().all(|&v| v == 0.5));
     }
 
     #[test]
