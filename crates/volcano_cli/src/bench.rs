@@ -12,6 +12,10 @@
 //!
 //! `--quality` runs the scene at a `VolcanoQuality` level, `--seconds` sets the length in
 //! simulated seconds, and `--report-every S` adds the soak report (module `soak`).
+//!
+//! `DIR/ticks.csv` has every timed tick: its number, main-thread ms, whether a weather step
+//! started or was written back on it, and the same split by domain (to see where a p99 or a
+//! max comes from, e.g. by the tick's place in the weather period).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -193,6 +197,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         q.iter(world).fold((0.0, 0.0), |(a, b), s| (a + s.last_start_ms, b + s.last_apply_ms))
     };
     let (mut start_ms, mut apply_ms) = (Vec::new(), Vec::new());
+    let mut rows = String::from("tick,ms,weather,plume,pyroclastic,coupling,weather_set,lava,rest\n");
     // (tick, ms, weather tick, ms per set) of the slowest tick.
     let mut slowest = (0, 0.0, false, [0.0; SETS.len()]);
     // Startup (terrain, pre-spin) and the zero-delta first update are not timed.
@@ -241,6 +246,14 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
                 *x = (*a - *b).as_secs_f64() * 1e3;
             }
             slowest = (after.0, ms, after.1 != before.1, sets);
+        }
+        {
+            let set = |i: usize| (sets_after[i] - sets_before[i]).as_secs_f64() * 1e3;
+            let d = [set(1), set(2), set(3) + set(5), set(4), set(6)];
+            let rest = ms - d.iter().sum::<f64>();
+            let weather_tick = u8::from(after.1 != before.1);
+            rows += &format!("{},{ms:.4},{weather_tick},", after.0);
+            rows += &format!("{:.4},{:.4},{:.4},{:.4},{:.4},{rest:.4}\n", d[0], d[1], d[2], d[3], d[4]);
         }
         let (list, sums) = if after.1 != before.1 {
             (&mut weather_ms, &mut weather_sets)
@@ -318,6 +331,10 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         quality: opts.quality.map(|q| format!("{q:?}")),
         soak: soak.map(|s| s.rows).unwrap_or_default(),
     };
+    if let Err(e) = std::fs::write(dir.join("ticks.csv"), rows) {
+        eprintln!("error: cannot write ticks.csv: {e}");
+        return ExitCode::FAILURE;
+    }
     let json = serde_json::to_string_pretty(&report).unwrap_or_default();
     if let Err(e) = std::fs::write(dir.join("bench.json"), &json) {
         eprintln!("error: cannot write bench.json: {e}");

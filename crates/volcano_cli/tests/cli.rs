@@ -158,6 +158,16 @@ fn bench_times_every_domain_of_the_eruption_scene() {
     for d in ["plume", "lava", "weather"] {
         assert!(v["domains"][d].as_f64().unwrap() > 0.0, "{d} took no time: {text}");
     }
+    // Every timed tick in ticks.csv, its ms adding up to the report's.
+    let csv = std::fs::read_to_string(dir.join("ticks.csv")).unwrap();
+    let rows: Vec<Vec<f64>> =
+        csv.lines().skip(1).map(|l| l.split(',').map(|x| x.parse().unwrap()).collect()).collect();
+    assert_eq!(rows.len(), 60, "{csv}");
+    assert!(rows.iter().all(|r| r.len() == 9), "{csv}");
+    let slowest = rows.iter().map(|r| r[1]).fold(0.0, f64::max);
+    assert!((slowest - max).abs() < 1e-3, "ticks.csv max {slowest} vs bench.json {max}");
+    let parts = |r: &Vec<f64>| r[3..].iter().sum::<f64>();
+    assert!(rows.iter().all(|r| (parts(r) - r[1]).abs() < 1e-3), "domains + rest = tick: {csv}");
     // The soak report at a quality level: one row per simulated second.
     let o = volcano()
         .args([
