@@ -70,6 +70,11 @@ pub struct AshFallSettings {
     pub streaks: f32,
     /// Size of a streak (m).
     pub streak_m: f32,
+    /// Fraction of the footprint's side over which the ash fades out toward its sides (0–0.5;
+    /// [`volume::edge_fade`]).
+    pub edge_fraction: f32,
+    /// Horizontal blur of the volume's levels (m, half-width; 0–20,000; [`volume::blur_level`]).
+    pub blur_m: f32,
     /// Ash (g) below which a layer stack counts as empty (no volume is kept).
     pub min_grams: f64,
 }
@@ -93,6 +98,8 @@ impl Default for AshFallSettings {
             shadow_strength: 0.5,
             streaks: 0.6,
             streak_m: 350.0,
+            edge_fraction: 0.08,
+            blur_m: 600.0,
             min_grams: 1.0,
         }
     }
@@ -119,6 +126,8 @@ impl AshFallSettings {
         in_range("shadow_strength", self.shadow_strength as f64, 0.0, 1.0)?;
         in_range("streaks", self.streaks as f64, 0.0, 1.0)?;
         in_range("streak_m", self.streak_m as f64, 1.0, 1e6)?;
+        in_range("edge_fraction", self.edge_fraction as f64, 0.0, 0.5)?;
+        in_range("blur_m", self.blur_m as f64, 0.0, 20_000.0)?;
         in_range("min_grams", self.min_grams, 0.0, 1e30)?;
         Ok(())
     }
@@ -191,6 +200,8 @@ pub fn build_ash_image(
     let mut spec = AshVolumeSpec::over(layers, settings.voxels_xy as usize, settings.voxels_z as usize);
     spec.streaks = settings.streaks as f64;
     spec.streak_m = settings.streak_m as f64;
+    spec.edge_fraction = settings.edge_fraction as f64;
+    spec.blur_m = settings.blur_m as f64;
     let density = ash_density_volume(layers, grid, ground, &spec)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image
