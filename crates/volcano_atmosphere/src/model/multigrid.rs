@@ -238,6 +238,13 @@ impl Poisson {
     }
 }
 
+/// Whether the multigrid uses its AVX2 row loops on CPUs that have AVX2 (`true`, the
+/// default) or its scalar loops only. Both give the same bits (the comparison in
+/// `tests/simd.rs`); a process-wide switch for that comparison and for timing.
+pub fn use_simd(enabled: bool) {
+    avx2::set_enabled(enabled);
+}
+
 impl SolveReport {
     fn finish(&mut self, r: f64) {
         self.final_residual = r;
@@ -476,7 +483,7 @@ mod tests {
                 Faces::new(ax.iter().map(|&a| a as f64).collect(), ay.iter().map(|&a| a as f64).collect(), n);
             for f in [None, Some(&faces)] {
                 // The scalar loops and, on a CPU with AVX2, its row loops.
-                for avx2 in [false, avx2::available()] {
+                for avx2 in [false, avx2::cpu_has_avx2()] {
                     let (mut a, mut b) = (start.clone(), start.clone());
                     for _ in 0..3 {
                         kernels::rb_gauss_seidel_on(n, 1e4, f, &mut a, &rhs, avx2);

@@ -16,11 +16,27 @@
 #[cfg(target_arch = "x86_64")]
 use std::arch::x86_64::*;
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use super::Faces;
 use super::kernels::OMEGA;
 
-/// True if this CPU runs the AVX2 row loops (checked once; the answer is cached by `std`).
+/// Set by [`super::use_simd`]`(false)`: the scalar loops even on a CPU with AVX2.
+static SCALAR_ONLY: AtomicBool = AtomicBool::new(false);
+
+/// Whether the multigrid uses its AVX2 row loops where the CPU has them (the default) or
+/// only the scalar loops; the results are the same bits either way.
+pub(super) fn set_enabled(enabled: bool) {
+    SCALAR_ONLY.store(!enabled, Ordering::Relaxed);
+}
+
+/// True if the AVX2 row loops are to be used: the CPU has AVX2 and they are not switched off.
 pub(super) fn available() -> bool {
+    cpu_has_avx2() && !SCALAR_ONLY.load(Ordering::Relaxed)
+}
+
+/// True if this CPU has AVX2 (checked once; the answer is cached by `std`).
+pub(super) fn cpu_has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
     {
         std::arch::is_x86_feature_detected!("avx2")

@@ -116,7 +116,7 @@ pub(super) fn rb_gauss_seidel_on(
     rhs: &[f64],
     avx2: bool,
 ) {
-    assert!(!avx2 || avx2::available(), "AVX2 loops on a CPU without AVX2");
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
     with_stencil!(faces, |s| rb_gauss_seidel_with(n, h2, s, faces, phi, rhs, avx2))
 }
 
@@ -241,7 +241,7 @@ pub(super) fn residual_sum_sq_on(
     rhs: &[f64],
     avx2: bool,
 ) -> f64 {
-    assert!(!avx2 || avx2::available(), "AVX2 loops on a CPU without AVX2");
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
     with_stencil!(faces, |s| residual_sum_sq_with(n, h2, s, faces, phi, rhs, avx2))
 }
 
@@ -326,7 +326,7 @@ pub(super) fn restrict_residual_on(
     coarse: &mut [f64],
     avx2: bool,
 ) {
-    assert!(!avx2 || avx2::available(), "AVX2 loops on a CPU without AVX2");
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
     assert_eq!(phi.len(), n * n);
     assert_eq!(rhs.len(), n * n);
     assert_eq!(coarse.len(), n * n / 4);
@@ -389,7 +389,7 @@ pub(super) fn prolong_add(m: usize, coarse: &[f64], faces: Option<&Faces>, fine:
 /// [`prolong_add`] with or without the AVX2 row loop (`avx2` only if [`avx2::available`]);
 /// the same bits either way.
 pub(super) fn prolong_add_on(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64], avx2: bool) {
-    assert!(!avx2 || avx2::available(), "AVX2 loops on a CPU without AVX2");
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
     let n = 2 * m;
     let mask = m - 1;
     // Fine cells `skip_from..skip_to` of each row are computed by the AVX2 loop.
