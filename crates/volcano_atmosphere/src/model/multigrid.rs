@@ -26,6 +26,15 @@ mod kernels;
 
 use kernels::{prolong_add, rb_gauss_seidel, residual_sum_sq, restrict_residual};
 
+/// Over-relaxation of the red-black smoother: each cell moves `ω` times its Gauss–Seidel
+/// update. Red-black SOR with ω a little above 1 is a better smoother of the 5-point
+/// Laplacian than plain Gauss–Seidel (I. Yavneh, "On red-black SOR smoothing in multigrid",
+/// SIAM J. Sci. Comput. 1996). The value is chosen by measurement at 512², V-cycles per step
+/// (all layers) to the same residual criterion with ω = 1 / 1.15 / 1.2 / 1.3: convection
+/// 12 / 9 / 9 / 12, mixed 34 / 28 / 28 / 31–35, orographic 20 / 17 / 17–18 / –,
+/// sea-breeze 12 / 7–8 / 9–10 / –.
+const OMEGA: f64 = 1.15;
+
 /// Face weights of one level: `ax` on the west face of each cell, `ay` on its south face.
 #[derive(Debug, Clone, PartialEq)]
 struct Faces {
@@ -320,7 +329,7 @@ pub fn rms(v: &[f64]) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::kernels::{OMEGA, Plain, Stencil};
+    use super::kernels::{Plain, Stencil};
     use super::*;
     use rand::{RngExt, SeedableRng};
 

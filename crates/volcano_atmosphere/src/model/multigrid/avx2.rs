@@ -18,8 +18,7 @@ use std::arch::x86_64::*;
 
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::Faces;
-use super::kernels::OMEGA;
+use super::{Faces, OMEGA};
 
 /// Set by [`super::use_simd`]`(false)`: the scalar loops even on a CPU with AVX2.
 static SCALAR_ONLY: AtomicBool = AtomicBool::new(false);

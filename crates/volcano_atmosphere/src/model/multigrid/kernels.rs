@@ -5,8 +5,8 @@
 
 use volcano_core::parallel;
 
-use super::Faces;
 use super::avx2;
+use super::{Faces, OMEGA};
 
 /// The 5-point operator of one level: the plain Laplacian or the face-weighted one. Each
 /// sweep is monomorphised for both, so the inner loops carry no per-cell branch on the kind.
@@ -67,15 +67,6 @@ macro_rules! with_stencil {
         }
     };
 }
-
-/// Over-relaxation of the red-black smoother: each cell moves `ω` times its Gauss–Seidel
-/// update. Red-black SOR with ω a little above 1 is a better smoother of the 5-point
-/// Laplacian than plain Gauss–Seidel (I. Yavneh, "On red-black SOR smoothing in multigrid",
-/// SIAM J. Sci. Comput. 1996). The value is chosen by measurement at 512², V-cycles per step
-/// (all layers) to the same residual criterion with ω = 1 / 1.15 / 1.2 / 1.3: convection
-/// 12 / 9 / 9 / 12, mixed 34 / 28 / 28 / 31–35, orographic 20 / 17 / 17–18 / –,
-/// sea-breeze 12 / 7–8 / 9–10 / –.
-pub(super) const OMEGA: f64 = 1.15;
 
 /// Grids at least this wide run their sweeps with rows in parallel. Below, a sweep is a few
 /// tens of microseconds, no more than handing its bands to the pool costs (and the layers'
