@@ -5,7 +5,8 @@
 
 use volcano_core::parallel;
 
-use super::Faces;
+use super::avx2;
+use super::{Faces, OMEGA};
 
 /// The 5-point operator of one level: the plain Laplacian or the face-weighted one. Each
 /// sweep is monomorphised for both, so the inner loops carry no per-cell branch on the kind.
@@ -67,15 +68,6 @@ macro_rules! with_stencil {
     };
 }
 
-/// Over-relaxation of the red-black smoother: each cell moves `ω` times its Gauss–Seidel
-/// update. Red-black SOR with ω a little above 1 is a better smoother of the 5-point
-/// Laplacian than plain Gauss–Seidel (I. Yavneh, "On red-black SOR smoothing in multigrid",
-/// SIAM J. Sci. Comput. 1996). The value is chosen by measurement at 512², V-cycles per step
-/// (all layers) to the same residual criterion with ω = 1 / 1.15 / 1.2 / 1.3: convection
-/// 12 / 9 / 9 / 12, mixed 34 / 28 / 28 / 31–35, orographic 20 / 17 / 17–18 / –,
-/// sea-breeze 12 / 7–8 / 9–10 / –.
-pub(super) const OMEGA: f64 = 1.15;
-
 /// Grids at least this wide run their sweeps with rows in parallel. Below, a sweep is a few
 /// tens of microseconds, no more than handing its bands to the pool costs (and the layers'
 /// solves already run in parallel); the bands do not change the result.
@@ -102,22 +94,76 @@ unsafe impl Sync for SharedRows {}
 /// updated in a second parallel pass after every red row. The result does not depend on the
 /// thread count.
 pub(super) fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64]) {
-    with_stencil!(faces, |s| rb_gauss_seidel_with(n, h2, s, phi, rhs))
+    rb_gauss_seidel_on(n, h2, faces, phi, rhs, avx2::available());
 }
 
-fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rhs: &[f64]) {
+/// [`rb_gauss_seidel`] with or without the AVX2 row loops (`avx2` only if
+/// [`avx2::available`]); the same bits either way.
+pub(super) fn rb_gauss_seidel_on(
+    n: usize,
+    h2: f64,
+    faces: Option<&Faces>,
+    phi: &mut [f64],
+    rhs: &[f64],
+    avx2: bool,
+) {
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    with_stencil!(faces, |s| rb_gauss_seidel_with(n, h2, s, faces, phi, rhs, avx2))
+}
+
+fn rb_gauss_seidel_with<S: Stencil>(
+    n: usize,
+    h2: f64,
+    s: S,
+    faces: Option<&Faces>,
+    phi: &mut [f64],
+    rhs: &[f64],
+    avx2: bool,
+) {
     assert_eq!(phi.len(), n * n);
     assert_eq!(rhs.len(), n * n);
     let mask = n - 1;
     let base = SharedRows(phi.as_mut_ptr());
-    // Relaxes the cells of colour `colour` (0 red, 1 black) in row `j`.
-    let row_pass = |j: usize, colour: usize| {
+    // Relaxes the cells of colour `colour` (0 red, 1 black) in row `j`; `own_rows`: rows
+    // `j ± 1` belong to the calling band too (no other thread touches them in this pass),
+    // so the row's interior may take the AVX2 loop.
+    let row_pass = |j: usize, colour: usize, own_rows: bool| {
         let p = base;
         let row = j * n;
         let up = ((j + 1) & mask) * n;
         let down = ((j + n - 1) & mask) * n;
-        let mut i = (colour + j) & 1;
+        let first = (colour + j) & 1;
+        // Cells `skip_from..skip_to` were relaxed by the AVX2 loop.
+        let (skip_from, skip_to) =
+            if avx2 && own_rows && avx2::interior_end(n) > 4 { (4, avx2::interior_end(n)) } else { (n, n) };
+        #[cfg(target_arch = "x86_64")]
+        if skip_from < skip_to {
+            // SAFETY: `avx2` is only true when the CPU has AVX2 (asserted above). The row
+            // pointers are inside `phi` and `rhs` (n² values each, asserted); the row `j` and
+            // the rows `j ± 1` belong to the calling band (`own_rows`), which no other thread
+            // reads or writes during this pass, and `rhs` is not written.
+            unsafe {
+                let ptrs = avx2::RowPtrs {
+                    row: p.0.add(row),
+                    up: p.0.add(up),
+                    down: p.0.add(down),
+                    rhs: rhs.as_ptr().add(row),
+                    row_at: row,
+                    up_at: up,
+                };
+                match faces {
+                    None => avx2::relax_row_plain(n, h2, first, ptrs),
+                    Some(f) => avx2::relax_row_faces(n, h2, first, ptrs, f),
+                }
+            }
+        }
+        let mut i = first;
         while i < n {
+            if i >= skip_from && i < skip_to {
+                // Past the vectorised cells, same colour (`skip_to` is even).
+                i = skip_to + (i & 1);
+                continue;
+            }
             let left = (i + n - 1) & mask;
             let right = (i + 1) & mask;
             // SAFETY: all indices are < n² (masked; `rhs` has n² values, asserted), so inside
@@ -145,17 +191,18 @@ fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rh
     // Red rows of a band, black rows lagging one behind, except the band's first and last.
     let inner = |rows: std::ops::Range<usize>| {
         for j in rows.clone() {
-            row_pass(j, 0);
+            row_pass(j, 0, j > rows.start && j + 1 < rows.end);
             if j >= rows.start + 2 {
-                row_pass(j - 1, 1);
+                row_pass(j - 1, 1, true);
             }
         }
     };
-    // Black cells of a band's first and last rows.
+    // Black cells of a band's first and last rows (their neighbour rows belong to other
+    // bands: the scalar loop, which reads only the red cells there).
     let ends = |rows: std::ops::Range<usize>| {
-        row_pass(rows.start, 1);
+        row_pass(rows.start, 1, false);
         if rows.end - rows.start >= 2 {
-            row_pass(rows.end - 1, 1);
+            row_pass(rows.end - 1, 1, false);
         }
     };
     if n >= PARALLEL_FROM {
@@ -172,10 +219,32 @@ fn rb_gauss_seidel_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &mut [f64], rh
 /// and the band sums are added in band order, so the result does not depend on the thread
 /// count.
 pub(super) fn residual_sum_sq(n: usize, h2: f64, faces: Option<&Faces>, phi: &[f64], rhs: &[f64]) -> f64 {
-    with_stencil!(faces, |s| residual_sum_sq_with(n, h2, s, phi, rhs))
+    residual_sum_sq_on(n, h2, faces, phi, rhs, avx2::available())
 }
 
-fn residual_sum_sq_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64]) -> f64 {
+/// [`residual_sum_sq`] with or without the AVX2 row loop (`avx2` only if
+/// [`avx2::available`]); the same bits either way.
+pub(super) fn residual_sum_sq_on(
+    n: usize,
+    h2: f64,
+    faces: Option<&Faces>,
+    phi: &[f64],
+    rhs: &[f64],
+    avx2: bool,
+) -> f64 {
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    with_stencil!(faces, |s| residual_sum_sq_with(n, h2, s, faces, phi, rhs, avx2))
+}
+
+fn residual_sum_sq_with<S: Stencil>(
+    n: usize,
+    h2: f64,
+    s: S,
+    faces: Option<&Faces>,
+    phi: &[f64],
+    rhs: &[f64],
+    avx2: bool,
+) -> f64 {
     assert_eq!(phi.len(), n * n);
     assert_eq!(rhs.len(), n * n);
     let mask = n - 1;
@@ -183,6 +252,9 @@ fn residual_sum_sq_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &
     // Four running sums (cells i mod 4; n is a power of two ≥ 16), so the additions do not
     // wait on each other.
     debug_assert!(n.is_multiple_of(4));
+    // Cells `skip_from..skip_to` of each row are summed by the AVX2 loop (the same lanes in
+    // the same order).
+    let (skip_from, skip_to) = if avx2 { (4, avx2::interior_end(n)) } else { (4, 4) };
     let band = |rows: std::ops::Range<usize>| {
         let mut sum = [0.0f64; 4];
         for j in rows {
@@ -190,6 +262,17 @@ fn residual_sum_sq_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &
             let up = ((j + 1) & mask) * n;
             let down = ((j + n - 1) & mask) * n;
             for i0 in (0..n).step_by(4) {
+                if i0 >= skip_from && i0 < skip_to {
+                    if i0 == skip_from {
+                        #[cfg(target_arch = "x86_64")]
+                        // SAFETY: `avx2` is only true when the CPU has AVX2 (asserted above);
+                        // `phi` and `rhs` have n² values (asserted), j < n.
+                        unsafe {
+                            avx2::residual_row_sq(n, inv, faces, phi, rhs, j, &mut sum)
+                        };
+                    }
+                    continue;
+                }
                 for (lane, acc) in sum.iter_mut().enumerate() {
                     let i = i0 + lane;
                     let left = (i + n - 1) & mask;
@@ -220,10 +303,38 @@ pub(super) fn restrict_residual(
     rhs: &[f64],
     coarse: &mut [f64],
 ) {
-    with_stencil!(faces, |s| restrict_residual_with(n, h2, s, phi, rhs, coarse))
+    restrict_residual_on(n, h2, faces, phi, rhs, coarse, avx2::available());
 }
 
-fn restrict_residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs: &[f64], coarse: &mut [f64]) {
+/// [`restrict_residual`] with or without the AVX2 row loop (`avx2` only if
+/// [`avx2::available`]); the same bits either way.
+pub(super) fn restrict_residual_on(
+    n: usize,
+    h2: f64,
+    faces: Option<&Faces>,
+    phi: &[f64],
+    rhs: &[f64],
+    coarse: &mut [f64],
+    avx2: bool,
+) {
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    assert_eq!(phi.len(), n * n);
+    assert_eq!(rhs.len(), n * n);
+    assert_eq!(coarse.len(), n * n / 4);
+    with_stencil!(faces, |s| restrict_residual_with(n, h2, s, faces, phi, rhs, coarse, avx2))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn restrict_residual_with<S: Stencil>(
+    n: usize,
+    h2: f64,
+    s: S,
+    faces: Option<&Faces>,
+    phi: &[f64],
+    rhs: &[f64],
+    coarse: &mut [f64],
+    avx2: bool,
+) {
     let m = n / 2;
     let mask = n - 1;
     let inv = 1.0 / h2;
@@ -235,8 +346,19 @@ fn restrict_residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs:
         let right = (i + 1) & mask;
         rhs[row + i] - s.apply(phi, row + i, row + left, row + right, down + i, up + i) * inv
     };
+    // Coarse cells `skip_from..skip_to` of each row are computed by the AVX2 loop (the same
+    // bits).
+    let (skip_from, skip_to) = if avx2 && n >= 16 { (2, m - 2) } else { (m, m) };
     let row_pass = |(jc, out): (usize, &mut [f64])| {
+        #[cfg(target_arch = "x86_64")]
+        if skip_from < skip_to {
+            // SAFETY: `avx2` is only true when the CPU has AVX2 (asserted above); jc < m.
+            unsafe { avx2::restrict_row(n, inv, faces, phi, rhs, jc, out) };
+        }
         for (ic, c) in out.iter_mut().enumerate() {
+            if ic >= skip_from && ic < skip_to {
+                continue;
+            }
             let (i, j) = (2 * ic, 2 * jc);
             *c = 0.25 * (r(i, j) + r(i + 1, j) + r(i, j + 1) + r(i + 1, j + 1));
         }
@@ -252,12 +374,29 @@ fn restrict_residual_with<S: Stencil>(n: usize, h2: f64, s: S, phi: &[f64], rhs:
 /// with face weights, only from coarse cells with an open face (weights renormalised), so a
 /// coarse cell inside the terrain (whose value means nothing) does not drag its neighbours.
 pub(super) fn prolong_add(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64]) {
+    prolong_add_on(m, coarse, faces, fine, avx2::available());
+}
+
+/// [`prolong_add`] with or without the AVX2 row loop (`avx2` only if [`avx2::available`]);
+/// the same bits either way.
+pub(super) fn prolong_add_on(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64], avx2: bool) {
+    assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
     let n = 2 * m;
     let mask = m - 1;
+    // Fine cells `skip_from..skip_to` of each row are computed by the AVX2 loop.
+    let (skip_from, skip_to) = if avx2 && m >= 8 { (4, n - 4) } else { (n, n) };
     let row_pass = |(jf, out): (usize, &mut [f64])| {
         let jc = jf / 2;
         let jn = if jf & 1 == 0 { (jc + m - 1) & mask } else { (jc + 1) & mask };
+        #[cfg(target_arch = "x86_64")]
+        if skip_from < skip_to {
+            // SAFETY: `avx2` is only true when the CPU has AVX2 (asserted above).
+            unsafe { avx2::prolong_row(m, coarse, faces, jc, jn, out) };
+        }
         for (i_f, x) in out.iter_mut().enumerate() {
+            if i_f >= skip_from && i_f < skip_to {
+                continue;
+            }
             let ic = i_f / 2;
             let in_ = if i_f & 1 == 0 { (ic + m - 1) & mask } else { (ic + 1) & mask };
             let (k, kx, ky, kxy) = (jc * m + ic, jc * m + in_, jn * m + ic, jn * m + in_);
