@@ -29,6 +29,36 @@ pub fn use_avx2() -> bool {
     }
 }
 
+/// Defines a row-loop entry point `$name` with the given arguments and a trailing
+/// `avx2: bool` (from [`use_avx2`]) that runs `$imp` (an `#[inline(always)]` function of the
+/// same arguments): in a copy compiled for AVX2 when `avx2` is true, else in the baseline
+/// copy. Both copies evaluate the same IEEE operations in the same order (Rust never fuses
+/// or reassociates floating-point operations), so they give the same bits.
+macro_rules! avx2_dispatch {
+    (
+        $(#[$meta:meta])*
+        $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? => $imp:path
+    ) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty,)* avx2: bool) $(-> $ret)? {
+            #[cfg(target_arch = "x86_64")]
+            #[target_feature(enable = "avx2")]
+            fn avx2_copy($($arg: $ty),*) $(-> $ret)? {
+                $imp($($arg),*)
+            }
+            #[cfg(target_arch = "x86_64")]
+            if avx2 {
+                // SAFETY: `avx2` comes from `use_avx2`, which checked that this CPU has AVX2,
+                // the only feature `avx2_copy` is compiled for.
+                return unsafe { avx2_copy($($arg),*) };
+            }
+            let _ = avx2;
+            $imp($($arg),*)
+        }
+    };
+}
+pub(crate) use avx2_dispatch;
+
 #[cfg(test)]
 mod tests {
     use super::*;

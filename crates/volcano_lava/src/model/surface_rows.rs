@@ -11,6 +11,8 @@
 
 use std::ops::Range;
 
+use super::bands::avx2_dispatch;
+
 use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, SURFACE_TO_MEAN, contact_from_crust,
     crust_from_contact, exp_small, exp_taylor,
@@ -87,27 +89,14 @@ fn crust_cell<const EXACT: bool>(
     if none { (0.0, 0.0, 0.0, false) } else { (cr.min(hk), t_c, div, redo && !none) }
 }
 
-/// Steps 2–5 for the rows `rows` of a band, into the band's `new_c`, `new_t`, `divergence`
-/// (which start at row `rows.start`).
-pub(super) fn crust_rows(
-    c: &CrustCtx,
-    rows: Range<usize>,
-    out: (&mut [f64], &mut [f64], &mut [f64]),
-    avx2: bool,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
-        return unsafe { crust_rows_avx2(c, rows, out) };
-    }
-    let _ = avx2;
-    crust_rows_impl(c, rows, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn crust_rows_avx2(c: &CrustCtx, rows: Range<usize>, out: (&mut [f64], &mut [f64], &mut [f64])) {
-    crust_rows_impl(c, rows, out)
+avx2_dispatch! {
+    /// Steps 2–5 for the rows `rows` of a band, into the band's `new_c`, `new_t`, `divergence`
+    /// (which start at row `rows.start`).
+    pub(super) fn crust_rows(
+        c: &CrustCtx,
+        rows: Range<usize>,
+        out: (&mut [f64], &mut [f64], &mut [f64]),
+    ) => crust_rows_impl
 }
 
 #[inline(always)]
@@ -194,34 +183,16 @@ pub(super) struct VelocityCtx<'a> {
     pub inv_rigid: f64,
 }
 
-/// Step 1 for the rows `rows` of a band, into the band's `vsx`, `vsy` (which start at row
-/// `rows.start`); `hsum` is the band's scratch for the horizontal 3-sums of `(u, v, 1)` over
-/// wet cells (one plane each) of its rows and the rows above and below.
-pub(super) fn velocity_rows(
-    c: &VelocityCtx,
-    rows: Range<usize>,
-    hsum: &mut [Vec<f64>; 3],
-    out: (&mut [f64], &mut [f64]),
-    avx2: bool,
-) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
-        return unsafe { velocity_rows_avx2(c, rows, hsum, out) };
-    }
-    let _ = avx2;
-    velocity_rows_impl(c, rows, hsum, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn velocity_rows_avx2(
-    c: &VelocityCtx,
-    rows: Range<usize>,
-    hsum: &mut [Vec<f64>; 3],
-    out: (&mut [f64], &mut [f64]),
-) {
-    velocity_rows_impl(c, rows, hsum, out)
+avx2_dispatch! {
+    /// Step 1 for the rows `rows` of a band, into the band's `vsx`, `vsy` (which start at row
+    /// `rows.start`); `hsum` is the band's scratch for the horizontal 3-sums of `(u, v, 1)`
+    /// over wet cells (one plane each) of its rows and the rows above and below.
+    pub(super) fn velocity_rows(
+        c: &VelocityCtx,
+        rows: Range<usize>,
+        hsum: &mut [Vec<f64>; 3],
+        out: (&mut [f64], &mut [f64]),
+    ) => velocity_rows_impl
 }
 
 /// `x` where `keep`, else `+0.0`: a select written as a bit mask, so the compiler keeps
