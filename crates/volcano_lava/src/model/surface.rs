@@ -123,6 +123,7 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
         kappa,
         four_kdt: 4.0 * kappa * dt,
         reset_ratio: params.crust_reset_ratio,
+        four_r2_kappa: 4.0 * params.crust_reset_ratio * params.crust_reset_ratio * kappa,
     };
     let [new_c, new_t] = &mut s.old;
     let items: Vec<_> =
