@@ -19,7 +19,7 @@
 use super::field::{Edge, FlowField};
 
 use super::bands::{BAND_ROWS, use_avx2};
-use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update, interior_wave_speed};
+use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
 use super::flux::face_flux;
 pub use super::flux::{bingham_factor, slope_factor};
 use super::params::{GRAVITY, LavaParams};
@@ -75,13 +75,10 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
             .collect();
         let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north, avx2));
-        // The largest face mobility, an upper bound of the largest wave speed and the largest
-        // exact wave speed of the edge faces.
-        let (mut m_max, mut c_bound, mut c_edge) = (0.0f64, 0.0f64, 0.0f64);
-        for (m, w, e) in limits {
+        let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+        for (m, w) in limits {
             m_max = m_max.max(m);
-            c_bound = c_bound.max(w);
-            c_edge = c_edge.max(e);
+            c_max = c_max.max(w);
         }
         if c.edges.south == Edge::Periodic {
             for i in 0..nx {
@@ -93,8 +90,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
                     (c.g[so], c.h[so], c.mob(so)),
                 );
                 m_max = m_max.max(m);
-                c_bound = c_bound.max(w);
-                c_edge = c_edge.max(w);
+                c_max = c_max.max(w);
                 s.fy[i] = q;
                 s.fy[ny * nx + i] = q;
             }
@@ -104,16 +100,8 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         if m_max > 0.0 {
             stable = stable.min(dx * dx / (4.0 * m_max));
         }
-        // The wave limit from the bound c_bound ≥ c_max is already no smaller than the
-        // diffusion limit in most flows (then dx/c_max is neither: division and rounding are
-        // monotonic); else the exact c_max, from the stored fluxes.
-        if c_bound > 0.0 && dx / c_bound < stable {
-            let (fx, fy) = (&s.fx, &s.fy);
-            let inner = par_map((0..bands).collect(), |b, _| interior_wave_speed(&c, b, fx, fy));
-            let c_max = inner.into_iter().fold(c_edge, f64::max);
-            if c_max > 0.0 {
-                stable = stable.min(dx / c_max);
-            }
+        if c_max > 0.0 {
+            stable = stable.min(dx / c_max);
         }
         let mut dt_s = t_left.min(params.cfl * stable);
         let mut scale = dx; // face length: volume = q · dt · dx

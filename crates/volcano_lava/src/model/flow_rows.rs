@@ -13,7 +13,7 @@
 
 use super::bands::{avx2_dispatch, band_range};
 use super::field::{Edge, Edges};
-use super::flux::{face_flux, face_terms, mobility, wave_speed, wave_speed_bound};
+use super::flux::{face_flux, mobility};
 use super::params::ViscosityModel;
 
 /// Read-only inputs of a flux pass.
@@ -45,9 +45,7 @@ fn key(x: f64) -> i64 {
 }
 
 /// Fluxes of the faces between cells `a[i]` and `b[i]` (each `(ground, h, mobility)` rows of
-/// the same length as `out`), into `out`; returns the largest face mobility and an upper bound
-/// of the largest wave speed (less than twice it; see `wave_speed_bound`: the division of the
-/// exact speed was half the divider's work in this loop).
+/// the same length as `out`), into `out`; returns the largest face mobility and wave speed.
 #[inline(always)]
 fn flux_pairs<const YIELD: bool>(
     inv_dx: f64,
@@ -61,8 +59,7 @@ fn flux_pairs<const YIELD: bool>(
     let yrg = if YIELD { yield_rg } else { 0.0 };
     let (mut m_max, mut c_max) = (0i64, 0i64);
     for i in 0..n {
-        let t = face_terms(inv_dx, yrg, (ga[i], ha[i], ma[i]), (gb[i], hb[i], mb[i]));
-        let (q, m, w) = if t.zero { (0.0, 0.0, 0.0) } else { (t.q, t.m, wave_speed_bound(t.q3, t.hm)) };
+        let (q, m, w) = face_flux(inv_dx, yrg, (ga[i], ha[i], ma[i]), (gb[i], hb[i], mb[i]));
         out[i] = q;
         m_max = m_max.max(key(m));
         c_max = c_max.max(key(w));
@@ -74,9 +71,7 @@ avx2_dispatch! {
     /// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face
     /// fluxes of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face
     /// row `start` first; face row 0 is the south edge) and, for the last band, the north edge
-    /// faces (`north`). Returns the band's largest face mobility, an upper bound of its largest
-    /// wave speed (exact on the edge faces, at most about twice the exact one inside) and the
-    /// largest wave speed of its edge faces (see [`interior_wave_speed`] for the rest).
+    /// faces (`north`). Returns the band's largest face mobility and wave speed.
     pub(super) fn band_fluxes(
         c: &FluxCtx,
         b: usize,
@@ -84,7 +79,7 @@ avx2_dispatch! {
         fx: &mut [f64],
         fy: &mut [f64],
         north: Option<&mut [f64]>,
-    ) -> (f64, f64, f64) => band_fluxes_rows
+    ) -> (f64, f64) => band_fluxes_rows
 }
 
 #[inline(always)]
@@ -95,7 +90,7 @@ fn band_fluxes_rows(
     fx: &mut [f64],
     fy: &mut [f64],
     north: Option<&mut [f64]>,
-) -> (f64, f64, f64) {
+) -> (f64, f64) {
     if c.yield_rg > 0.0 {
         band_fluxes_impl::<true>(c, b, mob, fx, fy, north)
     } else {
@@ -111,7 +106,7 @@ fn band_fluxes_impl<const YIELD: bool>(
     fx: &mut [f64],
     fy: &mut [f64],
     north: Option<&mut [f64]>,
-) -> (f64, f64, f64) {
+) -> (f64, f64) {
     let (nx, ny, g, h) = (c.nx, c.ny, c.g, c.h);
     let rows = band_range(b, ny);
     let lo = rows.start.saturating_sub(1);
@@ -136,18 +131,11 @@ fn band_fluxes_impl<const YIELD: bool>(
         (&g[r.clone()], &h[r], &mob[l])
     };
     let cell = |k: usize| (g[k], h[k], mob[k - lo * nx]);
-    // Largest mobility and exact wave speed of the edge faces, and of the inner faces the
-    // largest mobility and wave-speed bound.
-    let (mut m_max, mut c_edge) = (0.0f64, 0.0f64);
+    let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
     let mut take = |(q, m, w): (f64, f64, f64)| {
         m_max = m_max.max(m);
-        c_edge = c_edge.max(w);
+        c_max = c_max.max(w);
         q
-    };
-    let (mut m_in, mut c_in) = (0.0f64, 0.0f64);
-    let mut take_bound = |(m, w): (f64, f64)| {
-        m_in = m_in.max(m);
-        c_in = c_in.max(w);
     };
     let nfx = nx + 1;
     let open = |edge: Edge, e: usize, inner: usize| {
@@ -163,7 +151,8 @@ fn band_fluxes_impl<const YIELD: bool>(
         let n = nx - 1;
         let a = (&rg[..n], &rh[..n], &rm[..n]);
         let bb = (&rg[1..], &rh[1..], &rm[1..]);
-        take_bound(flux_pairs::<YIELD>(c.inv_dx, c.yield_rg, a, bb, &mut frow[1..nx]));
+        let lim = flux_pairs::<YIELD>(c.inv_dx, c.yield_rg, a, bb, &mut frow[1..nx]);
+        take((0.0, lim.0, lim.1));
         let row = j * nx;
         let (w, e) = (row, row + nx - 1);
         let (q0, qn) = if c.edges.west == Edge::Periodic {
@@ -182,7 +171,8 @@ fn band_fluxes_impl<const YIELD: bool>(
         if j == 0 {
             continue; // the south edge, below
         }
-        take_bound(flux_pairs::<YIELD>(c.inv_dx, c.yield_rg, row_of(j - 1), row_of(j), frow));
+        let lim = flux_pairs::<YIELD>(c.inv_dx, c.yield_rg, row_of(j - 1), row_of(j), frow);
+        take((0.0, lim.0, lim.1));
     }
     // Open or wall edges south and north (periodic ones are done by the caller: they need
     // the far row).
@@ -201,40 +191,7 @@ fn band_fluxes_impl<const YIELD: bool>(
             }
         }
     }
-    (m_max.max(m_in), c_edge.max(c_in), c_edge)
-}
-
-/// The exact largest wave speed of band `b`'s inner faces (the x faces between the cells of
-/// its rows, the y faces south of its rows but the grid's south edge), recomputed from the
-/// stored fluxes `fx`, `fy` of pass 1 as `face_flux` computes it: a face set to zero there
-/// stored `q = 0` and gets 0 (or NaN, which the maximum ignores, where both cells are dry).
-/// Only needed when the bound of [`band_fluxes`] could decide the substep.
-pub(super) fn interior_wave_speed(c: &FluxCtx, b: usize, fx: &[f64], fy: &[f64]) -> f64 {
-    let (nx, h) = (c.nx, c.h);
-    let mut c_max = 0i64;
-    let mut face = |q: f64, ha: f64, hb: f64| {
-        let t = face_terms_of(q, ha, hb);
-        c_max = c_max.max(key(wave_speed(t.0, t.1)));
-    };
-    for j in band_range(b, c.ny) {
-        let (hr, frow) = (&h[j * nx..(j + 1) * nx], &fx[j * (nx + 1)..(j + 1) * (nx + 1)]);
-        for i in 1..nx {
-            face(frow[i], hr[i - 1], hr[i]);
-        }
-        if j > 0 {
-            let (hs, frow) = (&h[(j - 1) * nx..j * nx], &fy[j * nx..(j + 1) * nx]);
-            for i in 0..nx {
-                face(frow[i], hs[i], hr[i]);
-            }
-        }
-    }
-    f64::from_bits(c_max as u64)
-}
-
-/// `(3|q|, max(h_a, h_b))` of a face with flux `q`, as in `face_terms`.
-#[inline(always)]
-fn face_terms_of(q: f64, ha: f64, hb: f64) -> (f64, f64) {
-    (3.0 * q.abs(), ha.max(hb))
+    (m_max, c_max)
 }
 
 /// Read-only inputs of a cell-update pass.
