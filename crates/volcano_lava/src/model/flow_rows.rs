@@ -3,15 +3,15 @@
 //!
 //! The loops are written branch-free over whole rows (selects instead of early returns, the
 //! wrapping first and last cells of a row apart), so the compiler can vectorise them. On
-//! x86-64 CPUs with AVX2 each band runs a copy compiled for AVX2 (checked at run time), else
-//! the baseline (SSE2) copy: both evaluate the same IEEE operations on the same numbers in the
-//! same order per cell (no fused multiply-add, no reassociation), so the results are
-//! bit-identical on any machine. The maxima of pass 1 are taken over the bit patterns of the
+//! x86-64 CPUs with AVX-512F or AVX2 each band runs a copy compiled for it (checked at run
+//! time), else the baseline (SSE2) copy: all evaluate the same IEEE operations on the same
+//! numbers in the same order per cell (no fused multiply-add, no reassociation), so the
+//! results are bit-identical on any machine. The maxima of pass 1 are taken over the bit patterns of the
 //! non-negative mobilities and wave speeds (the same order as the values, exact in any order),
 //! and the round-off tally of pass 2 is summed in cell order, row by row, only over rows that
 //! had a negative thickness.
 
-use super::bands::{avx2_dispatch, band_range};
+use super::bands::{band_range, simd_dispatch};
 use super::field::{Edge, Edges};
 use super::flux::{face_flux, mobility};
 use super::params::ViscosityModel;
@@ -67,7 +67,7 @@ fn flux_pairs<const YIELD: bool>(
     (f64::from_bits(m_max as u64), f64::from_bits(c_max as u64))
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face
     /// fluxes of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face
     /// row `start` first; face row 0 is the south edge) and, for the last band, the north edge
@@ -261,7 +261,7 @@ fn cell_update(
     (raw, t_new, [vw, ve, vs, vn])
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// Pass 2 for band `b`: the limiter of its rows and the rows on either side (local row 0
     /// is the row below, wrapping; the last local row the row above), then the new `h`, `T`
     /// (and velocity) of its rows. Returns the band's round-off tally (volume clamped away

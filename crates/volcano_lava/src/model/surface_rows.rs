@@ -1,8 +1,8 @@
 //! The row loops of the crust update ([`super::surface::update_surface`]): step 1, the surface
 //! velocity smoothed by the crust, and steps 2–5, divergence, upwind advection, radiation,
 //! eq 5.3 and thresholds. Branch-free over whole rows so the compiler can vectorise them, with
-//! AVX2 copies chosen at run time (see [`super::flow_rows`] for why the copies give
-//! bit-identical results).
+//! AVX-512 and AVX2 copies chosen at run time (see [`super::flow_rows`] for why the copies
+//! give bit-identical results).
 //!
 //! Every cell evaluates the whole update and selects the outcome. The loop leaves out what
 //! only rare cells need and flags those cells, which are redone one by one with the scalar
@@ -17,7 +17,7 @@
 
 use std::ops::Range;
 
-use super::bands::avx2_dispatch;
+use super::bands::simd_dispatch;
 
 use super::crust::{
     DIVERGENCE_MIN_CRUST, MOVING_SPEED, NO_CRUST_BELOW, SURFACE_TO_MEAN, contact_from_crust,
@@ -113,7 +113,7 @@ fn crust_cell<const EXACT: bool>(
     if none { (0.0, 0.0, 0.0, false) } else { (cr.min(hk), t_c, div, redo) }
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// Steps 2–5 for the rows `rows` of a band, into the band's `new_c`, `new_t`, `divergence`
     /// (which start at row `rows.start`).
     pub(super) fn crust_rows(
@@ -212,7 +212,7 @@ pub(super) struct VelocityCtx<'a> {
     pub inv_rigid: f64,
 }
 
-avx2_dispatch! {
+simd_dispatch! {
     /// Step 1 for the rows `rows` of a band, into the band's `vsx`, `vsy` (which start at row
     /// `rows.start`); `hsum` is the band's scratch for the horizontal 3-sums of `(u, v, 1)`
     /// over wet cells (one plane each) of its rows and the rows above and below.
