@@ -18,7 +18,7 @@
 
 use super::field::{Edge, FlowField};
 
-use super::bands::{BAND_ROWS, use_avx2};
+use super::bands::{BAND_ROWS, Simd, simd};
 use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
 use super::flux::face_flux;
 pub use super::flux::{bingham_factor, slope_factor};
@@ -45,7 +45,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
     let mut report = FlowReport::default();
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let mut t_left = dt;
-    let avx2 = use_avx2();
+    let simd = simd();
     while t_left > 0.0 && report.substeps < params.max_substeps {
         report.substeps += 1;
         let s = &mut field.scratch;
@@ -74,7 +74,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             .enumerate()
             .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
             .collect();
-        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north, avx2));
+        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north, simd));
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
             m_max = m_max.max(m);
@@ -116,7 +116,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             t_left = 0.0;
         }
         let last = t_left == 0.0 || report.substeps == params.max_substeps;
-        report.outflow += transfer(field, scale * dt_s, last, avx2);
+        report.outflow += transfer(field, scale * dt_s, last, simd);
     }
     field.budget.outflow += report.outflow;
     field.time += dt;
@@ -127,7 +127,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
 /// the positivity limiter; returns the volume that left through open edges. Each face volume
 /// is `q · vol · lim[donor]`, computed by the same expression on both sides, so what one cell
 /// loses its neighbour gains exactly.
-fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, avx2: bool) -> f64 {
+fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, simd: Simd) -> f64 {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let nfx = nx + 1;
     let area = dx * dx;
@@ -149,7 +149,7 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, avx2: bool) -
         .collect();
     let c = UpdateCtx { nx, ny, fx, fy, h, t, vol, area, write_velocity };
     let tallies = par_map(items, |b, ((lim, (hn, tn)), (u, v))| {
-        band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, avx2)
+        band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, simd)
     });
     let rounding: f64 = tallies.iter().sum();
     // Volume through open edges (same expressions as above; the limiter of cell (i, j) is in

@@ -3,15 +3,15 @@
 //!
 //! The loops are written branch-free over whole rows (selects instead of early returns, the
 //! wrapping first and last cells of a row apart), so the compiler can vectorise them. On
-//! x86-64 CPUs with AVX2 each band runs a copy compiled for AVX2 (checked at run time), else
-//! the baseline (SSE2) copy: both evaluate the same IEEE operations on the same numbers in the
-//! same order per cell (no fused multiply-add, no reassociation), so the results are
-//! bit-identical on any machine. The maxima of pass 1 are taken over the bit patterns of the
+//! x86-64 CPUs with AVX-512F or AVX2 each band runs a copy compiled for it (checked at run
+//! time), else the baseline (SSE2) copy: all evaluate the same IEEE operations on the same
+//! numbers in the same order per cell (no fused multiply-add, no reassociation), so the
+//! results are bit-identical on any machine. The maxima of pass 1 are taken over the bit patterns of the
 //! non-negative mobilities and wave speeds (the same order as the values, exact in any order),
 //! and the round-off tally of pass 2 is summed in cell order, row by row, only over rows that
 //! had a negative thickness.
 
-use super::bands::band_range;
+use super::bands::{band_range, simd_dispatch};
 use super::field::{Edge, Edges};
 use super::flux::{face_flux, mobility};
 use super::params::ViscosityModel;
@@ -67,39 +67,19 @@ fn flux_pairs<const YIELD: bool>(
     (f64::from_bits(m_max as u64), f64::from_bits(c_max as u64))
 }
 
-/// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face fluxes
-/// of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face row
-/// `start` first; face row 0 is the south edge) and, for the last band, the north edge faces
-/// (`north`). Returns the band's largest face mobility and wave speed.
-pub(super) fn band_fluxes(
-    c: &FluxCtx,
-    b: usize,
-    mob: &mut [f64],
-    fx: &mut [f64],
-    fy: &mut [f64],
-    north: Option<&mut [f64]>,
-    avx2: bool,
-) -> (f64, f64) {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
-        return unsafe { band_fluxes_avx2(c, b, mob, fx, fy, north) };
-    }
-    let _ = avx2;
-    band_fluxes_rows(c, b, mob, fx, fy, north)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn band_fluxes_avx2(
-    c: &FluxCtx,
-    b: usize,
-    mob: &mut [f64],
-    fx: &mut [f64],
-    fy: &mut [f64],
-    north: Option<&mut [f64]>,
-) -> (f64, f64) {
-    band_fluxes_rows(c, b, mob, fx, fy, north)
+simd_dispatch! {
+    /// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face
+    /// fluxes of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face
+    /// row `start` first; face row 0 is the south edge) and, for the last band, the north edge
+    /// faces (`north`). Returns the band's largest face mobility and wave speed.
+    pub(super) fn band_fluxes(
+        c: &FluxCtx,
+        b: usize,
+        mob: &mut [f64],
+        fx: &mut [f64],
+        fy: &mut [f64],
+        north: Option<&mut [f64]>,
+    ) -> (f64, f64) => band_fluxes_rows
 }
 
 #[inline(always)]
@@ -281,24 +261,12 @@ fn cell_update(
     (raw, t_new, [vw, ve, vs, vn])
 }
 
-/// Pass 2 for band `b`: the limiter of its rows and the rows on either side (local row 0 is
-/// the row below, wrapping; the last local row the row above), then the new `h`, `T` (and
-/// velocity) of its rows. Returns the band's round-off tally (volume clamped away where a
-/// cell went negative), summed in cell order.
-pub(super) fn band_update(c: &UpdateCtx, b: usize, out: UpdateOut, avx2: bool) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if avx2 {
-        // SAFETY: `avx2` comes from `use_avx2`, which checked that the CPU has AVX2.
-        return unsafe { band_update_avx2(c, b, out) };
-    }
-    let _ = avx2;
-    band_update_rows(c, b, out)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn band_update_avx2(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 {
-    band_update_rows(c, b, out)
+simd_dispatch! {
+    /// Pass 2 for band `b`: the limiter of its rows and the rows on either side (local row 0
+    /// is the row below, wrapping; the last local row the row above), then the new `h`, `T`
+    /// (and velocity) of its rows. Returns the band's round-off tally (volume clamped away
+    /// where a cell went negative), summed in cell order.
+    pub(super) fn band_update(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 => band_update_rows
 }
 
 #[inline(always)]

@@ -2,7 +2,7 @@
 //! thickness from the time of contact with the air (eq 5.1) and the divergence of the surface
 //! velocity (eq 5.3), with the thesis' thresholds and reset rule.
 
-use super::bands::{BAND_ROWS, band_range, use_avx2};
+use super::bands::{BAND_ROWS, band_range, simd};
 use super::field::FlowField;
 use super::params::LavaParams;
 use super::samples::{CellSurface, SurfaceSamples, update_samples};
@@ -98,13 +98,13 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
     let inv_rigid = 1.0 / params.rigid_crust;
     let band = BAND_ROWS * nx;
     // 1. surface velocity, smoothed by crust thickness (row bands in parallel).
-    let avx2 = use_avx2();
+    let simd = simd();
     let c = VelocityCtx { nx, ny, h, u, v, crust: &s.crust, min_h, inv_rigid };
     let [vsx, vsy] = &mut s.vsurf;
     s.hsum.resize_with(ny.div_ceil(BAND_ROWS), Default::default);
     let items: Vec<_> = vsx.chunks_mut(band).zip(vsy.chunks_mut(band)).zip(s.hsum.iter_mut()).collect();
     par_map(items, |b, ((vsx, vsy), hsum)| {
-        velocity_rows(&c, band_range(b, ny), hsum, (vsx, vsy), avx2);
+        velocity_rows(&c, band_range(b, ny), hsum, (vsx, vsy), simd);
     });
     // 2–5. divergence, upwind advection, radiation, eq (5.3), thresholds; new values go to
     // `old`, then the buffers swap (row bands in parallel).
@@ -123,12 +123,13 @@ pub fn update_surface(s: &mut SurfaceState, field: &FlowField, params: &LavaPara
         kappa,
         four_kdt: 4.0 * kappa * dt,
         reset_ratio: params.crust_reset_ratio,
+        four_r2_kappa: 4.0 * params.crust_reset_ratio * params.crust_reset_ratio * kappa,
     };
     let [new_c, new_t] = &mut s.old;
     let items: Vec<_> =
         new_c.chunks_mut(band).zip(new_t.chunks_mut(band)).zip(s.divergence.chunks_mut(band)).collect();
     par_map(items, |b, ((new_c, new_t), divergence)| {
-        crust_rows(&c, band_range(b, ny), (new_c, new_t, divergence), avx2);
+        crust_rows(&c, band_range(b, ny), (new_c, new_t, divergence), simd);
     });
     std::mem::swap(&mut s.crust, &mut s.old[0]);
     std::mem::swap(&mut s.contact, &mut s.old[1]);
