@@ -96,7 +96,25 @@ impl Plugin for PyroclasticPlugin {
             .register_type::<DepositMap>()
             .register_type::<PyroclasticBudget>()
             .configure_sets(PyroclasticStep, (PyroclasticSystems::Prepare, PyroclasticSystems::Step).chain())
-            .add_systems(PyroclasticStep, step_flows.in_set(PyroclasticSystems::Step));
+            .add_systems(PyroclasticStep, step_flows.in_set(PyroclasticSystems::Step))
+            .add_systems(PreUpdate, prepare_deposit_maps);
+    }
+}
+
+/// Creates the deposit maps of the terrains erupting volcanoes stand on as soon as they stand
+/// there ([`DepositMap::ensure`], its pages written), outside the simulation's ticks: the step
+/// would create them in its first tick, and the first deposit relaxation would map their
+/// memory in some later one.
+fn prepare_deposit_maps(
+    volcanoes: Query<&OnTerrain, (With<Eruption>, Changed<OnTerrain>)>,
+    mut grounds: Query<(&Terrain, &mut DepositMap)>,
+) {
+    for on in &volcanoes {
+        if let Ok((terrain, mut map)) = grounds.get_mut(on.0)
+            && !map.fits(terrain)
+        {
+            map.ensure(terrain);
+        }
     }
 }
 

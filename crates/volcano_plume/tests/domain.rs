@@ -224,3 +224,29 @@ fn umbrella_spheres_age_with_the_plume_clock_at_any_cadence() {
         assert!(u.sphere.d > 500.0 && u.ash < 1.0, "{cadence:?}: not stepped");
     }
 }
+
+/// What the deposit map held when the first pyroclastic step began: (nx, ny) of its grid.
+#[derive(Resource, Default)]
+struct MapAtFirstStep(Option<Option<(usize, usize)>>);
+
+fn map_at_first_step(mut seen: ResMut<MapAtFirstStep>, maps: Query<&DepositMap>) {
+    if seen.0.is_none() {
+        seen.0 = Some(maps.iter().next().and_then(|m| m.mass.as_ref()).map(|g| (g.nx(), g.ny())));
+    }
+}
+
+/// The deposit map of the terrain an erupting volcano stands on exists, sized to the terrain,
+/// before the first pyroclastic step (created outside the ticks, its pages written), not in
+/// that step nor mapped by the first relaxation after the first deposit (fails without
+/// `prepare_deposit_maps`: the map has no grid then).
+#[test]
+fn an_erupting_volcanos_deposit_map_exists_before_the_first_step() {
+    let mut app = app(Eruption::plinian(), 1);
+    app.init_resource::<MapAtFirstStep>().add_systems(
+        volcano_plume::PyroclasticStep,
+        map_at_first_step.before(volcano_plume::PyroclasticSystems::Step),
+    );
+    run(&mut app, 2);
+    let seen = app.world().resource::<MapAtFirstStep>().0;
+    assert_eq!(seen, Some(Some((33, 33))), "the grid at the first step");
+}
