@@ -159,7 +159,8 @@ pub struct AshFallDraw {
     pub atmosphere: Entity,
 }
 
-/// Lit ash-fall volumes for every [`Atmosphere`] whose layers hold ash.
+/// Lit ash-fall volumes for every [`Atmosphere`] whose layers hold ash (drawn by the pass of
+/// [`crate::CloudRenderPlugin`]; without it nothing is drawn and a warning says so).
 #[derive(Debug, Default, Clone)]
 pub struct AshFallRenderPlugin;
 
@@ -236,7 +237,9 @@ pub fn ash_material(
 }
 
 /// What the ash system creates and replaces.
-type AshAssets<'w> = (ResMut<'w, Assets<Image>>, ResMut<'w, Assets<CloudMaterial>>, ResMut<'w, Assets<Mesh>>);
+/// (`Assets<CloudMaterial>` exists only with [`crate::CloudRenderPlugin`], whose pass draws the ash.)
+type AshAssets<'w> =
+    (ResMut<'w, Assets<Image>>, Option<ResMut<'w, Assets<CloudMaterial>>>, ResMut<'w, Assets<Mesh>>);
 
 #[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's ash box in step")]
 fn update_ash_volumes(
@@ -246,10 +249,16 @@ fn update_ash_volumes(
     grounds: Query<&AtmosphereGround>,
     layers: Query<&AirLayer>,
     mut draws: Query<(&mut Transform, &mut Visibility), With<AshFallDraw>>,
-    (mut images, mut materials, mut meshes): AshAssets,
+    (mut images, materials, mut meshes): AshAssets,
     mut removed: RemovedComponents<Atmosphere>,
     orphans: Query<(Entity, &AshFallDraw)>,
 ) {
+    let Some(mut materials) = materials else {
+        if settings.enabled && !atmospheres.is_empty() {
+            warn_once!("ash fall not drawn: it needs CloudRenderPlugin (its lit pass draws the ash)");
+        }
+        return;
+    };
     for gone in removed.read() {
         for (draw, owner) in &orphans {
             if owner.atmosphere == gone {
