@@ -133,6 +133,18 @@ pub struct BenchOptions {
     pub report_every_ticks: u64,
 }
 
+/// Ms per domain from ms per set (in `SETS` order): plume, pyroclastic, coupling (the sets
+/// just before and after the weather), weather, lava.
+fn by_domain(sets: &[f64; SETS.len()]) -> [(&'static str, f64); 5] {
+    [
+        ("plume", sets[1]),
+        ("pyroclastic", sets[2]),
+        ("coupling", sets[3] + sets[5]),
+        ("weather", sets[4]),
+        ("lava", sets[6]),
+    ]
+}
+
 pub(crate) fn quantile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
@@ -234,6 +246,9 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         }
         all.push(ms);
         let sets_after = app.world().resource::<Stamps>().total;
+        // Ms of each set in this tick.
+        let sets: [f64; SETS.len()] =
+            std::array::from_fn(|i| (sets_after[i] - sets_before[i]).as_secs_f64() * 1e3);
         if after.1.0 != before.1.0 {
             start_ms.push(pipeline_ms(&mut app).0);
         }
@@ -241,28 +256,20 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             apply_ms.push(pipeline_ms(&mut app).1);
         }
         if ms > slowest.1 {
-            let mut sets = [0.0; SETS.len()];
-            for (x, (a, b)) in sets.iter_mut().zip(sets_after.iter().zip(&sets_before)) {
-                *x = (*a - *b).as_secs_f64() * 1e3;
-            }
             slowest = (after.0, ms, after.1 != before.1, sets);
         }
-        {
-            let set = |i: usize| (sets_after[i] - sets_before[i]).as_secs_f64() * 1e3;
-            let d = [set(1), set(2), set(3) + set(5), set(4), set(6)];
-            let rest = ms - d.iter().sum::<f64>();
-            let weather_tick = u8::from(after.1 != before.1);
-            rows += &format!("{},{ms:.4},{weather_tick},", after.0);
-            rows += &format!("{:.4},{:.4},{:.4},{:.4},{:.4},{rest:.4}\n", d[0], d[1], d[2], d[3], d[4]);
-        }
+        let d = by_domain(&sets);
+        let rest = ms - d.iter().map(|x| x.1).sum::<f64>();
+        rows += &format!("{},{ms:.4},{},", after.0, u8::from(after.1 != before.1));
+        rows += &format!("{:.4},{:.4},{:.4},{:.4},{:.4},{rest:.4}\n", d[0].1, d[1].1, d[2].1, d[3].1, d[4].1);
         let (list, sums) = if after.1 != before.1 {
             (&mut weather_ms, &mut weather_sets)
         } else {
             (&mut other_ms, &mut other_sets)
         };
         list.push(ms);
-        for (sum, (a, b)) in sums.iter_mut().zip(sets_after.iter().zip(&sets_before)) {
-            *sum += (*a - *b).as_secs_f64() * 1e3;
+        for (sum, x) in sums.iter_mut().zip(&sets) {
+            *sum += x;
         }
         if let Some(s) = soak.as_mut()
             && let Err(e) = s.tick(&mut app, after.0, ms, started.elapsed().as_secs_f64())
@@ -278,20 +285,13 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let timed = (tick(&app) - first).max(1) as f64;
     let weather_waits = weather(&mut app).2 - waits_before;
     let total = app.world().resource::<Stamps>().total;
-    let ms = |i: usize| total[i].as_secs_f64() * 1e3 / timed;
     let mut sorted = all.clone();
     sorted.sort_by(f64::total_cmp);
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
     // Per domain on one kind of tick: set sums over `n` ticks of `tick_ms` mean.
     let split = |sets: &[f64; SETS.len()], n: usize, tick_ms: f64| {
         let n = n.max(1) as f64;
-        let d = [
-            ("plume", sets[1] / n),
-            ("pyroclastic", sets[2] / n),
-            ("coupling", (sets[3] + sets[5]) / n),
-            ("weather", sets[4] / n),
-            ("lava", sets[6] / n),
-        ];
+        let d = by_domain(sets).map(|(name, x)| (name, x / n));
         let rest = tick_ms - d.iter().map(|x| x.1).sum::<f64>();
         d.into_iter().chain([("rest", rest)]).collect::<std::collections::BTreeMap<_, _>>()
     };
@@ -316,15 +316,10 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             weather: slowest.2,
             domains: split(&slowest.3, 1, slowest.1),
         },
-        domains: [
-            ("plume", ms(1)),
-            ("pyroclastic", ms(2)),
-            ("coupling", ms(3) + ms(5)),
-            ("weather", ms(4)),
-            ("lava", ms(6)),
-        ]
-        .into_iter()
-        .collect(),
+        domains: by_domain(&total.map(|t| t.as_secs_f64() * 1e3))
+            .map(|(name, x)| (name, x / timed))
+            .into_iter()
+            .collect(),
         weather_tick_domains: split(&weather_sets, weather_ms.len(), mean(&weather_ms)),
         other_tick_domains: split(&other_sets, other_ms.len(), mean(&other_ms)),
         wall_s: started.elapsed().as_secs_f64(),

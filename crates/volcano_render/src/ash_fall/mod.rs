@@ -113,10 +113,10 @@ impl AshFallSettings {
         in_range("density_scale", self.density_scale as f64, 1e-6, 1e3)?;
         in_range("extinction_per_gram", self.extinction_per_gram as f64, 1e-6, 10.0)?;
         in_range("albedo", self.albedo as f64, 0.0, 1.0)?;
-        for (name, c) in [("colour.red", self.colour.red), ("colour.green", self.colour.green)] {
-            in_range(name, c as f64, 0.0, 1.0)?;
+        let c = self.colour;
+        for (name, v) in [("colour.red", c.red), ("colour.green", c.green), ("colour.blue", c.blue)] {
+            in_range(name, v as f64, 0.0, 1.0)?;
         }
-        in_range("colour.blue", self.colour.blue as f64, 0.0, 1.0)?;
         in_range("sun_gain", self.sun_gain as f64, 0.0, 100.0)?;
         in_range("ambient_gain", self.ambient_gain as f64, 0.0, 100.0)?;
         in_range("forward_g", self.forward_g as f64, 0.0, 0.99)?;

@@ -122,6 +122,7 @@ pub fn ash_density_volume(
         })
         .collect();
     let mut out = vec![0.0f32; nxy * nxy * nz];
+    let radius = (spec.blur_m * nxy as f64 / extent).round() as usize;
     // The field, blurred level by level, then streaks, fades and the ground.
     for (iz, &(_, blend, _)) in levels.iter().enumerate() {
         let Some(blend) = blend else { continue };
@@ -130,7 +131,6 @@ pub fn ash_density_volume(
             let p = Vec2::new(column_xy(k % nxy) as f32, column_xy(k / nxy) as f32);
             *v = ash_blended(layers, blend, p) as f32;
         }
-        let radius = (spec.blur_m * nxy as f64 / extent).round() as usize;
         blur_level(level, nxy, radius);
     }
     for jy in 0..nxy {
