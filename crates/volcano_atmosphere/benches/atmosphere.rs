@@ -3,7 +3,8 @@
 //! Δt = 30 s, each beside a same-run memory sweep: one read-modify-write pass over every
 //! byte of the layers' fields (the bandwidth floor of anything that touches the whole state).
 //! Before the timings, the mean wall time of the step's phases over 10 steps is printed
-//! (`StepReport::phase_ms`) with the V-cycles and flux substeps, as the profile.
+//! (`StepReport::phase_ms`) with the V-cycles and flux substeps, as the profile. First, the
+//! cloud volume a renderer rebuilds off the main thread after each weather step.
 
 use std::hint::black_box;
 use std::time::Duration;
@@ -11,6 +12,7 @@ use std::time::Duration;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_atmosphere::model::fields::AtmosphereState;
 use volcano_atmosphere::model::step::{Workspace, step};
+use volcano_atmosphere::view::{ClusterMemory, VolumeSpec, cloud_density};
 use volcano_atmosphere::{AtmosphereParams, Scenario};
 
 /// One read-modify-write pass over every field of every layer (f32 and f64 grids alike).
@@ -81,7 +83,28 @@ fn bench_step(c: &mut Criterion, scenario: &str, label: &str) {
     c.bench_function(&format!("{label}: memory sweep"), |b| b.iter(|| sweep(&mut copy)));
 }
 
+/// The cloud volume a renderer rebuilds after each weather step (thesis §4.2.6: forms,
+/// k-means coherence, amplification): the `mixed` scenario on 128² cells after one hour of
+/// weather, onto the renderer's default 256 × 256 × 96 voxels.
+fn bench_clouds(c: &mut Criterion) {
+    let sc = Scenario::builtin("mixed").unwrap();
+    let mut state = sc.build(Some(128)).unwrap();
+    let mut work = Workspace::new(&state).unwrap();
+    for _ in 0..120 {
+        step(&mut state, &sc.params, &mut work, 30.0).unwrap();
+    }
+    let top = state.layers.last().map_or(1000.0, |l| l.altitude + l.thickness);
+    let spec = VolumeSpec { nxy: 256, nz: 96, z_min: state.layers[0].bottom.max(0.0), z_max: top, seed: 7 };
+    c.bench_function("cloud volume 256x256x96, mixed 128x128x7", |b| {
+        b.iter(|| {
+            let mut memory = ClusterMemory::default();
+            black_box(cloud_density(&state, sc.params.cloud_threshold, 8, 0.3, &mut memory, &spec))
+        });
+    });
+}
+
 fn benches(c: &mut Criterion) {
+    bench_clouds(c);
     bench_step(c, "convection", "step 512x512x3 layers");
     bench_step(c, "mixed", "step 512x512x7 layers");
 }

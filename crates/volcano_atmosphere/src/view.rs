@@ -12,7 +12,8 @@ pub use crate::model::fields::{AtmosphereState, GridSpec, LayerFields};
 pub use crate::model::maps::{MapField, field_values, png_bytes};
 pub use crate::model::volume::{ClusterMemory, VolumeSpec};
 
-use crate::model::volume::{coherent_forms_with, density_volume};
+use crate::model::amplify::density_volume;
+use crate::model::volume::coherent_forms_with;
 
 /// The clouds of `state` on `spec`'s voxels (condensed water, g/m³, amplified by noise; x
 /// fastest, then y, then z), thesis §4.2.6: the cloud forms of

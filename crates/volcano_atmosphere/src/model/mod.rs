@@ -3,6 +3,7 @@
 //! docs/ARCHITECTURE.md §5.3 where one applies.
 
 pub mod advection;
+pub mod amplify;
 pub mod ash;
 pub mod clouds;
 pub mod fields;

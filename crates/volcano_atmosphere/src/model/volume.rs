@@ -1,10 +1,9 @@
 //! Procedural amplification (thesis §4.2.6), model side: coherent cloud forms by k-means++
-//! where the per-cell classification fragments, and a 3D density volume from the layers'
-//! condensed water with type-keyed vertical placement and noise. Rendering (the lit cloud pass
+//! where the per-cell classification fragments, and the voxel grid the clouds are amplified
+//! onto (the amplification itself is [`super::amplify`]). Rendering (the lit cloud pass
 //! of `volcano_render::clouds`) is done elsewhere.
 
 use bevy::reflect::Reflect;
-use noise::{NoiseFn, OpenSimplex};
 use rand::{RngExt, SeedableRng};
 
 use super::clouds::{CloudForm, classify};
@@ -281,72 +280,6 @@ pub struct VolumeSpec {
     pub seed: u32,
 }
 
-/// Vertical placement of a layer's cloud by form (thesis §4.2.6): stratiform centred on the
-/// layer, cumuliform above it (flat base), high sheets below it (flat top), cumulonimbus a
-/// full thickness above. Returns (bottom, top) as offsets from the layer altitude in units of
-/// its thickness.
-pub fn vertical_extent(form: CloudForm) -> (f64, f64) {
-    use CloudForm::*;
-    match form {
-        Stratus | Altostratus | Nimbostratus | Stratocumulus => (-0.25, 0.25),
-        Cumulus | Altocumulus => (0.0, 0.6),
-        Cumulonimbus => (0.0, 1.0),
-        Cirrus | Cirrostratus | Cirrocumulus => (-0.4, 0.0),
-    }
-}
-
-/// Noise (feature size in m, relative amplitude) per form: puffy cumuliform clouds get more
-/// and finer detail than wispy stratiform ones.
-pub fn noise_params(form: CloudForm) -> (f64, f64) {
-    use CloudForm::*;
-    match form {
-        Cumulus | Cumulonimbus => (400.0, 0.9),
-        Altocumulus | Cirrocumulus | Stratocumulus => (600.0, 0.7),
-        Cirrus => (1500.0, 0.8),
-        Stratus | Altostratus | Nimbostratus | Cirrostratus => (3000.0, 0.3),
-    }
-}
-
-/// 3D density (condensed water, g/m³, amplified by noise) on `spec`'s voxels, x fastest then
-/// y then z. Each cloudy layer cell spreads its water over its form's vertical extent with a
-/// tent profile; voxel columns sample the nearest layer cell.
-pub fn density_volume(
-    state: &AtmosphereState,
-    forms: &[Vec<Option<CloudForm>>],
-    spec: &VolumeSpec,
-) -> Vec<f32> {
-    let (m, nz) = (spec.nxy.max(1), spec.nz.max(1));
-    let n = state.grid.n;
-    let dz = (spec.z_max - spec.z_min) / nz as f64;
-    let noise = OpenSimplex::new(spec.seed);
-    let mut out = vec![0.0f32; m * m * nz];
-    for (li, layer) in state.layers.iter().enumerate() {
-        for jy in 0..m {
-            for ix in 0..m {
-                let k = (jy * n / m) * n + ix * n / m;
-                let Some(form) = forms[li][k] else { continue };
-                let w = layer.w.data()[k];
-                let (b, t) = vertical_extent(form);
-                let (z0, z1) = (layer.altitude + b * layer.thickness, layer.altitude + t * layer.thickness);
-                let (feature, amp) = noise_params(form);
-                let (x, y) = state.grid.centre(k);
-                for iz in 0..nz {
-                    let z = spec.z_min + (iz as f64 + 0.5) * dz;
-                    if z < z0 || z > z1 {
-                        continue;
-                    }
-                    let mid = 0.5 * (z0 + z1);
-                    let tent = 1.0 - (z - mid).abs() / (0.5 * (z1 - z0)).max(1e-6);
-                    let nz_val = noise.get([x / feature, y / feature, z / feature, state.time_s / 600.0]);
-                    let d = w * 2.0 * tent * (1.0 + amp * nz_val).max(0.0);
-                    out[(iz * m + jy) * m + ix] += d as f32;
-                }
-            }
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -368,31 +301,6 @@ mod tests {
             assert!((0..30).all(|i| l[3 * i + g] == first), "group {g} split");
         }
         assert_eq!(k_means_pp(&pts, 3, 42, 50).1, l, "same seed, same clusters");
-    }
-
-    #[test]
-    fn density_follows_clouds_and_form_placement() {
-        let s = Scenario::builtin("convection").unwrap();
-        let mut st = s.build(Some(16)).unwrap();
-        // One cumulus-like cell in layer 1 (1500 m), strong updraft.
-        st.layers[1].w.data_mut()[5] = 1.0;
-        st.layers[0].c.data_mut()[5] = 1.5;
-        st.layers[1].c.data_mut()[5] = 1.5;
-        let forms = coherent_forms(&st, 0.05, 4, 0.3, 1);
-        assert_eq!(forms[1][5], Some(CloudForm::Cumulus));
-        assert!(forms[1].iter().enumerate().all(|(k, f)| k == 5 || f.is_none()));
-        let spec = VolumeSpec { nxy: 16, nz: 40, z_min: 0.0, z_max: 4000.0, seed: 3 };
-        let vol = density_volume(&st, &forms, &spec);
-        assert!(vol.iter().all(|d| *d >= 0.0 && d.is_finite()));
-        // Density only in column 5, and only above the layer's altitude (flat base).
-        for (idx, d) in vol.iter().enumerate() {
-            if *d > 0.0 {
-                let (col, iz) = (idx % 256, idx / 256);
-                assert_eq!(col, 5);
-                assert!(iz as f64 * 100.0 + 50.0 >= 1500.0, "cumulus below its base at level {iz}");
-            }
-        }
-        assert!(vol.iter().any(|d| *d > 0.0));
     }
 
     /// A calm layer (D = C + U = 0) whose convection C is strong: Table 4.3 keys on
