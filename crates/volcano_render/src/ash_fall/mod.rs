@@ -75,6 +75,10 @@ pub struct AshFallSettings {
     pub edge_fraction: f32,
     /// Horizontal blur of the volume's levels (m, half-width; 0–20,000; [`volume::blur_level`]).
     pub blur_m: f32,
+    /// How ragged the curtain's top and sides are (0 straight – 1; [`volume::relief_factors`]).
+    pub relief: f32,
+    /// Size of the raggedness' features (m).
+    pub relief_m: f32,
     /// Ash (g) below which a layer stack counts as empty (no volume is kept).
     pub min_grams: f64,
 }
@@ -100,6 +104,8 @@ impl Default for AshFallSettings {
             streak_m: 350.0,
             edge_fraction: 0.08,
             blur_m: 600.0,
+            relief: 0.8,
+            relief_m: 1_500.0,
             min_grams: 1.0,
         }
     }
@@ -128,6 +134,8 @@ impl AshFallSettings {
         in_range("streak_m", self.streak_m as f64, 1.0, 1e6)?;
         in_range("edge_fraction", self.edge_fraction as f64, 0.0, 0.5)?;
         in_range("blur_m", self.blur_m as f64, 0.0, 20_000.0)?;
+        in_range("relief", self.relief as f64, 0.0, 1.0)?;
+        in_range("relief_m", self.relief_m as f64, 1.0, 1e6)?;
         in_range("min_grams", self.min_grams, 0.0, 1e30)?;
         Ok(())
     }
@@ -203,6 +211,8 @@ pub fn build_ash_image(
     spec.streak_m = settings.streak_m as f64;
     spec.edge_fraction = settings.edge_fraction as f64;
     spec.blur_m = settings.blur_m as f64;
+    spec.relief = settings.relief as f64;
+    spec.relief_m = settings.relief_m as f64;
     let density = ash_density_volume(layers, grid, ground, &spec)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image

@@ -10,10 +10,11 @@
 //! the fall — break the curtain into shafts, with a mean factor of 1 so the drawn mass follows
 //! the field. Below the terrain nothing is drawn, and above the top layer's centre the ash fades
 //! linearly to nothing at the stack's top ([`lid_fade`]): held at the top layer's value up to
-//! its top, the curtain had a flat, hard lid above the umbrella.
+//! its top, the curtain had a flat, hard lid above the umbrella. That fade and the one along the
+//! footprint's sides ([`edge_fade`]) are made ragged by a noise ([`relief_factors`]).
 
 use bevy::math::Vec2;
-use noise::{NoiseFn, Perlin};
+use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
 use volcano_atmosphere::view::{GridSpec, LayerFields, ash_blended, layer_blend};
 use volcano_core::error::in_range;
 use volcano_core::grid::Boundary;
@@ -43,6 +44,11 @@ pub struct AshVolumeSpec {
     /// Horizontal blur (m): half-width of the box filter run twice over each level
     /// ([`blur_level`]); 0 for none.
     pub blur_m: f64,
+    /// How ragged the curtain's top and sides are, 0 (the straight fades of [`lid_fade`] and
+    /// [`edge_fade`]) to 1 ([`relief_factors`]).
+    pub relief: f64,
+    /// Horizontal size (m) of the raggedness' features.
+    pub relief_m: f64,
 }
 
 impl AshVolumeSpec {
@@ -63,6 +69,8 @@ impl AshVolumeSpec {
             seed: 11,
             edge_fraction: 0.08,
             blur_m: 600.0,
+            relief: 0.8,
+            relief_m: 1_500.0,
         }
     }
 
@@ -74,6 +82,8 @@ impl AshVolumeSpec {
         in_range("ash streak_m", self.streak_m, 1.0, 1e6)?;
         in_range("ash edge_fraction", self.edge_fraction, 0.0, 0.5)?;
         in_range("ash blur_m", self.blur_m, 0.0, 1e6)?;
+        in_range("ash relief", self.relief, 0.0, 1.0)?;
+        in_range("ash relief_m", self.relief_m, 1.0, 1e6)?;
         if !(self.z_min.is_finite() && self.z_max.is_finite() && self.z_max > self.z_min) {
             return Err(ConfigError::InvalidParameter {
                 name: "ash volume altitudes",
@@ -94,7 +104,8 @@ impl AshVolumeSpec {
 /// fastest, then grid y, then altitude — the layout of `density_volume::density_texels`): each voxel
 /// takes the bilinear sample of the layers' ash fields at its position, blended in altitude
 /// by [`layer_blend`] (a curtain sheared by the winds leans smoothly instead of in steps),
-/// times the streak factor and [`edge_fade`] of its column and [`lid_fade`]; 0 above the layers and under
+/// times the streak factor and [`edge_fade`] of its column and [`lid_fade`] (both made ragged
+/// by [`relief_factors`]); 0 above the layers and under
 /// `ground` (terrain altitude at the atmosphere's cell centres, if given). Non-finite or negative ash counts as none.
 pub fn ash_density_volume(
     layers: &[&LayerFields],
@@ -106,25 +117,27 @@ pub fn ash_density_volume(
     let (nxy, nz) = (spec.nxy, spec.nz);
     let extent = grid.extent();
     let mut streak = streak_factors(spec, extent);
+    let (lid_drop, side_relief) = relief_factors(spec, extent);
     let band = spec.edge_fraction * extent;
     for (k, f) in streak.iter_mut().enumerate() {
         let (ix, jy) = ((k % nxy) as f64 + 0.5, (k / nxy) as f64 + 0.5);
         let inside = (ix.min(nxy as f64 - ix).min(jy).min(nxy as f64 - jy)) * extent / nxy as f64;
-        *f *= edge_fade(inside, band);
+        *f *= edge_fade(inside, band * side_relief[k]);
     }
     // World position of each voxel column's centre.
     let column_xy = |i: usize| -0.5 * extent + (i as f64 + 0.5) * extent / nxy as f64;
-    type Level = (f64, Option<(usize, usize, f64)>, f64);
+    // Per level: altitude and the layers it blends ([`layer_blend`]).
+    type Level = (f64, Option<(usize, usize, f64)>);
     let levels: Vec<Level> = (0..nz)
         .map(|iz| {
             let z = spec.level_altitude(iz);
-            (z, layer_blend(layers, z), lid_fade(layers, z))
+            (z, layer_blend(layers, z))
         })
         .collect();
     let mut out = vec![0.0f32; nxy * nxy * nz];
     let radius = (spec.blur_m * nxy as f64 / extent).round() as usize;
     // The field, blurred level by level, then streaks, fades and the ground.
-    for (iz, &(_, blend, _)) in levels.iter().enumerate() {
+    for (iz, &(_, blend)) in levels.iter().enumerate() {
         let Some(blend) = blend else { continue };
         let level = &mut out[iz * nxy * nxy..(iz + 1) * nxy * nxy];
         for (k, v) in level.iter_mut().enumerate() {
@@ -137,25 +150,50 @@ pub fn ash_density_volume(
         for ix in 0..nxy {
             let p = Vec2::new(column_xy(ix) as f32, column_xy(jy) as f32);
             let floor = ground.map_or(f64::NEG_INFINITY, |g| g.sample(p, Boundary::Clamp) as f64);
-            let s = streak[jy * nxy + ix];
-            for (iz, &(z, _, fade)) in levels.iter().enumerate() {
+            let (s, drop) = (streak[jy * nxy + ix], lid_drop[jy * nxy + ix]);
+            for (iz, &(z, _)) in levels.iter().enumerate() {
                 let v = &mut out[(iz * nxy + jy) * nxy + ix];
-                *v = if z < floor { 0.0 } else { (*v as f64 * s * fade) as f32 };
+                *v = if z < floor { 0.0 } else { (*v as f64 * s * lid_fade(layers, z, drop)) as f32 };
             }
         }
     }
     Ok(out)
 }
 
-/// How much of the ash is drawn at altitude `z`: 1 up to the top layer's centre, then falling
-/// linearly to 0 at its top. The layers hold one value per slab; where the stack ends, this
-/// reads the air above as ash-free (as [`layer_blend`] blends adjacent layers between their
-/// centres), so the top layer's upper half is drawn at half its mass on average. A rendering
-/// choice: the air-ash query (`air_ash_at`) keeps the slab's value.
-pub fn lid_fade(layers: &[&LayerFields], z: f64) -> f64 {
+/// How much of the ash is drawn at altitude `z` in a column whose lid is lowered by `drop`
+/// (0–1, [`relief_factors`]): 1 up to the top layer's centre, then falling linearly to 0 at
+/// its top, the whole ramp lowered by `drop` times the top layer's thickness. The layers hold
+/// one value per slab; where the stack ends, this reads the air above as ash-free (as
+/// [`layer_blend`] blends adjacent layers between their centres). With the same ramp in every
+/// column the curtain had a flat top, seen edge-on from a camera near the lid as a ruled
+/// line; lowered by a noise it is ragged. A rendering choice: the air-ash query
+/// (`air_ash_at`) keeps the slab's value.
+pub fn lid_fade(layers: &[&LayerFields], z: f64, drop: f64) -> f64 {
     let Some(top) = layers.last() else { return 0.0 };
-    let (centre, lid) = (top.altitude, top.bottom + top.thickness);
+    let lower = drop.clamp(0.0, 1.0) * top.thickness;
+    let (centre, lid) = (top.altitude - lower, top.bottom + top.thickness - lower);
     if z <= centre || lid <= centre { 1.0 } else { ((lid - z) / (lid - centre)).clamp(0.0, 1.0) }
+}
+
+/// Per voxel column (`nxy²`, x fastest): how far the lid is lowered (0–`relief`, in top-layer
+/// thicknesses; [`lid_fade`]) and the factor on the side band's width (1 ± `relief`/2;
+/// [`edge_fade`]), both from one two-octave Perlin fBm over `relief_m`-sized features
+/// (sampled at offset points for the two uses). All 0 and 1 when `relief` is 0.
+pub fn relief_factors(spec: &AshVolumeSpec, extent: f64) -> (Vec<f64>, Vec<f64>) {
+    let noise =
+        Fbm::<Perlin>::new(spec.seed.wrapping_add(1)).set_octaves(2).set_frequency(1.0 / spec.relief_m);
+    let nxy = spec.nxy;
+    let (mut drop, mut side) = (Vec::with_capacity(nxy * nxy), Vec::with_capacity(nxy * nxy));
+    for k in 0..nxy * nxy {
+        let (x, y) =
+            (((k % nxy) as f64 + 0.5) * extent / nxy as f64, ((k / nxy) as f64 + 0.5) * extent / nxy as f64);
+        // Scaled to about ±1 (the fBm's spread is ≈ 0.3), then clamped.
+        let a = (3.0 * noise.get([x + 0.37 * spec.relief_m, y + 0.71 * spec.relief_m])).clamp(-1.0, 1.0);
+        let b = (3.0 * noise.get([x + 5.3 * spec.relief_m, y - 2.9 * spec.relief_m])).clamp(-1.0, 1.0);
+        drop.push(spec.relief * 0.5 * (1.0 - a));
+        side.push(1.0 + 0.5 * spec.relief * b);
+    }
+    (drop, side)
 }
 
 /// Blurs one `nxy × nxy` level (x fastest) in place: a box filter of half-width `radius`
@@ -244,6 +282,8 @@ mod tests {
             seed: 3,
             edge_fraction: 0.0,
             blur_m: 0.0,
+            relief: 0.0,
+            relief_m: 1500.0,
         }
     }
 
@@ -326,6 +366,53 @@ mod tests {
         assert_eq!(edge_fade(100.0, 100.0), 1.0);
         assert!((edge_fade(50.0, 100.0) - 0.5).abs() < 1e-12);
         assert_eq!(edge_fade(10.0, 0.0), 1.0);
+    }
+
+    /// Highest level (index) drawing at least a tenth of the full value, per column.
+    fn tops(v: &[f32], nxy: usize, nz: usize, full: f32) -> Vec<usize> {
+        (0..nxy * nxy)
+            .map(|c| (0..nz).rev().find(|&iz| v[iz * nxy * nxy + c] >= 0.1 * full).unwrap_or(0))
+            .collect()
+    }
+
+    /// With the default relief the curtain's top over a uniform field spans most of the 800 m
+    /// the lid can drop in a 1 km top layer (a ruled line without), its sides' fade moves in and out along each side, and a column's
+    /// lid is never raised above the stack's top nor lowered by more than a thickness.
+    #[test]
+    fn relief_makes_the_top_and_the_sides_ragged() {
+        let grid = GridSpec::new(64, 250.0).unwrap();
+        let mut ls = layers(grid);
+        for l in &mut ls {
+            l.ash.data_mut().fill(1.0);
+        }
+        let refs: Vec<&LayerFields> = ls.iter().collect();
+        let nz = 60; // 50 m levels
+        let flat = AshVolumeSpec { edge_fraction: 0.1, ..spec(64, nz, 0.0) };
+        let ragged = AshVolumeSpec { relief: 0.8, ..flat };
+        let (v0, v1) = (
+            ash_density_volume(&refs, grid, None, &flat).unwrap(),
+            ash_density_volume(&refs, grid, None, &ragged).unwrap(),
+        );
+        // Tops of the inner columns (away from the side fade).
+        let inner = |t: Vec<usize>| -> Vec<usize> {
+            (0..64 * 64)
+                .filter(|c| (12..52).contains(&(c % 64)) && (12..52).contains(&(c / 64)))
+                .map(|c| t[c])
+                .collect()
+        };
+        let span = |t: &[usize]| 50.0 * (*t.iter().max().unwrap() - *t.iter().min().unwrap()) as f64;
+        let (t0, t1) = (inner(tops(&v0, 64, nz, 1.0)), inner(tops(&v1, 64, nz, 1.0)));
+        assert_eq!(span(&t0), 0.0, "without relief the top is flat");
+        assert!(span(&t1) >= 500.0, "the ragged top spans {} m", span(&t1));
+        // The side band: the first column reaching half the full value, along the west side.
+        let half_in = |v: &[f32], jy: usize| (0..32).find(|&ix| v[(30 * 64 + jy) * 64 + ix] >= 0.5).unwrap();
+        let west: Vec<usize> = (8..56).map(|jy| half_in(&v1, jy)).collect();
+        assert!(west.iter().max().unwrap() - west.iter().min().unwrap() >= 2, "{west:?}");
+        assert!((8..56).all(|jy| half_in(&v0, jy) == half_in(&v0, 8)), "without relief a straight side");
+        let (drop, side) = relief_factors(&ragged, grid.extent());
+        assert!(drop.iter().all(|d| (0.0..=0.8).contains(d)) && side.iter().all(|f| (0.6..=1.4).contains(f)));
+        let (drop, side) = relief_factors(&flat, grid.extent());
+        assert!(drop.iter().all(|&d| d == 0.0) && side.iter().all(|&f| f == 1.0));
     }
 
     #[test]
