@@ -102,10 +102,10 @@ impl Default for AshFallSettings {
             shadow_strength: 0.5,
             streaks: 0.6,
             streak_m: 350.0,
-            edge_fraction: 0.08,
+            edge_fraction: 0.12,
             blur_m: 600.0,
             relief: 0.8,
-            relief_m: 1_500.0,
+            relief_m: 6_000.0,
             min_grams: 1.0,
         }
     }

@@ -67,10 +67,10 @@ impl AshVolumeSpec {
             streaks: 0.6,
             streak_m: 400.0,
             seed: 11,
-            edge_fraction: 0.08,
+            edge_fraction: 0.12,
             blur_m: 600.0,
             relief: 0.8,
-            relief_m: 1_500.0,
+            relief_m: 6_000.0,
         }
     }
 
@@ -161,23 +161,27 @@ pub fn ash_density_volume(
 }
 
 /// How much of the ash is drawn at altitude `z` in a column whose lid is lowered by `drop`
-/// (0–1, [`relief_factors`]): 1 up to the top layer's centre, then falling linearly to 0 at
-/// its top, the whole ramp lowered by `drop` times the top layer's thickness. The layers hold
-/// one value per slab; where the stack ends, this reads the air above as ash-free (as
-/// [`layer_blend`] blends adjacent layers between their centres). With the same ramp in every
-/// column the curtain had a flat top, seen edge-on from a camera near the lid as a ruled
-/// line; lowered by a noise it is ragged. A rendering choice: the air-ash query
-/// (`air_ash_at`) keeps the slab's value.
+/// (0–1, [`relief_factors`]): 1 up to the top layer's bottom, then a smoothstep down to 0 at
+/// its top, the whole ramp lowered by half of `drop` times the top layer's thickness. The
+/// layers hold one value per slab; where the stack ends, this reads the air above as thinning
+/// out. A rendering choice, against two defects seen in renders: held at the top layer's value
+/// up to its top, the curtain had a flat, hard lid above the umbrella; faded over the layer's
+/// upper half only, with a noise-lowered ramp, its top seen edge-on from a camera near the lid
+/// was a row of square notches. The top layer is also where the umbrella's spheres draw the
+/// same ash. The air-ash query (`air_ash_at`) keeps the slab's value.
 pub fn lid_fade(layers: &[&LayerFields], z: f64, drop: f64) -> f64 {
     let Some(top) = layers.last() else { return 0.0 };
-    let lower = drop.clamp(0.0, 1.0) * top.thickness;
-    let (centre, lid) = (top.altitude - lower, top.bottom + top.thickness - lower);
-    if z <= centre || lid <= centre { 1.0 } else { ((lid - z) / (lid - centre)).clamp(0.0, 1.0) }
+    let lower = 0.5 * drop.clamp(0.0, 1.0) * top.thickness;
+    let (start, end) = (top.bottom - lower, top.bottom + top.thickness - lower);
+    if z <= start || end <= start {
+        return 1.0;
+    }
+    let s = ((end - z) / (end - start)).clamp(0.0, 1.0);
+    s * s * (3.0 - 2.0 * s)
 }
 
-/// Per voxel column (`nxy²`, x fastest): how far the lid is lowered (0–`relief`, in top-layer
-/// thicknesses; [`lid_fade`]) and the factor on the side band's width (1 ± `relief`/2;
-/// [`edge_fade`]), both from one two-octave Perlin fBm over `relief_m`-sized features
+/// Per voxel column (`nxy²`, x fastest): how far the lid is lowered (0–`relief`; [`lid_fade`])
+/// and the factor on the side band's width (1 ± 0.6 `relief`; [`edge_fade`]), both from one two-octave Perlin fBm over `relief_m`-sized features
 /// (sampled at offset points for the two uses). All 0 and 1 when `relief` is 0.
 pub fn relief_factors(spec: &AshVolumeSpec, extent: f64) -> (Vec<f64>, Vec<f64>) {
     let noise =
@@ -191,7 +195,7 @@ pub fn relief_factors(spec: &AshVolumeSpec, extent: f64) -> (Vec<f64>, Vec<f64>)
         let a = (3.0 * noise.get([x + 0.37 * spec.relief_m, y + 0.71 * spec.relief_m])).clamp(-1.0, 1.0);
         let b = (3.0 * noise.get([x + 5.3 * spec.relief_m, y - 2.9 * spec.relief_m])).clamp(-1.0, 1.0);
         drop.push(spec.relief * 0.5 * (1.0 - a));
-        side.push(1.0 + 0.5 * spec.relief * b);
+        side.push(1.0 + 0.6 * spec.relief * b);
     }
     (drop, side)
 }
@@ -301,8 +305,9 @@ mod tests {
             assert!(l.iter().all(|&c| c == l[0]), "uniform field, uniform level");
             l[0]
         };
-        // The top level (2,750 m) is half-way from the top layer's centre to the lid: half drawn.
-        let expect = [0.0, 0.5, 1.5, 2.0 - 0.25 * 1.5, 2.0 - 0.75 * 1.5, 0.5 * 0.5];
+        // Above the top layer's bottom (2,000 m) the lid fade, a smoothstep to 0 at 3,000 m:
+        // 0.843 75 at 2,250 m, 0.156 25 at 2,750 m.
+        let expect = [0.0, 0.5, 1.5, 2.0 - 0.25 * 1.5, (2.0 - 0.75 * 1.5) * 0.843_75, 0.5 * 0.156_25];
         for (iz, e) in expect.iter().enumerate() {
             assert!((level(iz) - e).abs() < 1e-6, "level {iz}: {} vs {e}", level(iz));
         }
@@ -375,7 +380,7 @@ mod tests {
             .collect()
     }
 
-    /// With the default relief the curtain's top over a uniform field spans most of the 800 m
+    /// With the default relief the curtain's top over a uniform field spans most of the 400 m
     /// the lid can drop in a 1 km top layer (a ruled line without), its sides' fade moves in and out along each side, and a column's
     /// lid is never raised above the stack's top nor lowered by more than a thickness.
     #[test]
@@ -403,14 +408,16 @@ mod tests {
         let span = |t: &[usize]| 50.0 * (*t.iter().max().unwrap() - *t.iter().min().unwrap()) as f64;
         let (t0, t1) = (inner(tops(&v0, 64, nz, 1.0)), inner(tops(&v1, 64, nz, 1.0)));
         assert_eq!(span(&t0), 0.0, "without relief the top is flat");
-        assert!(span(&t1) >= 500.0, "the ragged top spans {} m", span(&t1));
+        assert!(span(&t1) >= 250.0, "the ragged top spans {} m", span(&t1));
         // The side band: the first column reaching half the full value, along the west side.
         let half_in = |v: &[f32], jy: usize| (0..32).find(|&ix| v[(30 * 64 + jy) * 64 + ix] >= 0.5).unwrap();
         let west: Vec<usize> = (8..56).map(|jy| half_in(&v1, jy)).collect();
         assert!(west.iter().max().unwrap() - west.iter().min().unwrap() >= 2, "{west:?}");
         assert!((8..56).all(|jy| half_in(&v0, jy) == half_in(&v0, 8)), "without relief a straight side");
         let (drop, side) = relief_factors(&ragged, grid.extent());
-        assert!(drop.iter().all(|d| (0.0..=0.8).contains(d)) && side.iter().all(|f| (0.6..=1.4).contains(f)));
+        assert!(
+            drop.iter().all(|d| (0.0..=0.8).contains(d)) && side.iter().all(|f| (0.52..=1.48).contains(f))
+        );
         let (drop, side) = relief_factors(&flat, grid.extent());
         assert!(drop.iter().all(|&d| d == 0.0) && side.iter().all(|&f| f == 1.0));
     }
