@@ -8,10 +8,10 @@
 //! layers it crosses, dense where the field is dense. The field is piecewise constant in
 //! altitude (one value per layer); streaks — a horizontal noise at a few voxels, constant along
 //! the fall — break the curtain into shafts, with a mean factor of 1 so the drawn mass follows
-//! the field. Below the terrain nothing is drawn, and above the top layer's centre the ash fades
-//! linearly to nothing at the stack's top ([`lid_fade`]): held at the top layer's value up to
-//! its top, the curtain had a flat, hard lid above the umbrella. That fade and the one along the
-//! footprint's sides ([`edge_fade`]) are made ragged by a noise ([`relief_factors`]).
+//! the field. Below the terrain nothing is drawn, and over the top layer the ash fades to
+//! nothing at the stack's top ([`lid_fade`]): held at the top layer's value up to its top, the
+//! curtain had a flat, hard lid above the umbrella. That fade and the one along the footprint's
+//! sides ([`edge_fade`]) are moved per column by a noise ([`relief_factors`]).
 
 use bevy::math::Vec2;
 use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
@@ -181,8 +181,9 @@ pub fn lid_fade(layers: &[&LayerFields], z: f64, drop: f64) -> f64 {
 }
 
 /// Per voxel column (`nxy²`, x fastest): how far the lid is lowered (0–`relief`; [`lid_fade`])
-/// and the factor on the side band's width (1 ± 0.6 `relief`; [`edge_fade`]), both from one two-octave Perlin fBm over `relief_m`-sized features
-/// (sampled at offset points for the two uses). All 0 and 1 when `relief` is 0.
+/// and the factor on the side band's width (1 ± 0.6 `relief`; [`edge_fade`]), both from one
+/// two-octave Perlin fBm over `relief_m`-sized features, sampled at offset points for the two
+/// uses. All 0 and 1 when `relief` is 0.
 pub fn relief_factors(spec: &AshVolumeSpec, extent: f64) -> (Vec<f64>, Vec<f64>) {
     let noise =
         Fbm::<Perlin>::new(spec.seed.wrapping_add(1)).set_octaves(2).set_frequency(1.0 / spec.relief_m);
@@ -191,7 +192,7 @@ pub fn relief_factors(spec: &AshVolumeSpec, extent: f64) -> (Vec<f64>, Vec<f64>)
     for k in 0..nxy * nxy {
         let (x, y) =
             (((k % nxy) as f64 + 0.5) * extent / nxy as f64, ((k / nxy) as f64 + 0.5) * extent / nxy as f64);
-        // Scaled to about ±1 (the fBm's spread is ≈ 0.3), then clamped.
+        // Tripled so the noise spans most of ±1, then clamped.
         let a = (3.0 * noise.get([x + 0.37 * spec.relief_m, y + 0.71 * spec.relief_m])).clamp(-1.0, 1.0);
         let b = (3.0 * noise.get([x + 5.3 * spec.relief_m, y - 2.9 * spec.relief_m])).clamp(-1.0, 1.0);
         drop.push(spec.relief * 0.5 * (1.0 - a));
