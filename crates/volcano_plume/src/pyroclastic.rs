@@ -178,9 +178,16 @@ fn step_flows(
         .collect();
     // The particle entities in query order (read here, written back below by a second pass in
     // the same order: nothing spawns or despawns in between, the commands wait).
-    let mut entities: Vec<Entity> = Vec::new();
+    let count = particles.iter().len();
+    let mut entities: Vec<Entity> = Vec::with_capacity(count);
     // Per volcano, the query positions of its particles, in the state's order.
     let mut owned: Vec<Vec<usize>> = vec![Vec::new(); volcanoes.len()];
+    // One erupting volcano (the usual case) owns every particle: its lists are sized once
+    // instead of growing (30,000 particles: a dozen reallocations and 7 MB copied a tick).
+    if let ([own], [flows]) = (owned.as_mut_slice(), state.volcanoes.as_mut_slice()) {
+        own.reserve(count);
+        flows.particles.reserve(count);
+    }
     // Consecutive particles mostly belong to the same volcano: looked up once per run.
     let mut last: Option<(Entity, Option<usize>)> = None;
     for (k, (entity, pp, _)) in particles.iter().enumerate() {
