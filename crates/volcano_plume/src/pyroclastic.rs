@@ -176,13 +176,33 @@ fn step_flows(
             emitted: emission.emitted,
         })
         .collect();
-    let mut items: Vec<(Entity, Mut<PyroParticle>, Mut<Transform>)> = particles.iter_mut().collect();
-    // Per volcano, the positions in `items` of its particles, in the state's order.
+    // The particle entities in query order (read here, written back below by a second pass in
+    // the same order: nothing spawns or despawns in between, the commands wait).
+    let count = particles.iter().len();
+    let mut entities: Vec<Entity> = Vec::with_capacity(count);
+    // Per volcano, the query positions of its particles, in the state's order.
     let mut owned: Vec<Vec<usize>> = vec![Vec::new(); volcanoes.len()];
-    for (k, (entity, pp, _)) in items.iter().enumerate() {
-        let Some(&v) = index.get(&pp.volcano) else {
+    // One erupting volcano (the usual case) owns every particle: its lists are sized once
+    // instead of growing (30,000 particles: a dozen reallocations and 7 MB copied a tick).
+    if let ([own], [flows]) = (owned.as_mut_slice(), state.volcanoes.as_mut_slice()) {
+        own.reserve(count);
+        flows.particles.reserve(count);
+    }
+    // Consecutive particles mostly belong to the same volcano: looked up once per run.
+    let mut last: Option<(Entity, Option<usize>)> = None;
+    for (k, (entity, pp, _)) in particles.iter().enumerate() {
+        entities.push(entity);
+        let found = match last {
+            Some((e, found)) if e == pp.volcano => found,
+            _ => {
+                let found = index.get(&pp.volcano).copied();
+                last = Some((pp.volcano, found));
+                found
+            }
+        };
+        let Some(v) = found else {
             // Its volcano is gone (or has no eruption): nothing books it.
-            commands.entity(*entity).despawn();
+            commands.entity(entity).despawn();
             continue;
         };
         owned[v].push(k);
@@ -229,6 +249,26 @@ fn step_flows(
             map.set_changed();
         }
     }
+    // The held particles the step kept: where each went, by query position (volcano, place in
+    // its list), written back in one pass over the query in the order it was read.
+    let mut dest = vec![(u32::MAX, 0u32); entities.len()];
+    for (v, out) in report.volcanoes.iter().enumerate() {
+        for (j, &from) in out.kept.iter().enumerate() {
+            if from < out.held {
+                dest[owned[v][from]] = (v as u32, j as u32);
+            }
+        }
+    }
+    for ((_, mut pp, mut transform), &(v, j)) in particles.iter_mut().zip(&dest) {
+        if v == u32::MAX {
+            continue;
+        }
+        let fp = &state.volcanoes[v as usize].particles[j as usize];
+        pp.particle = fp.particle;
+        pp.buoyant = fp.buoyant;
+        transform.translation = fp.vent + plume_to_world(fp.particle.position);
+        transform.scale = Vec3::splat(fp.particle.radius as f32);
+    }
     for (v, (flows, out)) in state.volcanoes.into_iter().zip(&report.volcanoes).enumerate() {
         let (volcano, _, _, budget, emission, _) = &mut volcanoes[v];
         let volcano = *volcano;
@@ -237,25 +277,18 @@ fn step_flows(
             emission.emitted = flows.emitted;
         }
         let mut new = Vec::new();
-        for (fp, &from) in flows.particles.iter().zip(&out.kept) {
+        // The particles it spawned (the held ones were written above).
+        for (fp, _) in flows.particles.iter().zip(&out.kept).filter(|(_, from)| **from >= out.held) {
             let world = fp.vent + plume_to_world(fp.particle.position);
             let scale = Vec3::splat(fp.particle.radius as f32);
-            if from < out.held {
-                let (_, pp, transform) = &mut items[owned[v][from]];
-                pp.particle = fp.particle;
-                pp.buoyant = fp.buoyant;
-                transform.translation = world;
-                transform.scale = scale;
-            } else {
-                let pp = PyroParticle {
-                    volcano,
-                    particle: fp.particle,
-                    vent: fp.vent,
-                    id: fp.id,
-                    buoyant: fp.buoyant,
-                };
-                new.push((Transform::from_translation(world).with_scale(scale), pp));
-            }
+            let pp = PyroParticle {
+                volcano,
+                particle: fp.particle,
+                vent: fp.vent,
+                id: fp.id,
+                buoyant: fp.buoyant,
+            };
+            new.push((Transform::from_translation(world).with_scale(scale), pp));
         }
         commands.spawn_batch(new);
         for s in &out.started {
@@ -296,7 +329,7 @@ fn step_flows(
     for &(v, i) in &report.removed {
         // Particles spawned and removed in the same step were never entities.
         if let Some(&k) = owned.get(v).and_then(|o| o.get(i)) {
-            commands.entity(items[k].0).despawn();
+            commands.entity(entities[k]).despawn();
         }
     }
     if report.particles_settled > 0 {

@@ -100,10 +100,10 @@ impl LayeredAmbient {
         }
     }
 
-    /// Temperature (K) at `z` m above sea level.
-    fn temperature_at(&self, z: f64) -> f64 {
+    /// Temperature (K) at `z` m above sea level, `bracket` being `self.bracket(z)`.
+    fn temperature_at(&self, z: f64, bracket: Bracket) -> f64 {
         let base = self.base.profile();
-        match self.bracket(z) {
+        match bracket {
             Bracket::Below => {
                 let l = &self.levels[0];
                 base.temperature(z) + (l.temperature - base.temperature(l.altitude))
@@ -112,7 +112,7 @@ impl LayeredAmbient {
                 let l = self.levels.last().expect("non-empty");
                 base.temperature(z) + (l.temperature - base.temperature(l.altitude))
             }
-            Bracket::Between(..) => self.lerp_by(z, |l| l.temperature),
+            Bracket::Between(..) => self.lerp_in(bracket, |l| l.temperature),
         }
     }
 
@@ -133,11 +133,15 @@ enum Bracket {
 impl AtmosphereProfile for LayeredAmbient {
     fn sample(&self, z: f64) -> AirState {
         let z = if z.is_nan() { 0.0 } else { z };
-        let temperature = self.temperature_at(z).max(100.0);
+        // One bracket for the temperature and the humidity (a slice samples the air in each
+        // of its substeps).
+        let bracket = self.bracket(z);
+        let temperature = self.temperature_at(z, bracket).max(100.0);
         let pressure = self.base.profile().pressure(z);
         // Specific humidity from the vapour density over the dry air's (g/m³ → kg/kg).
         let dry = pressure / (R_AIR * temperature);
-        let q = (1e-3 * self.humidity(z) / dry.max(1e-9)).min(0.2);
+        let humidity = self.lerp_in(bracket, |l| l.humidity).max(0.0);
+        let q = (1e-3 * humidity / dry.max(1e-9)).min(0.2);
         let density = pressure / (R_AIR * temperature * (1.0 + 0.608 * q));
         AirState { temperature, pressure, density }
     }

@@ -235,8 +235,12 @@ impl Slice {
     /// sinking (a secondary column carrying a flow's downward momentum) is not at an apex: it
     /// sinks until its buoyancy turns it round.
     pub(crate) fn update_phase(&mut self, env: &SliceEnv, report: &mut StepReport, rising: bool) {
-        let air_here = env.air.density(env.vent_altitude + self.position.z);
-        let lighter = self.density < air_here;
+        // The air is sampled only when the comparison can change a phase: before the slice
+        // was ever buoyant, or while buoyant below its neutral altitude (a slice past its
+        // neutral altitude, most secondary columns' long tail, skips one whole air sample).
+        let needs_air =
+            self.buoyant_from.is_none() || (self.phase == Phase::Buoyant && self.neutral_altitude.is_none());
+        let lighter = needs_air && self.density < env.air.density(env.vent_altitude + self.position.z);
         if self.buoyant_from.is_none() && lighter {
             self.buoyant_from = Some(self.position.z);
             self.phase = Phase::Buoyant;
