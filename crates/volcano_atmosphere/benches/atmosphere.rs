@@ -28,15 +28,12 @@ fn sweep(state: &mut AtmosphereState) {
     black_box(&state.layers);
 }
 
-/// CPU time (ms) this process has used so far, all threads (Linux `/proc/self/stat`, 100
-/// ticks per second; 0 elsewhere): on a loaded machine it measures the work, not the waiting.
+#[path = "support/cpu_time.rs"]
+mod cpu_time;
+
+/// CPU time (ms) this process has used so far, all threads.
 fn cpu_ms() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let after = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = after.split_whitespace().collect();
-    // Fields 14 and 15 of the file (utime, stime) are the 12th and 13th after the name.
-    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok());
-    tick(11).zip(tick(12)).map(|(u, s)| (u + s) * 10.0).unwrap_or(0.0)
+    cpu_time::cpu_ms("/proc/self/stat")
 }
 
 /// Mean phase times over 10 steps, printed as the profile of the step.

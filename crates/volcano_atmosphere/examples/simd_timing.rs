@@ -8,14 +8,12 @@ use volcano_atmosphere::model::multigrid::use_simd;
 use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_core::parallel;
 
-/// CPU time (ms) of the calling thread (Linux `/proc/thread-self/stat`, 100 ticks per
-/// second, so only sums over several steps mean much; 0 elsewhere).
+#[path = "../benches/support/cpu_time.rs"]
+mod cpu_time;
+
+/// CPU time (ms) of the calling thread.
 fn thread_cpu_ms() -> f64 {
-    let stat = std::fs::read_to_string("/proc/thread-self/stat").unwrap_or_default();
-    let after = stat.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = after.split_whitespace().collect();
-    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok());
-    tick(11).zip(tick(12)).map(|(u, s)| (u + s) * 10.0).unwrap_or(0.0)
+    cpu_time::cpu_ms("/proc/thread-self/stat")
 }
 
 fn main() {
