@@ -25,21 +25,6 @@ use volcano_render::{
 const W: u32 = 256;
 const H: u32 = 192;
 
-/// A density volume (g/m³) of `n³` voxels over `lo..hi` from a function of the world position.
-fn volume(n: usize, lo: Vec3, hi: Vec3, f: impl Fn(Vec3) -> f32) -> Vec<f32> {
-    let mut d = vec![0.0; n * n * n];
-    // Layout: x fastest, then world z (grid y), then altitude.
-    for iz in 0..n {
-        for jy in 0..n {
-            for ix in 0..n {
-                let t = (Vec3::new(ix as f32, iz as f32, jy as f32) + 0.5) / n as f32;
-                d[(iz * n + jy) * n + ix] = f(lo + (hi - lo) * t);
-            }
-        }
-    }
-    d
-}
-
 #[derive(Resource, Clone)]
 struct Setup {
     lo: Vec3,
@@ -63,8 +48,7 @@ fn scene(
     let s = &*setup;
     let settings = CloudRenderSettings::default();
     let image = density_image(&s.density, s.n, s.n, settings.density_scale).unwrap();
-    let material =
-        CloudMaterial { uniform: CloudUniform::new(s.lo, s.hi, &settings), density: images.add(image) };
+    let material = CloudMaterial::new(CloudUniform::new(s.lo, s.hi, &settings), images.add(image));
     commands.spawn((
         Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
         MeshMaterial3d(clouds.add(material)),
@@ -108,8 +92,9 @@ fn a_cloud_has_a_sun_side_and_a_shadow_side() {
     // A 1.2 km ball of 0.5 g/m³ with a soft rim, 4 km in front of the camera (≈ 60 px).
     let (lo, hi) = (Vec3::new(-1_500.0, 500.0, -1_500.0), Vec3::new(1_500.0, 3_500.0, 1_500.0));
     let centre = Vec3::new(0.0, 2_000.0, 0.0);
-    let density =
-        volume(64, lo, hi, |p| 0.5 * (1.0 - ((p - centre).length() - 1_000.0) / 200.0).clamp(0.0, 1.0));
+    let density = common::density_volume(64, lo, hi, |p| {
+        0.5 * (1.0 - ((p - centre).length() - 1_000.0) / 200.0).clamp(0.0, 1.0)
+    });
     let orbit = OrbitCamera { focus: centre, yaw: 0.0, pitch: 0.0, distance: 4_000.0, ..default() };
     // The camera looks north (−z) from the south; its right is +x. Sun from the right, a
     // little up and a little behind the camera.
@@ -135,11 +120,13 @@ fn a_cloud_slab_shades_the_ground_under_it() {
     // Sun 70° high in the south: the shadow's edge runs along x = 0, shifted only in z.
     let toward_sun = Vec3::new(0.0, 70f32.to_radians().sin(), 70f32.to_radians().cos()).normalize();
     let setup = |density| Setup { lo, hi, density, n: 64, orbit: orbit.clone(), toward_sun, plane: true };
-    let (under, open) = render("headless_lit_clouds_shadow.png", setup(volume(64, lo, hi, slab)));
+    let (under, open) =
+        render("headless_lit_clouds_shadow.png", setup(common::density_volume(64, lo, hi, slab)));
     let (lu, lo_) = (common::luminance(under), common::luminance(open));
     assert!(lu < lo_ - 25.0, "ground under the slab {lu:.1} not clearly darker than open ground {lo_:.1}");
     // Without cloud: both halves alike (the plane and the light are symmetric).
-    let (a, b) = render("headless_lit_clouds_no_shadow.png", setup(volume(64, lo, hi, |_| 0.0)));
+    let (a, b) =
+        render("headless_lit_clouds_no_shadow.png", setup(common::density_volume(64, lo, hi, |_| 0.0)));
     let (la, lb) = (common::luminance(a), common::luminance(b));
     assert!((la - lb).abs() < 5.0, "an empty volume shades the ground: {la:.1} vs {lb:.1}");
     assert!((lb - lo_).abs() < 5.0, "the open half changed with the slab: {lb:.1} vs {lo_:.1}");
@@ -151,7 +138,7 @@ fn frame_ms(drawn: bool) -> f64 {
     use std::sync::{Arc, Mutex};
     use std::time::Instant;
     let (lo, hi) = (Vec3::new(-12_000.0, 0.0, -12_000.0), Vec3::new(12_000.0, 4_000.0, 12_000.0));
-    let density = volume(128, lo, hi, |p| {
+    let density = common::density_volume(128, lo, hi, |p| {
         let blob = (p.x / 1_700.0).sin() * (p.z / 1_300.0).cos() - ((p.y - 2_000.0) / 900.0).powi(2);
         0.4 * blob.clamp(0.0, 1.0)
     });

@@ -178,7 +178,7 @@ impl Plugin for AshFallRenderPlugin {
             .register_type::<AshFallVolume>()
             .register_type::<AshFallDraw>()
             .init_resource::<AshFallSettings>()
-            .add_systems(PostUpdate, update_ash_volumes);
+            .add_systems(PostUpdate, update_ash_volumes.before(crate::clouds::split::split_cloud_draws));
     }
 }
 
@@ -242,8 +242,9 @@ pub fn ash_material(
         march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
         light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, 60.0),
         tint: Vec4::new(colour.red, colour.green, colour.blue, 0.0),
+        segment: CloudMaterial::BEHIND_ASH,
     };
-    CloudMaterial { uniform, density: image }
+    CloudMaterial::new(uniform, image)
 }
 
 /// What the ash system creates and replaces.

@@ -7,6 +7,9 @@
 // dimmed by the cloud above the sample. Where the view ray meets the opaque scene, a second
 // sun march from that point gives the cloud's shadow, applied by darkening what is behind
 // through the blend (premultiplied alpha: out = cloud + scene · T_view · shadow).
+// Each box is drawn twice (volcano_render::clouds::split): the part of each ray behind the
+// viewer's ash before the ash, the part in front of it after; both keep the whole ray's step
+// length, so the pair costs about one march.
 
 #import bevy_pbr::forward_io::VertexOutput
 #import bevy_pbr::mesh_view_bindings::{view, lights, fog}
@@ -33,11 +36,17 @@ struct CloudUniform {
     light: vec4<f32>,
     // Colour of the scattered light (linear RGB; white for cloud water, brown grey for ash).
     tint: vec4<f32>,
+    // 0: the part of each ray behind the ash (all of it where there is none), drawn before the
+    // ash; 1: the part in front of the ash, drawn after it (volcano_render::clouds::split).
+    segment: u32,
 }
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> cloud: CloudUniform;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var density_texture: texture_3d<f32>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(2) var density_sampler: sampler;
+// The viewer's ash depth (volcano_render::plume::depth): r the distance (km) to the nearest
+// ash that hides what is behind it, g = 0 where there is such ash.
+@group(#{MATERIAL_BIND_GROUP}) @binding(3) var ash_depth_texture: texture_2d<f32>;
 
 const PI: f32 = 3.141592653589793;
 
@@ -123,6 +132,24 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     }
 #endif
 
+    // The step length of the whole ray, kept for either part of it.
+    let n_full = max(cloud.march.x, 1.0);
+    let dt_full = max(t1 - t0, 0.0) / n_full;
+    let dims = vec2<i32>(textureDimensions(ash_depth_texture));
+    let texel = clamp(vec2<i32>(in.position.xy), vec2<i32>(0), dims - vec2<i32>(1));
+    let ash = textureLoad(ash_depth_texture, texel, 0).rg;
+    let has_ash = ash.g < 0.5;
+    let t_ash = ash.r * 1000.0;
+    let front = cloud.segment == 1u;
+    if front {
+        if !has_ash || t_ash <= t0 {
+            discard;
+        }
+        t1 = min(t1, t_ash);
+    } else if has_ash {
+        t0 = max(t0, min(t_ash, t1));
+    }
+
     let jitter = interleaved_gradient_noise(in.position.xy);
     var l = vec3(0.0, 1.0, 0.0);
     var sun = vec3(0.0);
@@ -143,8 +170,8 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     var radiance = vec3(0.0);
     var weighted_t = 0.0;
     var weight = 0.0;
-    if t1 > t0 {
-        let n = max(cloud.march.x, 1.0);
+    if t1 > t0 && dt_full > 0.0 {
+        let n = min(ceil((t1 - t0) / dt_full), n_full);
         let dt = (t1 - t0) / n;
         for (var i = 0.0; i < n; i += 1.0) {
             let t = t0 + (i + jitter) * dt;
@@ -177,9 +204,9 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         }
     }
 
-    // Cloud shadow on the opaque scene behind the clouds.
+    // Cloud shadow on the opaque scene behind the clouds (once: by the part behind the ash).
     var shade = 1.0;
-    if surface && l.y > 0.0 && transmittance > 0.0 {
+    if surface && !front && l.y > 0.0 && transmittance > 0.0 {
         let tau = sun_depth(surface_pos + l * 2.0, l, jitter);
         shade = 1.0 - cloud.march.w * (1.0 - exp(-tau));
     }

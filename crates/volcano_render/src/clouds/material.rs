@@ -9,8 +9,9 @@
 //! [`crate::camera_bundle`] have one; a game's camera only if it adds one), otherwise it runs to
 //! the box's exit and the clouds draw over the terrain. The box extends below the density
 //! volume down to [`CloudRenderSettings::shadow_floor_m`] so that ground under the lowest layer
-//! is covered and receives the shadows. It sorts before every other transparent item
-//! (clouds are drawn first, the ash over them).
+//! is covered and receives the shadows. Each box is drawn twice ([`super::split`]): the part
+//! of each ray behind the ash sorts before every other transparent item, the part in front of
+//! it after them (see [`crate::plume::AshDepthImage`]).
 
 use bevy::asset::Asset;
 use bevy::mesh::MeshVertexBufferLayoutRef;
@@ -46,6 +47,11 @@ pub struct CloudUniform {
     /// Colour of the scattered light (linear RGB, multiplies the albedo; w unused): white for
     /// cloud water, a brown grey for the ash fall ([`crate::ash_fall`]).
     pub tint: Vec4,
+    /// Which part of each view ray this draw marches: [`CloudMaterial::BEHIND_ASH`] (from the
+    /// ash, or the eye where there is none, to the scene; drawn before the ash) or
+    /// [`CloudMaterial::IN_FRONT_OF_ASH`] (from the eye to the ash; drawn after it). See
+    /// [`crate::plume::AshDepthImage`].
+    pub segment: u32,
 }
 
 impl CloudUniform {
@@ -61,13 +67,14 @@ impl CloudUniform {
             march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
             light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, s.powder_length_m),
             tint: Vec4::ONE,
+            segment: CloudMaterial::BEHIND_ASH,
         }
     }
 }
 
-/// The cloud pass's material: the uniform and the 3D density image (`R8Unorm`, u = x,
-/// v = altitude, w = z; [`crate::density_volume::density_image`]).
-#[derive(Asset, AsBindGroup, Debug, Clone, Reflect)]
+/// The cloud pass's material: the uniform, the 3D density image (`R8Unorm`, u = x,
+/// v = altitude, w = z; [`crate::density_volume::density_image`]) and the viewer's ash depth.
+#[derive(Asset, AsBindGroup, Debug, Clone, PartialEq, Reflect)]
 pub struct CloudMaterial {
     /// Volume, extinction, phase and march settings.
     #[uniform(0)]
@@ -76,6 +83,22 @@ pub struct CloudMaterial {
     #[texture(1, dimension = "3d")]
     #[sampler(2)]
     pub density: Handle<Image>,
+    /// The [`crate::plume::AshDepthImage`] (set by [`super::split`]); without it the whole ray
+    /// is marched before the ash, as without an ash-depth pass.
+    #[texture(3)]
+    pub ash_depth: Option<Handle<Image>>,
+}
+
+impl CloudMaterial {
+    /// [`CloudUniform::segment`] of a draw behind the ash (the whole ray where there is none).
+    pub const BEHIND_ASH: u32 = 0;
+    /// [`CloudUniform::segment`] of a draw in front of the ash.
+    pub const IN_FRONT_OF_ASH: u32 = 1;
+
+    /// A material for `density` over `uniform`'s volume (no ash depth yet).
+    pub fn new(uniform: CloudUniform, density: Handle<Image>) -> Self {
+        Self { uniform, density, ash_depth: None }
+    }
 }
 
 impl Material for CloudMaterial {
@@ -87,9 +110,10 @@ impl Material for CloudMaterial {
         AlphaMode::Premultiplied
     }
 
-    /// Far in front of everything else in the back-to-front sort: drawn first.
+    /// Behind the ash: far behind everything else in the back-to-front sort, drawn first; in
+    /// front of it: drawn last.
     fn depth_bias(&self) -> f32 {
-        -1.0e9
+        if self.uniform.segment == Self::IN_FRONT_OF_ASH { 1.0e9 } else { -1.0e9 }
     }
 
     fn enable_prepass() -> bool {

@@ -9,14 +9,17 @@
 //! powder), adds ambient sky light, and shades the opaque scene behind by the clouds' shadow
 //! (module [`material`]). It reads the first `DirectionalLight` and the ambient light of the
 //! view, so it follows a game's own sun; it adds nothing to cameras or lights.
-//! The ash fall ([`crate::ash_fall`]) is drawn by the same pass with its own material.
+//! The ash fall ([`crate::ash_fall`]) is drawn by the same pass with its own material. Each box
+//! is drawn twice, behind and in front of the ash ([`split`]).
 
 pub mod material;
 mod rebuild;
+pub mod split;
 
 pub use crate::density_volume::{density_image, density_texels, smooth_density, texel, volume_transform};
 pub use material::{CloudMaterial, CloudUniform, box_transform, volume_bounds};
 pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
+pub use split::{CloudFrontDraw, CloudFrontOf, split_materials};
 
 use bevy::asset::embedded_asset;
 use bevy::pbr::MaterialPlugin;
@@ -191,7 +194,14 @@ impl Plugin for CloudRenderPlugin {
             .register_type::<CloudBuildStatus>()
             .init_resource::<CloudRenderSettings>()
             .init_resource::<CloudBuildStatus>()
-            .add_systems(PostUpdate, (rebuild::start_cloud_builds, rebuild::apply_cloud_builds).chain());
+            .register_type::<CloudFrontDraw>()
+            .register_type::<CloudFrontOf>()
+            .add_systems(
+                PostUpdate,
+                (rebuild::start_cloud_builds, rebuild::apply_cloud_builds, split::split_cloud_draws)
+                    .chain()
+                    .before(bevy::transform::TransformSystems::Propagate),
+            );
     }
 }
 
@@ -266,5 +276,5 @@ pub fn cloud_material(
     settings: &CloudRenderSettings,
 ) -> CloudMaterial {
     let (lo, hi) = volume_bounds(transform);
-    CloudMaterial { uniform: CloudUniform::new(lo, hi, settings), density: image }
+    CloudMaterial::new(CloudUniform::new(lo, hi, settings), image)
 }

@@ -19,6 +19,7 @@
 // (volcano_plume::view::detail_spheres).
 
 #import bevy_pbr::mesh_view_bindings::{view, lights}
+#import bevy_pbr::view_transformations::{position_ndc_to_world, frag_coord_to_uv, uv_to_ndc}
 
 // BEGIN expansion: compiled on its own (group 3 renamed) by tests/gpu_expansion.rs, which
 // compares it with the CPU enumeration. Keep it free of Bevy imports.
@@ -247,38 +248,69 @@ const ASH_DENSE: vec3<f32> = vec3<f32>(0.045, 0.034, 0.027);
 const VENT_GLOW: vec3<f32> = vec3<f32>(9000.0, 3300.0, 900.0);
 const ASH_DILUTE: vec3<f32> = vec3<f32>(0.464, 0.442, 0.410);
 
-@fragment
-fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
+// Opacity of a fragment (x; 0 outside the quad's disc) and the smoke texture's bump (y): the
+// soft edge of the radial profile, the smoke texture for puffs, thinner for diluted ash, and a
+// detail sphere behind its parent's centre seen only through the parent's body. Shared by the
+// colour pass and the ash-depth pass (volcano_render::plume::depth).
+fn coverage(in: VertexOutput) -> vec2<f32> {
     let r2 = dot(in.uv, in.uv);
     if (r2 > 1.0) {
-        discard;
+        return vec2<f32>(0.0);
     }
     let angle = in.params.x;
     let shade = in.params.y;
-    let coverage = in.params.z;
+    let cov = in.params.z;
     let kind = in.params.w;
-    var uv = in.uv;
     var bump = 0.0;
-    // Soft edge: opacity from the radial profile (and the smoke texture for puffs).
     var alpha = smoothstep(0.0, 0.5, 1.0 - r2);
     if (kind >= 1.0) {
         // Smoke texture in the puff's own frame, turned by the projected spin.
         let c = cos(angle);
         let s = sin(angle);
-        let p = vec2<f32>(c * uv.x - s * uv.y, s * uv.x + c * uv.y);
+        let p = vec2<f32>(c * in.uv.x - s * in.uv.y, s * in.uv.x + c * in.uv.y);
         let variant = fract(kind) * 37.0;
         let n = fbm(p * 2.2 + vec2<f32>(variant, 2.0 * variant));
         let body = (1.0 - r2) + (n - 0.5) * 1.1;
-        let edge = 0.55 - 0.45 * coverage;
+        let edge = 0.55 - 0.45 * cov;
         alpha = smoothstep(edge - 0.1, edge + 0.35, body);
         bump = n - 0.5;
     }
-    // Dense ash is opaque, diluted ash lets the background through; a detail sphere behind
-    // its parent's centre shows only through the parent's body.
+    // Dense ash is opaque, diluted ash lets the background through.
     alpha = alpha * mix(1.0, 0.6, shade * shade) * in.body;
+    return vec2<f32>(alpha, bump);
+}
+
+// Fragments at least this opaque mark where the ash begins along a view ray (the ash-depth
+// pass). Low, so that a puff's soft fringe behind a cloud is not drawn over the cloud (with
+// 0.35 the fringe showed as a dark outline through a cloud in front of the puff); the price is
+// that a cloud behind a faint veil of ash and in front of dense ash is drawn under both.
+const DEPTH_ALPHA: f32 = 0.03;
+
+// The ash-depth pass (volcano_render::plume::depth): the distance (km) from the eye to each
+// fragment at least DEPTH_ALPHA opaque, in r; g = 0 marks "ash here". Blended with min into a
+// target cleared to (65504, 1), so each pixel keeps the nearest such fragment. The cloud pass
+// reads it to draw the clouds behind the ash before it and those in front after it.
+@fragment
+fn fragment_depth(in: VertexOutput) -> @location(0) vec2<f32> {
+    if (coverage(in).x < DEPTH_ALPHA) {
+        discard;
+    }
+    let ndc = vec3<f32>(uv_to_ndc(frag_coord_to_uv(in.clip_position.xy)), in.clip_position.z);
+    let world = position_ndc_to_world(ndc);
+    return vec2<f32>(distance(world, view.world_position) * 0.001, 0.0);
+}
+
+@fragment
+fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
+    let cover = coverage(in);
+    let alpha = cover.x;
     if (alpha < 0.004) {
         discard;
     }
+    let uv = in.uv;
+    let r2 = dot(uv, uv);
+    let shade = in.params.y;
+    let bump = cover.y;
     // Sphere-impostor normal in view space, bent by the smoke texture.
     let nz = sqrt(max(1.0 - r2, 0.0));
     let n_view = normalize(vec3<f32>(uv.x + bump * 0.8, uv.y + bump * 0.8, nz + 0.1));

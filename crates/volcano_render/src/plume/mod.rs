@@ -13,6 +13,7 @@
 //! - **Debug views**: s1/umbrella spheres as mesh spheres and slices as gizmo circles.
 
 mod debug;
+mod depth;
 pub mod layout;
 mod pipeline;
 
@@ -22,6 +23,7 @@ use bevy::prelude::*;
 use volcano_plume::{AshLightSettings, PlumeViewSettings, PlumeViewpoint};
 
 pub use debug::PlumeVisuals;
+pub use depth::{ASH_DEPTH_FORMAT, AshDepthImage, ash_depth_image};
 pub use layout::{AshParent, AshParents, PlumeParents, update_parents};
 pub use pipeline::AshCloud;
 
@@ -72,6 +74,7 @@ impl Plugin for PlumeRenderPlugin {
             .add_systems(PostUpdate, (follow_camera, follow_sun, apply_mode).before(update_parents));
         debug::build(app);
         pipeline::build(app);
+        depth::build(app);
     }
 }
 

@@ -69,7 +69,7 @@ struct RenderAshParents(Arc<AshParents>);
 /// GPU copy of the parents (bind group 3) and the number of instances they expand to, on the
 /// [`AshCloud`] render entity.
 #[derive(Component)]
-struct AshParentBuffers {
+pub(super) struct AshParentBuffers {
     bind_group: BindGroup,
     total: u32,
 }
@@ -154,10 +154,10 @@ fn prepare_buffer(
     }
 }
 
-#[derive(Resource)]
-struct AshPipeline {
+#[derive(Resource, Clone)]
+pub(super) struct AshPipeline {
     shader: Handle<Shader>,
-    mesh_pipeline: MeshPipeline,
+    pub(super) mesh_pipeline: MeshPipeline,
     /// Bind group 3: the parents and the prefix sum of their instance counts.
     parents_layout: BindGroupLayoutDescriptor,
 }
@@ -196,6 +196,8 @@ impl SpecializedMeshPipeline for AshPipeline {
         descriptor.set_layout(3, self.parents_layout.clone());
         if let Some(fragment) = descriptor.fragment.as_mut() {
             fragment.shader = self.shader.clone();
+            // `ash.wgsl` has a second fragment entry point, the ash-depth pass's (`depth`).
+            fragment.entry_point = Some("fragment".into());
         }
         // Both faces: the quad always faces the camera, but cheap insurance against winding.
         descriptor.primitive.cull_mode = None;
@@ -264,7 +266,7 @@ type DrawAsh = (
     DrawAshInstanced,
 );
 
-struct DrawAshInstanced;
+pub(super) struct DrawAshInstanced;
 
 impl<P: PhaseItem> RenderCommand<P> for DrawAshInstanced {
     type Param = (SRes<RenderAssets<RenderMesh>>, SRes<RenderMeshInstances>, SRes<MeshAllocator>);

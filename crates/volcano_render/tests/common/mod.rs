@@ -45,13 +45,16 @@ pub fn run_and_read(mut app: App, out: &Path) -> (u32, u32, Vec<u8>) {
 /// The ash tests' stage: the camera 5 km from a point 500 m up, looking nearly level, and a
 /// shadowless 100,000-lux sun that each test turns where it needs it.
 pub fn ash_stage(mut commands: Commands) {
-    let orbit =
-        OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() };
-    commands.spawn(camera_bundle(orbit));
+    commands.spawn(camera_bundle(ash_stage_orbit()));
     commands.spawn((
         DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: false, ..default() },
         Transform::default(),
     ));
+}
+
+/// The ash tests' camera (see [`ash_stage`]).
+pub fn ash_stage_orbit() -> OrbitCamera {
+    OrbitCamera { focus: Vec3::new(0.0, 500.0, 0.0), pitch: 0.05, distance: 5_000.0, ..default() }
 }
 
 /// Luminance of an sRGB-encoded mean colour, Rec. 709 weights on the encoded values (what the
@@ -85,4 +88,20 @@ pub fn puff_parent(center: Vec3, light: u32) -> volcano_render::plume::AshParent
         billboard_radius: PUFF_RADIUS,
         light,
     }
+}
+
+/// A cloud density volume (g/m³) of `n³` voxels over `lo..hi` from a function of the world
+/// position, in the layout of `volcano_render::density_volume::density_image` (x fastest, then
+/// world z, then altitude).
+pub fn density_volume(n: usize, lo: Vec3, hi: Vec3, f: impl Fn(Vec3) -> f32) -> Vec<f32> {
+    let mut d = vec![0.0; n * n * n];
+    for iz in 0..n {
+        for jy in 0..n {
+            for ix in 0..n {
+                let t = (Vec3::new(ix as f32, iz as f32, jy as f32) + 0.5) / n as f32;
+                d[(iz * n + jy) * n + ix] = f(lo + (hi - lo) * t);
+            }
+        }
+    }
+    d
 }

@@ -1,0 +1,107 @@
+//! Every cloud box drawn twice, around the ash: the box as spawned (by the cloud rebuild, the
+//! ash fall, or a game) marches each view ray from the ash onward and is drawn before the ash;
+//! a child box with a twin material ([`CloudMaterial::IN_FRONT_OF_ASH`]) marches from the eye
+//! up to the ash and is drawn after it. Both read [`AshDepthImage`]. The twin follows its
+//! original: any edit of the original material is copied to it in the same frame.
+
+use bevy::light::{NotShadowCaster, NotShadowReceiver};
+use bevy::prelude::*;
+
+use super::CloudMaterial;
+use crate::plume::AshDepthImage;
+
+/// On a cloud box: its twin drawn in front of the ash.
+#[derive(Component, Debug, Clone, Copy, Reflect)]
+#[reflect(Component, Debug)]
+pub struct CloudFrontDraw(pub Entity);
+
+/// On the twin box (a child of the original, same mesh, identity transform).
+#[derive(Component, Debug, Clone, Copy, Reflect)]
+#[reflect(Component, Debug)]
+pub struct CloudFrontOf(pub Entity);
+
+/// `original` with the viewer's ash depth, and its twin for the part in front of the ash.
+pub fn split_materials(
+    original: &CloudMaterial,
+    ash_depth: &Handle<Image>,
+) -> (CloudMaterial, CloudMaterial) {
+    let mut behind = original.clone();
+    behind.ash_depth = Some(ash_depth.clone());
+    behind.uniform.segment = CloudMaterial::BEHIND_ASH;
+    let mut front = behind.clone();
+    front.uniform.segment = CloudMaterial::IN_FRONT_OF_ASH;
+    (behind, front)
+}
+
+/// Gives every cloud box the ash depth and a twin in front of the ash, and keeps the twins'
+/// materials equal to their originals' (but for the segment). Nothing without an
+/// [`AshDepthImage`] (no ash renderer).
+#[allow(clippy::type_complexity)]
+pub(crate) fn split_cloud_draws(
+    mut commands: Commands,
+    ash_depth: Option<Res<AshDepthImage>>,
+    originals: Query<
+        (Entity, &MeshMaterial3d<CloudMaterial>, &Mesh3d, Option<&CloudFrontDraw>),
+        Without<CloudFrontOf>,
+    >,
+    twins: Query<&MeshMaterial3d<CloudMaterial>, With<CloudFrontOf>>,
+    mut materials: ResMut<Assets<CloudMaterial>>,
+) {
+    let Some(ash_depth) = ash_depth else { return };
+    for (entity, material, mesh, front) in &originals {
+        let Some(original) = materials.get(&material.0) else { continue };
+        let (behind, wanted) = split_materials(original, &ash_depth.0);
+        if *original != behind
+            && let Some(mut m) = materials.get_mut(&material.0)
+        {
+            *m = behind;
+        }
+        match front.and_then(|f| twins.get(f.0).ok()) {
+            Some(twin) => {
+                if materials.get(&twin.0) != Some(&wanted)
+                    && let Some(mut m) = materials.get_mut(&twin.0)
+                {
+                    *m = wanted;
+                }
+            }
+            None => {
+                let twin = commands
+                    .spawn((
+                        Name::new("Clouds in front of the ash"),
+                        Mesh3d(mesh.0.clone()),
+                        MeshMaterial3d(materials.add(wanted)),
+                        Transform::default(),
+                        Visibility::Inherited,
+                        NotShadowCaster,
+                        NotShadowReceiver,
+                        CloudFrontOf(entity),
+                        ChildOf(entity),
+                    ))
+                    .id();
+                commands.entity(entity).insert(CloudFrontDraw(twin));
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::clouds::{CloudRenderSettings, CloudUniform};
+
+    #[test]
+    fn the_twin_differs_only_in_its_segment_and_sorts_after_the_original() {
+        use bevy::pbr::Material;
+        let uniform = CloudUniform::new(Vec3::ZERO, Vec3::ONE, &CloudRenderSettings::default());
+        let original = CloudMaterial::new(uniform, Handle::default());
+        let depth = Handle::<Image>::default();
+        let (behind, front) = split_materials(&original, &depth);
+        assert_eq!(behind.ash_depth, Some(depth));
+        assert_eq!(behind.uniform.segment, CloudMaterial::BEHIND_ASH);
+        assert_eq!(front.uniform.segment, CloudMaterial::IN_FRONT_OF_ASH);
+        let mut same = front.clone();
+        same.uniform.segment = CloudMaterial::BEHIND_ASH;
+        assert_eq!(same, behind);
+        assert!(behind.depth_bias() < -1e8 && front.depth_bias() > 1e8);
+    }
+}
