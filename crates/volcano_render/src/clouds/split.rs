@@ -34,12 +34,12 @@ pub fn split_materials(
 }
 
 /// Gives every cloud box the ash depth and a twin in front of the ash, and keeps the twins'
-/// materials equal to their originals' (but for the segment). Nothing without an
-/// [`AshDepthImage`] (no ash renderer).
+/// materials equal to their originals' (but for the segment); tells the ash-depth pass whether
+/// anything reads it. Nothing without an [`AshDepthImage`] (no ash renderer).
 #[allow(clippy::type_complexity)]
 pub(crate) fn split_cloud_draws(
     mut commands: Commands,
-    ash_depth: Option<Res<AshDepthImage>>,
+    ash_depth: Option<ResMut<AshDepthImage>>,
     originals: Query<
         (Entity, &MeshMaterial3d<CloudMaterial>, &Mesh3d, Option<&CloudFrontDraw>),
         Without<CloudFrontOf>,
@@ -47,10 +47,14 @@ pub(crate) fn split_cloud_draws(
     twins: Query<&MeshMaterial3d<CloudMaterial>, With<CloudFrontOf>>,
     mut materials: ResMut<Assets<CloudMaterial>>,
 ) {
-    let Some(ash_depth) = ash_depth else { return };
+    let Some(mut ash_depth) = ash_depth else { return };
+    let in_use = !originals.is_empty();
+    if ash_depth.in_use != in_use {
+        ash_depth.in_use = in_use;
+    }
     for (entity, material, mesh, front) in &originals {
         let Some(original) = materials.get(&material.0) else { continue };
-        let (behind, wanted) = split_materials(original, &ash_depth.0);
+        let (behind, wanted) = split_materials(original, &ash_depth.image);
         if *original != behind
             && let Some(mut m) = materials.get_mut(&material.0)
         {

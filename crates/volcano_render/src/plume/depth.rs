@@ -64,7 +64,13 @@ const NO_ASH: LinearRgba = LinearRgba { red: 65504.0, green: 1.0, blue: 0.0, alp
 /// render target, and that every cloud material reads.
 #[derive(Resource, Debug, Clone, ExtractResource, Reflect)]
 #[reflect(Resource, Debug)]
-pub struct AshDepthImage(pub Handle<Image>);
+pub struct AshDepthImage {
+    /// The image.
+    pub image: Handle<Image>,
+    /// Whether anything reads it (set by the cloud split each frame): without a reader the
+    /// ash is not drawn into it, only the clear is paid.
+    pub in_use: bool,
+}
 
 /// Adds the image, its sizing, and the pass.
 pub(super) fn build(app: &mut App) {
@@ -95,7 +101,8 @@ pub(super) fn build(app: &mut App) {
 /// Inserts [`AshDepthImage`] (1×1 until a viewer sizes it), when the app has images at all.
 fn create_image(mut commands: Commands, images: Option<ResMut<Assets<Image>>>) {
     if let Some(mut images) = images {
-        commands.insert_resource(AshDepthImage(images.add(ash_depth_image(UVec2::ONE))));
+        commands
+            .insert_resource(AshDepthImage { image: images.add(ash_depth_image(UVec2::ONE)), in_use: false });
     }
 }
 
@@ -123,9 +130,9 @@ fn size_to_viewer(
         return;
     };
     let extent = Extent3d { width: size.x.max(1), height: size.y.max(1), depth_or_array_layers: 1 };
-    let current = images.get(&target.0).map(|i| i.texture_descriptor.size);
+    let current = images.get(&target.image).map(|i| i.texture_descriptor.size);
     if current != Some(extent)
-        && let Some(mut image) = images.get_mut(&target.0)
+        && let Some(mut image) = images.get_mut(&target.image)
     {
         image.resize(extent);
     }
@@ -239,9 +246,11 @@ type DrawAshDepth = (
 
 /// A phase for the first active [`VolcanoViewer`] 3D camera (the one [`AshDepthImage`] is
 /// sized to).
+type ViewerCameras<'w, 's> = Query<'w, 's, (Entity, &'static Camera), (With<Camera3d>, With<VolcanoViewer>)>;
+
 fn extract_phases(
     mut phases: ResMut<ViewSortedRenderPhases<AshDepth3d>>,
-    cameras: Extract<Query<(Entity, &Camera), (With<Camera3d>, With<VolcanoViewer>)>>,
+    cameras: Extract<ViewerCameras>,
     mut live: Local<HashSet<RetainedViewEntity>>,
 ) {
     live.clear();
@@ -265,6 +274,7 @@ fn queue_depth(
     mut phases: ResMut<ViewSortedRenderPhases<AshDepth3d>>,
     views: Query<&ExtractedView>,
     view_keys: Res<ViewKeyCache>,
+    target: Option<Res<AshDepthImage>>,
     mut commands: Commands,
 ) {
     let Some(pipeline) = pipeline else {
@@ -273,10 +283,11 @@ fn queue_depth(
         return;
     };
     let draw = draw_functions.read().id::<DrawAshDepth>();
+    let in_use = target.is_some_and(|t| t.in_use);
     for view in &views {
         let Some(phase) = phases.get_mut(&view.retained_view_entity) else { continue };
         let Some(&view_key) = view_keys.get(&view.retained_view_entity) else { continue };
-        for (entity, main_entity) in &clouds {
+        for (entity, main_entity) in clouds.iter().filter(|_| in_use) {
             let Some(mesh_instance) = mesh_instances.render_mesh_queue_data(*main_entity) else { continue };
             let Some(mesh) = meshes.get(mesh_instance.mesh_asset_id()) else { continue };
             let key = view_key
@@ -288,7 +299,7 @@ fn queue_depth(
                 error!("volcano: the ash-depth pipeline could not be specialised");
                 continue;
             };
-            phase.add_retained(AshDepth3d {
+            phase.add_transient(AshDepth3d {
                 distance: FloatOrd(0.0),
                 entity: (entity, *main_entity),
                 pipeline: id,
@@ -312,7 +323,7 @@ fn ash_depth_pass(
     let view_entity = view.entity();
     let (camera, extracted, resolution_override) = view.into_inner();
     let Some(phase) = phases.get(&extracted.retained_view_entity) else { return };
-    let Some(image) = target.as_ref().and_then(|t| images.get(&t.0)) else { return };
+    let Some(image) = target.as_ref().and_then(|t| images.get(&t.image)) else { return };
     let attachment = RenderPassColorAttachment {
         view: &image.texture_view,
         depth_slice: None,
