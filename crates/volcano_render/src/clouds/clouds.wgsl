@@ -9,7 +9,7 @@
 // through the blend (premultiplied alpha: out = cloud + scene · T_view · shadow).
 // Each box is drawn twice (volcano_render::clouds::split): the part of each ray behind the
 // viewer's ash before the ash, the part in front of it after; both keep the whole ray's step
-// length, so the pair costs about one march.
+// length (a short part at least 16 steps), so the pair costs about one march.
 
 #import bevy_pbr::forward_io::VertexOutput
 #import bevy_pbr::mesh_view_bindings::{view, lights, fog}
@@ -171,7 +171,9 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     var weighted_t = 0.0;
     var weight = 0.0;
     if t1 > t0 && dt_full > 0.0 {
-        let n = min(ceil((t1 - t0) / dt_full), n_full);
+        // A short part keeps at least 16 steps (or all of them): with one or two jittered steps
+        // the part in front of the ash showed as a per-pixel checker over it.
+        let n = min(max(ceil((t1 - t0) / dt_full), 16.0), n_full);
         let dt = (t1 - t0) / n;
         for (var i = 0.0; i < n; i += 1.0) {
             let t = t0 + (i + jitter) * dt;

@@ -154,6 +154,9 @@ struct VertexOutput {
     @location(3) place: vec4<f32>,
     // Transmittance of the parent's body between a detail sphere and the eye (1 for puffs).
     @location(4) body: f32,
+    // The billboard's world radius (m): the ash-depth pass places each fragment on the
+    // sphere's near surface rather than on the quad through its centre.
+    @location(5) radius: f32,
 };
 
 fn sun_direction() -> vec3<f32> {
@@ -201,6 +204,7 @@ fn vertex(v: Vertex) -> VertexOutput {
     let view_chord = max(-dot(place, to_eye), 0.0) * 2.0;
     var out: VertexOutput;
     out.body = exp(-view_chord * mix(3.0, 0.8, shade));
+    out.radius = radius;
     out.clip_position = view.clip_from_world * vec4<f32>(e.center_radius.xyz + offset, 1.0);
     out.uv = corner;
     out.params = vec4<f32>(e.params.x, shade, e.params.z, e.params.w);
@@ -297,7 +301,10 @@ fn fragment_depth(in: VertexOutput) -> @location(0) vec2<f32> {
     }
     let ndc = vec3<f32>(uv_to_ndc(frag_coord_to_uv(in.clip_position.xy)), in.clip_position.z);
     let world = position_ndc_to_world(ndc);
-    return vec2<f32>(distance(world, view.world_position) * 0.001, 0.0);
+    // The quad passes through the sphere's centre; its near surface is nearer by the height of
+    // the impostor at this fragment.
+    let near = in.radius * sqrt(max(1.0 - dot(in.uv, in.uv), 0.0));
+    return vec2<f32>(max(distance(world, view.world_position) - near, 0.0) * 0.001, 0.0);
 }
 
 @fragment
