@@ -11,17 +11,23 @@
 //! by round-off, and heat (h·T) moves with it at the donor temperature.
 //!
 //! The work runs in two passes over fixed row bands (see [`super::bands`]): mobilities and
-//! fluxes, then the global substep, then limiter and cell update. Each band computes what it
-//! needs of its neighbours' rows (mobility one row below, limiter one row each side) into its
-//! own buffer instead of waiting for a separate pass over the whole grid. The row loops of
-//! both passes are in `flow_rows` (branch-free, vectorised, bit-identical on any CPU).
+//! fluxes for the substep's maxima, then the global substep, then fluxes again, limiter and
+//! cell update. Each band computes what it needs of its neighbours' rows (mobility two rows
+//! each side, fluxes and limiter one row each side) into its own work buffer, reused by the
+//! thread that runs it, so the fluxes never travel through whole-grid arrays in memory. The
+//! row loops are in `flow_rows` and `flow_update` (branch-free, vectorised, bit-identical on
+//! any CPU).
+
+use std::cell::RefCell;
 
 use super::field::{Edge, FlowField};
 
-use super::bands::{BAND_ROWS, Simd, simd};
-use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
+use super::bands::{BAND_ROWS, Simd, band_range, simd};
+use super::flow_rows::{FluxCtx, band_fluxes};
+use super::flow_update::{UpdateCtx, UpdateOut, band_update, work_len};
 use super::flux::face_flux;
 pub use super::flux::{bingham_factor, slope_factor};
+use super::params::ViscosityModel;
 use super::params::{GRAVITY, LavaParams};
 use volcano_core::parallel::par_map;
 
@@ -62,19 +68,25 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             t: field.temp.data(),
             fac: &field.mob_factor,
         };
-        // 1. mobilities and face fluxes (row bands in parallel; maxima are exact in any order).
-        let (fy_rows, fy_north) = s.fy.split_at_mut(ny * nx);
-        let mut north = Some(fy_north);
-        let bands = s.mob.len();
-        let items: Vec<_> = s
-            .mob
-            .iter_mut()
-            .zip(s.fx.chunks_mut(BAND_ROWS * (nx + 1)))
-            .zip(fy_rows.chunks_mut(BAND_ROWS * nx))
-            .enumerate()
-            .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
-            .collect();
-        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north, simd));
+        // 1. mobilities and face fluxes, for their maxima only (row bands in parallel; maxima
+        // are exact in any order). A temperature-dependent mobility is kept for pass 2.
+        let keep = !matches!(c.viscosity, ViscosityModel::Constant(_));
+        if keep && s.mob.len() != nx * ny {
+            s.mob = vec![0.0; nx * ny];
+        }
+        let bands = ny.div_ceil(BAND_ROWS);
+        let items: Vec<Option<&mut [f64]>> = if keep {
+            s.mob.chunks_mut(BAND_ROWS * nx).map(Some).collect()
+        } else {
+            (0..bands).map(|_| None).collect()
+        };
+        let limits = par_map(items, |b, keep| {
+            let rows = band_range(b, ny).len();
+            with_work((rows + 1) * nx + nx + 1, |w| {
+                let (mob, row) = w.split_at_mut((rows + 1) * nx);
+                band_fluxes(&c, b, mob, row, keep, simd)
+            })
+        });
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
             m_max = m_max.max(m);
@@ -91,8 +103,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
                 );
                 m_max = m_max.max(m);
                 c_max = c_max.max(w);
-                s.fy[i] = q;
-                s.fy[ny * nx + i] = q;
+                s.wrap[i] = q;
             }
         }
         // 2. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
@@ -116,64 +127,89 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             t_left = 0.0;
         }
         let last = t_left == 0.0 || report.substeps == params.max_substeps;
-        report.outflow += transfer(field, scale * dt_s, last, simd);
+        report.outflow += transfer(field, params, scale * dt_s, last, simd);
     }
     field.budget.outflow += report.outflow;
     field.time += dt;
     report
 }
 
+thread_local! {
+    /// The work buffer of the bands a thread runs (reused, so it stays in that core's cache).
+    static WORK: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on this thread's work buffer, at least `len` long.
+fn with_work<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    WORK.with_borrow_mut(|w| {
+        if w.len() < len {
+            w.resize(len, 0.0);
+        }
+        f(&mut w[..len])
+    })
+}
+
 /// Applies one substep's face fluxes (`vol` = face length × substep, so volume = q · vol) with
 /// the positivity limiter; returns the volume that left through open edges. Each face volume
 /// is `q · vol · lim[donor]`, computed by the same expression on both sides, so what one cell
-/// loses its neighbour gains exactly.
-fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, simd: Simd) -> f64 {
+/// loses its neighbour gains exactly. The fluxes are those of pass 1, computed again per band.
+fn transfer(field: &mut FlowField, params: &LavaParams, vol: f64, write_velocity: bool, simd: Simd) -> f64 {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
-    let nfx = nx + 1;
     let area = dx * dx;
     let s = &mut field.scratch;
-    let (h, t) = (field.h.data(), field.temp.data());
-    let (fx, fy) = (&s.fx, &s.fy);
+    let flux = FluxCtx {
+        nx,
+        ny,
+        inv_dx: 1.0 / dx,
+        yield_rg: params.yield_strength / (params.density * GRAVITY),
+        rg3: params.density * GRAVITY / 3.0,
+        viscosity: params.viscosity,
+        edges: field.edges,
+        g: field.ground.data(),
+        h: field.h.data(),
+        t: field.temp.data(),
+        fac: &field.mob_factor,
+    };
+    let keep = !matches!(params.viscosity, ViscosityModel::Constant(_));
+    let e = field.edges;
     // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature. Row bands
-    // in parallel, each with the limiter of its rows and the rows on either side; the
-    // round-off tally is summed in band order.
+    // in parallel, each with the fluxes and limiter of its rows and the rows on either side;
+    // the round-off tally is summed in band order.
     let (hn, tn) = (s.h_new.data_mut(), s.t_new.data_mut());
     let (u, v) = field.vel.split_at_mut(1);
     let (u, v) = (u[0].data_mut(), v[0].data_mut());
     let band = BAND_ROWS * nx;
-    let items: Vec<_> = s
-        .lim
-        .iter_mut()
-        .zip(hn.chunks_mut(band).zip(tn.chunks_mut(band)))
+    let items: Vec<_> = hn
+        .chunks_mut(band)
+        .zip(tn.chunks_mut(band))
         .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
         .collect();
-    let c = UpdateCtx { nx, ny, fx, fy, h, t, vol, area, write_velocity };
-    let tallies = par_map(items, |b, ((lim, (hn, tn)), (u, v))| {
-        band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, simd)
+    let wrap = if e.south == Edge::Periodic { &s.wrap[..] } else { &[] };
+    let c = UpdateCtx { flux: &flux, wrap, mob_grid: keep.then_some(&s.mob[..]), vol, area, write_velocity };
+    let tallies = par_map(items, |b, ((hn, tn), (u, v))| {
+        with_work(work_len(nx, band_range(b, ny).len()), |work| {
+            band_update(&c, b, UpdateOut { work, hn, tn, u, v }, simd)
+        })
     });
-    let rounding: f64 = tallies.iter().sum();
-    // Volume through open edges (same expressions as above; the limiter of cell (i, j) is in
-    // its band's buffer at local row j − start + 1).
-    let lim_at = |i: usize, j: usize| {
-        let b = j / BAND_ROWS;
-        s.lim[b][(j - b * BAND_ROWS + 1) * nx + i]
-    };
+    let rounding: f64 = tallies.iter().map(|t| t.rounding).sum();
+    // Volume through open edges, in row order, then in cell order along the south and north.
     let mut outflow = 0.0;
-    let e = field.edges;
-    for j in 0..ny {
+    for [w, east] in tallies.iter().flat_map(|t| &t.west_east) {
         if e.west == Edge::Open {
-            outflow -= (fx[j * nfx] * vol * lim_at(0, j)).min(0.0);
+            outflow -= w;
         }
         if e.east == Edge::Open {
-            outflow += (fx[j * nfx + nx] * vol * lim_at(nx - 1, j)).max(0.0);
+            outflow += east;
         }
     }
+    let south = tallies.iter().flat_map(|t| &t.south).collect::<Vec<_>>();
+    let north = tallies.iter().flat_map(|t| &t.north).collect::<Vec<_>>();
     for i in 0..nx {
         if e.south == Edge::Open {
-            outflow -= (fy[i] * vol * lim_at(i, 0)).min(0.0);
+            outflow -= south[i];
         }
         if e.north == Edge::Open {
-            outflow += (fy[ny * nx + i] * vol * lim_at(i, ny - 1)).max(0.0);
+            outflow += north[i];
         }
     }
     std::mem::swap(&mut field.h, &mut s.h_new);
