@@ -11,23 +11,20 @@
 //! by round-off, and heat (h·T) moves with it at the donor temperature.
 //!
 //! The work runs in two passes over fixed row bands (see [`super::bands`]): mobilities and
-//! fluxes for the substep's maxima, then the global substep, then fluxes again, limiter and
-//! cell update. Each band computes what it needs of its neighbours' rows (mobility two rows
-//! each side, fluxes and limiter one row each side) into its own work buffer, reused by the
-//! thread that runs it, so the fluxes never travel through whole-grid arrays in memory. The
-//! row loops are in `flow_rows` and `flow_update` (branch-free, vectorised, bit-identical on
-//! any CPU).
-
-use std::cell::RefCell;
+//! fluxes, then the global substep, then limiter and cell update. Each band computes what it
+//! needs of its neighbours' rows (mobility one row below, limiter one row each side) into the
+//! work buffer of the thread that runs it (reused band after band, so it stays in that core's
+//! cache) instead of waiting for a separate pass over the whole grid. The row loops of
+//! both passes are in `flow_rows` (branch-free, vectorised, bit-identical on any CPU).
 
 use super::field::{Edge, FlowField};
 
+use std::cell::RefCell;
+
 use super::bands::{BAND_ROWS, Simd, band_range, simd};
-use super::flow_rows::{FluxCtx, band_fluxes};
-use super::flow_update::{UpdateCtx, UpdateOut, band_update, work_len};
+use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
 use super::flux::face_flux;
 pub use super::flux::{bingham_factor, slope_factor};
-use super::params::ViscosityModel;
 use super::params::{GRAVITY, LavaParams};
 use volcano_core::parallel::par_map;
 
@@ -68,24 +65,19 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             t: field.temp.data(),
             fac: &field.mob_factor,
         };
-        // 1. mobilities and face fluxes, for their maxima only (row bands in parallel; maxima
-        // are exact in any order). A temperature-dependent mobility is kept for pass 2.
-        let keep = !matches!(c.viscosity, ViscosityModel::Constant(_));
-        if keep && s.mob.len() != nx * ny {
-            s.mob = vec![0.0; nx * ny];
-        }
+        // 1. mobilities and face fluxes (row bands in parallel; maxima are exact in any order).
+        let (fy_rows, fy_north) = s.fy.split_at_mut(ny * nx);
+        let mut north = Some(fy_north);
         let bands = ny.div_ceil(BAND_ROWS);
-        let items: Vec<Option<&mut [f64]>> = if keep {
-            s.mob.chunks_mut(BAND_ROWS * nx).map(Some).collect()
-        } else {
-            (0..bands).map(|_| None).collect()
-        };
-        let limits = par_map(items, |b, keep| {
-            let rows = band_range(b, ny).len();
-            with_work((rows + 1) * nx + nx + 1, |w| {
-                let (mob, row) = w.split_at_mut((rows + 1) * nx);
-                band_fluxes(&c, b, mob, row, keep, simd)
-            })
+        let items: Vec<_> =
+            s.fx.chunks_mut(BAND_ROWS * (nx + 1))
+                .zip(fy_rows.chunks_mut(BAND_ROWS * nx))
+                .enumerate()
+                .map(|(b, (fx, fy))| (fx, fy, if b + 1 == bands { north.take() } else { None }))
+                .collect();
+        // The mobility rows of a band go to the work buffer of the thread that runs it.
+        let limits = par_map(items, |b, (fx, fy, north)| {
+            with_work((band_range(b, ny).len() + 1) * nx, |mob| band_fluxes(&c, b, mob, fx, fy, north, simd))
         });
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
@@ -103,7 +95,8 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
                 );
                 m_max = m_max.max(m);
                 c_max = c_max.max(w);
-                s.wrap[i] = q;
+                s.fy[i] = q;
+                s.fy[ny * nx + i] = q;
             }
         }
         // 2. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
@@ -127,7 +120,7 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             t_left = 0.0;
         }
         let last = t_left == 0.0 || report.substeps == params.max_substeps;
-        report.outflow += transfer(field, params, scale * dt_s, last, simd);
+        report.outflow += transfer(field, scale * dt_s, last, simd);
     }
     field.budget.outflow += report.outflow;
     field.time += dt;
@@ -135,11 +128,12 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
 }
 
 thread_local! {
-    /// The work buffer of the bands a thread runs (reused, so it stays in that core's cache).
+    /// The work buffer of the bands a thread runs (their mobility or limiter rows): reused, so
+    /// it stays in that core's cache instead of one buffer per band travelling through memory.
     static WORK: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
 }
 
-/// Runs `f` on this thread's work buffer, at least `len` long.
+/// Runs `f` on this thread's work buffer, `len` long.
 fn with_work<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
     WORK.with_borrow_mut(|w| {
         if w.len() < len {
@@ -152,29 +146,16 @@ fn with_work<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
 /// Applies one substep's face fluxes (`vol` = face length × substep, so volume = q · vol) with
 /// the positivity limiter; returns the volume that left through open edges. Each face volume
 /// is `q · vol · lim[donor]`, computed by the same expression on both sides, so what one cell
-/// loses its neighbour gains exactly. The fluxes are those of pass 1, computed again per band.
-fn transfer(field: &mut FlowField, params: &LavaParams, vol: f64, write_velocity: bool, simd: Simd) -> f64 {
+/// loses its neighbour gains exactly.
+fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, simd: Simd) -> f64 {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
     let area = dx * dx;
     let s = &mut field.scratch;
-    let flux = FluxCtx {
-        nx,
-        ny,
-        inv_dx: 1.0 / dx,
-        yield_rg: params.yield_strength / (params.density * GRAVITY),
-        rg3: params.density * GRAVITY / 3.0,
-        viscosity: params.viscosity,
-        edges: field.edges,
-        g: field.ground.data(),
-        h: field.h.data(),
-        t: field.temp.data(),
-        fac: &field.mob_factor,
-    };
-    let keep = !matches!(params.viscosity, ViscosityModel::Constant(_));
-    let e = field.edges;
+    let (h, t) = (field.h.data(), field.temp.data());
+    let (fx, fy) = (&s.fx, &s.fy);
     // Cell update: h' = h + (in − out)/A; heat h·T moves at the donor temperature. Row bands
-    // in parallel, each with the fluxes and limiter of its rows and the rows on either side;
-    // the round-off tally is summed in band order.
+    // in parallel, each with the limiter of its rows and the rows on either side; the
+    // round-off tally is summed in band order.
     let (hn, tn) = (s.h_new.data_mut(), s.t_new.data_mut());
     let (u, v) = field.vel.split_at_mut(1);
     let (u, v) = (u[0].data_mut(), v[0].data_mut());
@@ -184,15 +165,16 @@ fn transfer(field: &mut FlowField, params: &LavaParams, vol: f64, write_velocity
         .zip(tn.chunks_mut(band))
         .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
         .collect();
-    let wrap = if e.south == Edge::Periodic { &s.wrap[..] } else { &[] };
-    let c = UpdateCtx { flux: &flux, wrap, mob_grid: keep.then_some(&s.mob[..]), vol, area, write_velocity };
+    let e = field.edges;
+    let c = UpdateCtx { nx, ny, edges: e, fx, fy, h, t, vol, area, write_velocity };
+    // The limiters of a band go to the work buffer of the thread that runs it.
     let tallies = par_map(items, |b, ((hn, tn), (u, v))| {
-        with_work(work_len(nx, band_range(b, ny).len()), |work| {
-            band_update(&c, b, UpdateOut { work, hn, tn, u, v }, simd)
+        with_work((band_range(b, ny).len() + 2) * nx, |lim| {
+            band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, simd)
         })
     });
     let rounding: f64 = tallies.iter().map(|t| t.rounding).sum();
-    // Volume through open edges, in row order, then in cell order along the south and north.
+    // Volume through open edges, in row order, then cell by cell along the south and north.
     let mut outflow = 0.0;
     for [w, east] in tallies.iter().flat_map(|t| &t.west_east) {
         if e.west == Edge::Open {
@@ -202,8 +184,8 @@ fn transfer(field: &mut FlowField, params: &LavaParams, vol: f64, write_velocity
             outflow += east;
         }
     }
-    let south = tallies.iter().flat_map(|t| &t.south).collect::<Vec<_>>();
-    let north = tallies.iter().flat_map(|t| &t.north).collect::<Vec<_>>();
+    let south: Vec<f64> = tallies.iter().flat_map(|t| &t.south).copied().collect();
+    let north: Vec<f64> = tallies.iter().flat_map(|t| &t.north).copied().collect();
     for i in 0..nx {
         if e.south == Edge::Open {
             outflow -= south[i];

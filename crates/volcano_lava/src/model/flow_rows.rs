@@ -1,7 +1,5 @@
-//! The row loops of the flow substep ([`super::flow`]): the cell mobilities and face fluxes of
-//! a row or face row, and pass 1 (per band, the mobilities and fluxes for the stable substep's
-//! maxima only; pass 2, in `flow_update`, computes the same fluxes again next to the cells that
-//! use them, so no flux grid makes a round trip through memory).
+//! The row loops of the flow substep ([`super::flow`]): per band, the cell mobilities and face
+//! fluxes (pass 1), then the limiter and the cell update (pass 2).
 //!
 //! The loops are written branch-free over whole rows (selects instead of early returns, the
 //! wrapping first and last cells of a row apart), so the compiler can vectorise them. On
@@ -47,10 +45,9 @@ fn key(x: f64) -> i64 {
 }
 
 /// Fluxes of the faces between cells `a[i]` and `b[i]` (each `(ground, h, mobility)` rows of
-/// the same length as `out`), into `out`; returns the largest face mobility and wave speed
-/// (zeros unless `MAX`).
+/// the same length as `out`), into `out`; returns the largest face mobility and wave speed.
 #[inline(always)]
-fn flux_pairs<const YIELD: bool, const MAX: bool>(
+fn flux_pairs<const YIELD: bool>(
     inv_dx: f64,
     yield_rg: f64,
     (ga, ha, ma): (&[f64], &[f64], &[f64]),
@@ -64,150 +61,24 @@ fn flux_pairs<const YIELD: bool, const MAX: bool>(
     for i in 0..n {
         let (q, m, w) = face_flux(inv_dx, yrg, (ga[i], ha[i], ma[i]), (gb[i], hb[i], mb[i]));
         out[i] = q;
-        if MAX {
-            m_max = m_max.max(key(m));
-            c_max = c_max.max(key(w));
-        }
+        m_max = m_max.max(key(m));
+        c_max = c_max.max(key(w));
     }
     (f64::from_bits(m_max as u64), f64::from_bits(c_max as u64))
 }
 
-/// The mobility rows a band holds: local row `k` is grid row `(base + k) mod ny`.
-#[derive(Clone, Copy)]
-pub(super) struct MobRows<'a> {
-    pub buf: &'a [f64],
-    pub base: usize,
-    pub nx: usize,
-    pub ny: usize,
-}
-
-impl<'a> MobRows<'a> {
-    #[inline(always)]
-    fn row(&self, j: usize) -> &'a [f64] {
-        let k = (j + self.ny - self.base) % self.ny;
-        &self.buf[k * self.nx..(k + 1) * self.nx]
-    }
-
-    #[inline(always)]
-    fn at(&self, k: usize) -> f64 {
-        self.row(k / self.nx)[k % self.nx]
-    }
-}
-
-/// Cell mobilities of grid rows `first..first + out.len() / nx` into `out` (the same expression
-/// as [`mobility`], with `rg3/η` taken out of the loop for a constant viscosity).
-#[inline(always)]
-pub(super) fn mobility_rows(c: &FluxCtx, first: usize, out: &mut [f64]) {
-    let span = first * c.nx..first * c.nx + out.len();
-    match c.viscosity {
-        ViscosityModel::Constant(eta) => {
-            let k = c.rg3 / eta;
-            for ((m, &hh), &f) in out.iter_mut().zip(&c.h[span.clone()]).zip(&c.fac[span]) {
-                *m = k * f * hh * hh * hh;
-            }
-        }
-        _ => {
-            for (m, k) in out.iter_mut().zip(span) {
-                *m = c.mob(k);
-            }
-        }
-    }
-}
-
-/// The flux out of edge cell `e` through an open edge (`inner` its neighbour inside; the
-/// ghost cell beyond mirrors the ground slope and has the same thickness); zeros at a wall.
-#[inline(always)]
-fn open_face(c: &FluxCtx, mob: MobRows, edge: Edge, e: usize, inner: usize) -> (f64, f64, f64) {
-    if edge != Edge::Open {
-        return (0.0, 0.0, 0.0);
-    }
-    let (g, h) = (c.g, c.h);
-    let ghost = 2.0 * g[e] - g[inner];
-    let (q, m, w) = face_flux(c.inv_dx, c.yield_rg, (g[e], h[e], mob.at(e)), (ghost, h[e], mob.at(e)));
-    (q.max(0.0), m, w)
-}
-
-/// The x-face fluxes of cell row `j` into `frow` (`nx + 1`; face `i` west of cell `i`), each
-/// face's `(q, mobility, wave speed)` passed through `take`.
-#[inline(always)]
-pub(super) fn x_row<const YIELD: bool, const MAX: bool>(
-    c: &FluxCtx,
-    mob: MobRows,
-    j: usize,
-    frow: &mut [f64],
-    take: &mut impl FnMut((f64, f64, f64)) -> f64,
-) {
-    let nx = c.nx;
-    let r = j * nx..(j + 1) * nx;
-    let (rg, rh, rm) = (&c.g[r.clone()], &c.h[r], mob.row(j));
-    let n = nx - 1;
-    let a = (&rg[..n], &rh[..n], &rm[..n]);
-    let bb = (&rg[1..], &rh[1..], &rm[1..]);
-    let lim = flux_pairs::<YIELD, MAX>(c.inv_dx, c.yield_rg, a, bb, &mut frow[1..nx]);
-    take((0.0, lim.0, lim.1));
-    let (w, e) = (j * nx, j * nx + nx - 1);
-    let cell = |k: usize| (c.g[k], c.h[k], mob.at(k));
-    let (q0, qn) = if c.edges.west == Edge::Periodic {
-        let q = take(face_flux(c.inv_dx, c.yield_rg, cell(e), cell(w)));
-        (q, q)
-    } else {
-        let qw = take(open_face(c, mob, c.edges.west, w, (w + 1).min(e)));
-        let qe = take(open_face(c, mob, c.edges.east, e, if nx > 1 { e - 1 } else { e }));
-        (-qw, qe)
-    };
-    frow[0] = q0;
-    frow[nx] = qn;
-}
-
-/// The fluxes of y-face row `f` (between cell rows `f − 1` and `f`; 0 is the south edge, `ny`
-/// the north edge) into `frow` (`nx`). Periodic edge faces are copied from `wrap` (computed by
-/// the caller, which needs the far row).
-#[inline(always)]
-pub(super) fn y_face<const YIELD: bool, const MAX: bool>(
-    c: &FluxCtx,
-    mob: MobRows,
-    f: usize,
-    frow: &mut [f64],
-    take: &mut impl FnMut((f64, f64, f64)) -> f64,
-    wrap: &[f64],
-) {
-    let (nx, ny) = (c.nx, c.ny);
-    if f > 0 && f < ny {
-        let row_of = |j: usize| {
-            let r = j * nx..(j + 1) * nx;
-            (&c.g[r.clone()], &c.h[r], mob.row(j))
-        };
-        let lim = flux_pairs::<YIELD, MAX>(c.inv_dx, c.yield_rg, row_of(f - 1), row_of(f), frow);
-        take((0.0, lim.0, lim.1));
-    } else if c.edges.south == Edge::Periodic {
-        frow.copy_from_slice(wrap);
-    } else if f == 0 {
-        for (i, x) in frow.iter_mut().enumerate() {
-            let inner = if ny > 1 { i + nx } else { i };
-            *x = -take(open_face(c, mob, c.edges.south, i, inner));
-        }
-    } else {
-        for (i, x) in frow.iter_mut().enumerate() {
-            let e = (ny - 1) * nx + i;
-            let inner = if ny > 1 { e - nx } else { e };
-            *x = take(open_face(c, mob, c.edges.north, e, inner));
-        }
-    }
-}
-
 simd_dispatch! {
-    /// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`, at least
-    /// `(rows + 1) × nx`), the x-face fluxes of its rows and the y faces south of its rows (and, for the
-    /// last band, the north edge), each row into `row` (`nx + 1`, overwritten: only the maxima
-    /// are kept). Periodic south/north edge faces are left to the caller. With `keep`, the
-    /// mobilities of the band's rows are also copied there (for pass 2, when they are costly).
-    /// Returns the band's largest face mobility and wave speed.
+    /// Pass 1 for band `b`: mobilities of its rows and the row below (into `mob`), x-face
+    /// fluxes of its rows (`fx`, rows of `nx + 1`), the y faces south of its rows (`fy`, face
+    /// row `start` first; face row 0 is the south edge) and, for the last band, the north edge
+    /// faces (`north`). Returns the band's largest face mobility and wave speed.
     pub(super) fn band_fluxes(
         c: &FluxCtx,
         b: usize,
         mob: &mut [f64],
-        row: &mut [f64],
-        keep: Option<&mut [f64]>,
+        fx: &mut [f64],
+        fy: &mut [f64],
+        north: Option<&mut [f64]>,
     ) -> (f64, f64) => band_fluxes_rows
 }
 
@@ -216,13 +87,14 @@ fn band_fluxes_rows(
     c: &FluxCtx,
     b: usize,
     mob: &mut [f64],
-    row: &mut [f64],
-    keep: Option<&mut [f64]>,
+    fx: &mut [f64],
+    fy: &mut [f64],
+    north: Option<&mut [f64]>,
 ) -> (f64, f64) {
     if c.yield_rg > 0.0 {
-        band_fluxes_impl::<true>(c, b, mob, row, keep)
+        band_fluxes_impl::<true>(c, b, mob, fx, fy, north)
     } else {
-        band_fluxes_impl::<false>(c, b, mob, row, keep)
+        band_fluxes_impl::<false>(c, b, mob, fx, fy, north)
     }
 }
 
@@ -231,35 +103,307 @@ fn band_fluxes_impl<const YIELD: bool>(
     c: &FluxCtx,
     b: usize,
     mob: &mut [f64],
-    row: &mut [f64],
-    keep: Option<&mut [f64]>,
+    fx: &mut [f64],
+    fy: &mut [f64],
+    north: Option<&mut [f64]>,
 ) -> (f64, f64) {
-    let (nx, ny) = (c.nx, c.ny);
+    let (nx, ny, g, h) = (c.nx, c.ny, c.g, c.h);
     let rows = band_range(b, ny);
     let lo = rows.start.saturating_sub(1);
-    let mob = &mut mob[..(rows.end - lo) * nx];
-    mobility_rows(c, lo, mob);
-    if let Some(keep) = keep {
-        keep.copy_from_slice(&mob[(rows.start - lo) * nx..]);
+    let span = lo * nx..rows.end * nx;
+    match c.viscosity {
+        // The same expression as `mobility`, with `rg3/η` taken out of the loop.
+        ViscosityModel::Constant(eta) => {
+            let k = c.rg3 / eta;
+            for ((m, &hh), &f) in mob.iter_mut().zip(&h[span.clone()]).zip(&c.fac[span]) {
+                *m = k * f * hh * hh * hh;
+            }
+        }
+        _ => {
+            for (m, k) in mob.iter_mut().zip(span) {
+                *m = c.mob(k);
+            }
+        }
     }
-    let mob = MobRows { buf: mob, base: lo, nx, ny };
+    let mob = &*mob;
+    let row_of = |j: usize| {
+        let (r, l) = (j * nx..(j + 1) * nx, (j - lo) * nx..(j - lo + 1) * nx);
+        (&g[r.clone()], &h[r], &mob[l])
+    };
+    let cell = |k: usize| (g[k], h[k], mob[k - lo * nx]);
     let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
     let mut take = |(q, m, w): (f64, f64, f64)| {
         m_max = m_max.max(m);
         c_max = c_max.max(w);
         q
     };
-    for j in rows.clone() {
-        x_row::<YIELD, true>(c, mob, j, row, &mut take);
+    let nfx = nx + 1;
+    let open = |edge: Edge, e: usize, inner: usize| {
+        if edge != Edge::Open {
+            return (0.0, 0.0, 0.0);
+        }
+        let ghost = 2.0 * g[e] - g[inner];
+        let (q, m, w) = face_flux(c.inv_dx, c.yield_rg, cell(e), (ghost, h[e], mob[e - lo * nx]));
+        (q.max(0.0), m, w)
+    };
+    for (frow, j) in fx.chunks_mut(nfx).zip(rows.clone()) {
+        let (rg, rh, rm) = row_of(j);
+        let n = nx - 1;
+        let a = (&rg[..n], &rh[..n], &rm[..n]);
+        let bb = (&rg[1..], &rh[1..], &rm[1..]);
+        let lim = flux_pairs::<YIELD>(c.inv_dx, c.yield_rg, a, bb, &mut frow[1..nx]);
+        take((0.0, lim.0, lim.1));
+        let row = j * nx;
+        let (w, e) = (row, row + nx - 1);
+        let (q0, qn) = if c.edges.west == Edge::Periodic {
+            let q = take(face_flux(c.inv_dx, c.yield_rg, cell(e), cell(w)));
+            (q, q)
+        } else {
+            let qw = take(open(c.edges.west, w, (w + 1).min(e)));
+            let qe = take(open(c.edges.east, e, if nx > 1 { e - 1 } else { e }));
+            (-qw, qe)
+        };
+        frow[0] = q0;
+        frow[nx] = qn;
     }
-    let periodic = c.edges.south == Edge::Periodic;
-    for j in rows.clone() {
-        if j > 0 || !periodic {
-            y_face::<YIELD, true>(c, mob, j, &mut row[..nx], &mut take, &[]);
+    // Face row j (≥ 1) lies between cell rows j−1 and j.
+    for (frow, j) in fy.chunks_mut(nx).zip(rows.clone()) {
+        if j == 0 {
+            continue; // the south edge, below
+        }
+        let lim = flux_pairs::<YIELD>(c.inv_dx, c.yield_rg, row_of(j - 1), row_of(j), frow);
+        take((0.0, lim.0, lim.1));
+    }
+    // Open or wall edges south and north (periodic ones are done by the caller: they need
+    // the far row).
+    if c.edges.south != Edge::Periodic {
+        if rows.start == 0 {
+            for (i, f) in fy.iter_mut().take(nx).enumerate() {
+                let inner = if ny > 1 { i + nx } else { i };
+                *f = -take(open(c.edges.south, i, inner));
+            }
+        }
+        if let Some(north) = north {
+            for (i, f) in north.iter_mut().enumerate() {
+                let e = (ny - 1) * nx + i;
+                let inner = if ny > 1 { e - nx } else { e };
+                *f = take(open(c.edges.north, e, inner));
+            }
         }
     }
-    if rows.end == ny && !periodic {
-        y_face::<YIELD, true>(c, mob, ny, &mut row[..nx], &mut take, &[]);
-    }
     (m_max, c_max)
+}
+
+/// Read-only inputs of a cell-update pass.
+pub(super) struct UpdateCtx<'a> {
+    pub nx: usize,
+    pub ny: usize,
+    pub edges: Edges,
+    pub fx: &'a [f64],
+    pub fy: &'a [f64],
+    pub h: &'a [f64],
+    pub t: &'a [f64],
+    /// Face length × substep: a face's volume is `q · vol`.
+    pub vol: f64,
+    pub area: f64,
+    pub write_velocity: bool,
+}
+
+/// One band's limiter buffer (its rows and one each side, `(rows + 2) × nx`) and output rows
+/// of a cell-update pass.
+pub(super) struct UpdateOut<'a> {
+    pub lim: &'a mut [f64],
+    pub hn: &'a mut [f64],
+    pub tn: &'a mut [f64],
+    pub u: &'a mut [f64],
+    pub v: &'a mut [f64],
+}
+
+/// Limiter factors of cell row `j` into `out`: a cell's outgoing volume (`vol` = face length
+/// × substep) never exceeds what it holds.
+#[inline(always)]
+fn limiter_row(c: &UpdateCtx, j: usize, out: &mut [f64]) {
+    let (nx, vol, area) = (c.nx, c.vol, c.area);
+    let fxr = &c.fx[j * (nx + 1)..(j + 1) * (nx + 1)];
+    let (west, east) = (&fxr[..nx], &fxr[1..nx + 1]);
+    let (south, north) = (&c.fy[j * nx..(j + 1) * nx], &c.fy[(j + 1) * nx..(j + 2) * nx]);
+    let (h, out) = (&c.h[j * nx..(j + 1) * nx], &mut out[..nx]);
+    for i in 0..nx {
+        let (w, e, so, no) = (west[i], east[i], south[i], north[i]);
+        let o = (e.max(0.0) - w.min(0.0) + no.max(0.0) - so.min(0.0)) * vol;
+        let avail = h[i] * area;
+        out[i] = if o > avail { avail / o } else { 1.0 };
+    }
+}
+
+/// The new state of one cell from its four raw face fluxes (west, east, south, north; +x / +y
+/// positive) and the limiter factors and temperatures of the cell and its four neighbours (in
+/// the same order after the cell's own): the signed face volumes, each scaled by its donor's
+/// factor, give `(h' before the clamp, T', v_w, v_e, v_s, v_n)`. `T'` uses the clamped `h'`.
+#[inline(always)]
+fn cell_update(
+    (vol, inv_area): (f64, f64),
+    [qw, qe, qs, qn]: [f64; 4],
+    [lk, lw, le, ls, ln]: [f64; 5],
+    hk0: f64,
+    [tk, tw, te, ts, tn]: [f64; 5],
+) -> (f64, f64, [f64; 4]) {
+    let (qw, qe, qs, qn) = (qw * vol, qe * vol, qs * vol, qn * vol);
+    let vw = qw * if qw > 0.0 { lw } else { lk };
+    let ve = qe * if qe > 0.0 { lk } else { le };
+    let vs = qs * if qs > 0.0 { ls } else { lk };
+    let vn = qn * if qn > 0.0 { lk } else { ln };
+    let vin = vw.max(0.0) - ve.min(0.0) + vs.max(0.0) - vn.min(0.0);
+    let vout = ve.max(0.0) - vw.min(0.0) + vn.max(0.0) - vs.min(0.0);
+    let ein = vw.max(0.0) * tw - ve.min(0.0) * te + vs.max(0.0) * ts - vn.min(0.0) * tn;
+    let raw = hk0 + (vin - vout) * inv_area;
+    let hk = if raw < 0.0 { 0.0 } else { raw };
+    let remain = (hk0 - vout * inv_area).max(0.0);
+    let t_new = if hk > 0.0 { (remain * tk + ein * inv_area) / hk } else { tk };
+    (raw, t_new, [vw, ve, vs, vn])
+}
+
+/// What a band of the cell update returns besides its rows.
+pub(super) struct BandTally {
+    /// Volume clamped away where a cell went negative, summed in cell order.
+    pub rounding: f64,
+    /// Per row of the band (when the west or east edge is open): the volumes through the west
+    /// face (`min(0)`) and the east face (`max(0)`).
+    pub west_east: Vec<[f64; 2]>,
+    /// Per cell of row 0 (first band, open south edge): through the south face, `min(0)`.
+    pub south: Vec<f64>,
+    /// Per cell of row ny − 1 (last band, open north edge): through the north face, `max(0)`.
+    pub north: Vec<f64>,
+}
+
+simd_dispatch! {
+    /// Pass 2 for band `b`: the limiter of its rows and the rows on either side (local row 0
+    /// is the row below, wrapping; the last local row the row above), then the new `h`, `T`
+    /// (and velocity) of its rows. Returns the band's round-off tally (volume clamped away
+    /// where a cell went negative, summed in cell order) and the volumes through open edges
+    /// of its rows (the limiter buffer is the thread's, not kept after the band).
+    pub(super) fn band_update(c: &UpdateCtx, b: usize, out: UpdateOut) -> BandTally => band_update_rows
+}
+
+#[inline(always)]
+fn band_update_rows(c: &UpdateCtx, b: usize, out: UpdateOut) -> BandTally {
+    if c.write_velocity { band_update_impl::<true>(c, b, out) } else { band_update_impl::<false>(c, b, out) }
+}
+
+/// Stores cell `i`'s update into the output rows; true if its thickness went negative.
+#[inline(always)]
+fn store<const VEL: bool>(
+    i: usize,
+    (raw, t_new, [vw, ve, vs, vn]): (f64, f64, [f64; 4]),
+    vol: f64,
+    (hn, tn, u, v): (&mut [f64], &mut [f64], &mut [f64], &mut [f64]),
+) -> bool {
+    let hk = if raw < 0.0 { 0.0 } else { raw };
+    hn[i] = hk;
+    tn[i] = t_new;
+    if VEL {
+        let ok = hk > 0.0;
+        u[i] = if ok { 0.5 * (vw + ve) / (vol * hk) } else { 0.0 };
+        v[i] = if ok { 0.5 * (vs + vn) / (vol * hk) } else { 0.0 };
+    }
+    raw < 0.0
+}
+
+#[inline(always)]
+fn band_update_impl<const VEL: bool>(c: &UpdateCtx, b: usize, out: UpdateOut) -> BandTally {
+    let (nx, ny) = (c.nx, c.ny);
+    let rows = band_range(b, ny);
+    let (start, n) = (rows.start, rows.len());
+    let below = if start > 0 { start - 1 } else { ny - 1 };
+    let above = if rows.end < ny { rows.end } else { 0 };
+    for (r, lrow) in out.lim.chunks_mut(nx).enumerate() {
+        let j = if r == 0 {
+            below
+        } else if r > n {
+            above
+        } else {
+            start + r - 1
+        };
+        limiter_row(c, j, lrow);
+    }
+    let lim = &*out.lim;
+    let nfx = nx + 1;
+    let (vol, inv_area) = (c.vol, 1.0 / c.area);
+    fn row(a: &[f64], nx: usize, j: usize) -> &[f64] {
+        &a[j * nx..(j + 1) * nx]
+    }
+    let mut rounding = 0.0;
+    for j in rows {
+        let r = j - start + 1; // local row of j
+        let jm = if j > 0 { j - 1 } else { ny - 1 };
+        let jp = if j + 1 < ny { j + 1 } else { 0 };
+        let (lh, ld, lu) = (row(lim, nx, r), row(lim, nx, r - 1), row(lim, nx, r + 1));
+        let fxr = &c.fx[j * nfx..(j + 1) * nfx];
+        let (fs, fnn) = (row(c.fy, nx, j), row(c.fy, nx, j + 1));
+        let (h, t, tm, tp) = (row(c.h, nx, j), row(c.t, nx, j), row(c.t, nx, jm), row(c.t, nx, jp));
+        let l = (j - start) * nx..(j - start + 1) * nx;
+        let (hn, tn) = (&mut out.hn[l.clone()], &mut out.tn[l.clone()]);
+        let (u, v) = (&mut out.u[l.clone()], &mut out.v[l]);
+        // Cell i of the row with its west and east neighbours iw, ie (wrapping at the ends).
+        let at = |i: usize, iw: usize, ie: usize| {
+            cell_update(
+                (vol, inv_area),
+                [fxr[i], fxr[i + 1], fs[i], fnn[i]],
+                [lh[i], lh[iw], lh[ie], ld[i], lu[i]],
+                h[i],
+                [t[i], t[iw], t[ie], tm[i], tp[i]],
+            )
+        };
+        let mut neg = store::<VEL>(0, at(0, nx - 1, if nx > 1 { 1 } else { 0 }), vol, (hn, tn, u, v));
+        if nx > 1 {
+            // The interior cells, whose neighbours are i − 1 and i + 1 (vectorisable).
+            let m = nx - 2;
+            let (fw, fe, fsm, fnm) = (&fxr[1..m + 1], &fxr[2..m + 2], &fs[1..m + 1], &fnn[1..m + 1]);
+            let (lw, lc, le, ldm, lum) =
+                (&lh[..m], &lh[1..m + 1], &lh[2..m + 2], &ld[1..m + 1], &lu[1..m + 1]);
+            let (hm, tw, tc, te, tsm, tnm) =
+                (&h[1..m + 1], &t[..m], &t[1..m + 1], &t[2..m + 2], &tm[1..m + 1], &tp[1..m + 1]);
+            let outs = (&mut hn[1..m + 1], &mut tn[1..m + 1], &mut u[1..m + 1], &mut v[1..m + 1]);
+            let (hno, tno, uo, vo) = (&mut outs.0[..m], &mut outs.1[..m], &mut outs.2[..m], &mut outs.3[..m]);
+            let mut neg_in = false;
+            for i in 0..m {
+                let res = cell_update(
+                    (vol, inv_area),
+                    [fw[i], fe[i], fsm[i], fnm[i]],
+                    [lc[i], lw[i], le[i], ldm[i], lum[i]],
+                    hm[i],
+                    [tc[i], tw[i], te[i], tsm[i], tnm[i]],
+                );
+                neg_in |= store::<VEL>(i, res, vol, (&mut *hno, &mut *tno, &mut *uo, &mut *vo));
+            }
+            neg |= neg_in;
+            neg |= store::<VEL>(nx - 1, at(nx - 1, nx - 2, 0), vol, (hn, tn, u, v));
+        }
+        if neg {
+            // The tally in cell order, as a cell-by-cell loop adds it.
+            for i in 0..nx {
+                let (iw, ie) = (if i > 0 { i - 1 } else { nx - 1 }, if i + 1 < nx { i + 1 } else { 0 });
+                let raw = at(i, iw, ie).0;
+                if raw < 0.0 {
+                    rounding -= raw * c.area;
+                }
+            }
+        }
+    }
+    // Volumes through open edges (the expressions of a cell-by-cell loop over the edges).
+    let e = c.edges;
+    let mut west_east = Vec::new();
+    if e.west == Edge::Open || e.east == Edge::Open {
+        for j in band_range(b, ny) {
+            let (q, l) = (&c.fx[j * nfx..(j + 1) * nfx], row(lim, nx, j - start + 1));
+            west_east.push([(q[0] * vol * l[0]).min(0.0), (q[nx] * vol * l[nx - 1]).max(0.0)]);
+        }
+    }
+    let edge_row = |f: usize, r: usize, north: bool| -> Vec<f64> {
+        let q = row(c.fy, nx, f).iter().zip(row(lim, nx, r));
+        q.map(|(&q, &l)| if north { (q * vol * l).max(0.0) } else { (q * vol * l).min(0.0) }).collect()
+    };
+    let south = if start == 0 && e.south == Edge::Open { edge_row(0, 1, false) } else { Vec::new() };
+    let north = if start + n == ny && e.north == Edge::Open { edge_row(ny, n, true) } else { Vec::new() };
+    BandTally { rounding, west_east, south, north }
 }

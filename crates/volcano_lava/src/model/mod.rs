@@ -9,7 +9,6 @@ pub mod crust;
 pub mod field;
 pub mod flow;
 mod flow_rows;
-mod flow_update;
 mod flux;
 pub mod folds;
 pub mod imprint;

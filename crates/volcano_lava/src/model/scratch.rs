@@ -7,19 +7,22 @@ use volcano_core::Grid2;
 /// Reusable work arrays of one field (allocated once).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scratch {
-    /// Cell mobilities ρ g h³/(3η(T)) kept by the flux pass for the update pass when the
-    /// viscosity depends on temperature (empty for a constant viscosity, which the update pass
-    /// recomputes).
-    pub(super) mob: Vec<f64>,
-    /// Periodic south/north edge face fluxes (`nx`; face row 0 = face row ny).
-    pub(super) wrap: Vec<f64>,
+    /// x-face fluxes, `(nx+1) × ny` (m²/s, +x positive); face `i` is west of cell `i`.
+    pub(super) fx: Vec<f64>,
+    /// y-face fluxes, `nx × (ny+1)`; face `j` is south of row `j`.
+    pub(super) fy: Vec<f64>,
     pub(super) h_new: Grid2<f64>,
     pub(super) t_new: Grid2<f64>,
 }
 
 impl Scratch {
     pub(crate) fn new(template: &Grid2<f64>) -> Self {
-        let nx = template.nx();
-        Self { mob: Vec::new(), wrap: vec![0.0; nx], h_new: template.clone(), t_new: template.clone() }
+        let (nx, ny) = (template.nx(), template.ny());
+        Self {
+            fx: vec![0.0; (nx + 1) * ny],
+            fy: vec![0.0; nx * (ny + 1)],
+            h_new: template.clone(),
+            t_new: template.clone(),
+        }
     }
 }
