@@ -12,13 +12,16 @@
 //!
 //! The work runs in two passes over fixed row bands (see [`super::bands`]): mobilities and
 //! fluxes, then the global substep, then limiter and cell update. Each band computes what it
-//! needs of its neighbours' rows (mobility one row below, limiter one row each side) into its
-//! own buffer instead of waiting for a separate pass over the whole grid. The row loops of
+//! needs of its neighbours' rows (mobility one row below, limiter one row each side) into the
+//! work buffer of the thread that runs it (reused band after band, so it stays in that core's
+//! cache) instead of waiting for a separate pass over the whole grid. The row loops of
 //! both passes are in `flow_rows` (branch-free, vectorised, bit-identical on any CPU).
 
 use super::field::{Edge, FlowField};
 
-use super::bands::{BAND_ROWS, Simd, simd};
+use std::cell::RefCell;
+
+use super::bands::{BAND_ROWS, Simd, band_range, simd};
 use super::flow_rows::{FluxCtx, UpdateCtx, UpdateOut, band_fluxes, band_update};
 use super::flux::face_flux;
 pub use super::flux::{bingham_factor, slope_factor};
@@ -65,16 +68,17 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
         // 1. mobilities and face fluxes (row bands in parallel; maxima are exact in any order).
         let (fy_rows, fy_north) = s.fy.split_at_mut(ny * nx);
         let mut north = Some(fy_north);
-        let bands = s.mob.len();
-        let items: Vec<_> = s
-            .mob
-            .iter_mut()
-            .zip(s.fx.chunks_mut(BAND_ROWS * (nx + 1)))
-            .zip(fy_rows.chunks_mut(BAND_ROWS * nx))
-            .enumerate()
-            .map(|(b, ((m, fx), fy))| (m, fx, fy, if b + 1 == bands { north.take() } else { None }))
-            .collect();
-        let limits = par_map(items, |b, (mob, fx, fy, north)| band_fluxes(&c, b, mob, fx, fy, north, simd));
+        let bands = ny.div_ceil(BAND_ROWS);
+        let items: Vec<_> =
+            s.fx.chunks_mut(BAND_ROWS * (nx + 1))
+                .zip(fy_rows.chunks_mut(BAND_ROWS * nx))
+                .enumerate()
+                .map(|(b, (fx, fy))| (fx, fy, if b + 1 == bands { north.take() } else { None }))
+                .collect();
+        // The mobility rows of a band go to the work buffer of the thread that runs it.
+        let limits = par_map(items, |b, (fx, fy, north)| {
+            with_work((band_range(b, ny).len() + 1) * nx, |mob| band_fluxes(&c, b, mob, fx, fy, north, simd))
+        });
         let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
         for (m, w) in limits {
             m_max = m_max.max(m);
@@ -123,13 +127,28 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
     report
 }
 
+thread_local! {
+    /// The work buffer of the bands a thread runs (their mobility or limiter rows): reused, so
+    /// it stays in that core's cache instead of one buffer per band travelling through memory.
+    static WORK: RefCell<Vec<f64>> = const { RefCell::new(Vec::new()) };
+}
+
+/// Runs `f` on this thread's work buffer, `len` long.
+fn with_work<R>(len: usize, f: impl FnOnce(&mut [f64]) -> R) -> R {
+    WORK.with_borrow_mut(|w| {
+        if w.len() < len {
+            w.resize(len, 0.0);
+        }
+        f(&mut w[..len])
+    })
+}
+
 /// Applies one substep's face fluxes (`vol` = face length × substep, so volume = q · vol) with
 /// the positivity limiter; returns the volume that left through open edges. Each face volume
 /// is `q · vol · lim[donor]`, computed by the same expression on both sides, so what one cell
 /// loses its neighbour gains exactly.
 fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, simd: Simd) -> f64 {
     let (nx, ny, dx) = (field.nx(), field.ny(), field.cell());
-    let nfx = nx + 1;
     let area = dx * dx;
     let s = &mut field.scratch;
     let (h, t) = (field.h.data(), field.temp.data());
@@ -141,39 +160,38 @@ fn transfer(field: &mut FlowField, vol: f64, write_velocity: bool, simd: Simd) -
     let (u, v) = field.vel.split_at_mut(1);
     let (u, v) = (u[0].data_mut(), v[0].data_mut());
     let band = BAND_ROWS * nx;
-    let items: Vec<_> = s
-        .lim
-        .iter_mut()
-        .zip(hn.chunks_mut(band).zip(tn.chunks_mut(band)))
+    let items: Vec<_> = hn
+        .chunks_mut(band)
+        .zip(tn.chunks_mut(band))
         .zip(u.chunks_mut(band).zip(v.chunks_mut(band)))
         .collect();
-    let c = UpdateCtx { nx, ny, fx, fy, h, t, vol, area, write_velocity };
-    let tallies = par_map(items, |b, ((lim, (hn, tn)), (u, v))| {
-        band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, simd)
-    });
-    let rounding: f64 = tallies.iter().sum();
-    // Volume through open edges (same expressions as above; the limiter of cell (i, j) is in
-    // its band's buffer at local row j − start + 1).
-    let lim_at = |i: usize, j: usize| {
-        let b = j / BAND_ROWS;
-        s.lim[b][(j - b * BAND_ROWS + 1) * nx + i]
-    };
-    let mut outflow = 0.0;
     let e = field.edges;
-    for j in 0..ny {
+    let c = UpdateCtx { nx, ny, edges: e, fx, fy, h, t, vol, area, write_velocity };
+    // The limiters of a band go to the work buffer of the thread that runs it.
+    let tallies = par_map(items, |b, ((hn, tn), (u, v))| {
+        with_work((band_range(b, ny).len() + 2) * nx, |lim| {
+            band_update(&c, b, UpdateOut { lim, hn, tn, u, v }, simd)
+        })
+    });
+    let rounding: f64 = tallies.iter().map(|t| t.rounding).sum();
+    // Volume through open edges, in row order, then cell by cell along the south and north.
+    let mut outflow = 0.0;
+    for [w, east] in tallies.iter().flat_map(|t| &t.west_east) {
         if e.west == Edge::Open {
-            outflow -= (fx[j * nfx] * vol * lim_at(0, j)).min(0.0);
+            outflow -= w;
         }
         if e.east == Edge::Open {
-            outflow += (fx[j * nfx + nx] * vol * lim_at(nx - 1, j)).max(0.0);
+            outflow += east;
         }
     }
+    let south: Vec<f64> = tallies.iter().flat_map(|t| &t.south).copied().collect();
+    let north: Vec<f64> = tallies.iter().flat_map(|t| &t.north).copied().collect();
     for i in 0..nx {
         if e.south == Edge::Open {
-            outflow -= (fy[i] * vol * lim_at(i, 0)).min(0.0);
+            outflow -= south[i];
         }
         if e.north == Edge::Open {
-            outflow += (fy[ny * nx + i] * vol * lim_at(i, ny - 1)).max(0.0);
+            outflow += north[i];
         }
     }
     std::mem::swap(&mut field.h, &mut s.h_new);

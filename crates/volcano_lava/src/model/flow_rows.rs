@@ -198,6 +198,7 @@ fn band_fluxes_impl<const YIELD: bool>(
 pub(super) struct UpdateCtx<'a> {
     pub nx: usize,
     pub ny: usize,
+    pub edges: Edges,
     pub fx: &'a [f64],
     pub fy: &'a [f64],
     pub h: &'a [f64],
@@ -208,7 +209,8 @@ pub(super) struct UpdateCtx<'a> {
     pub write_velocity: bool,
 }
 
-/// One band's output rows of a cell-update pass.
+/// One band's limiter buffer (its rows and one each side, `(rows + 2) × nx`) and output rows
+/// of a cell-update pass.
 pub(super) struct UpdateOut<'a> {
     pub lim: &'a mut [f64],
     pub hn: &'a mut [f64],
@@ -261,16 +263,30 @@ fn cell_update(
     (raw, t_new, [vw, ve, vs, vn])
 }
 
+/// What a band of the cell update returns besides its rows.
+pub(super) struct BandTally {
+    /// Volume clamped away where a cell went negative, summed in cell order.
+    pub rounding: f64,
+    /// Per row of the band (when the west or east edge is open): the volumes through the west
+    /// face (`min(0)`) and the east face (`max(0)`).
+    pub west_east: Vec<[f64; 2]>,
+    /// Per cell of row 0 (first band, open south edge): through the south face, `min(0)`.
+    pub south: Vec<f64>,
+    /// Per cell of row ny − 1 (last band, open north edge): through the north face, `max(0)`.
+    pub north: Vec<f64>,
+}
+
 simd_dispatch! {
     /// Pass 2 for band `b`: the limiter of its rows and the rows on either side (local row 0
     /// is the row below, wrapping; the last local row the row above), then the new `h`, `T`
     /// (and velocity) of its rows. Returns the band's round-off tally (volume clamped away
-    /// where a cell went negative), summed in cell order.
-    pub(super) fn band_update(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 => band_update_rows
+    /// where a cell went negative, summed in cell order) and the volumes through open edges
+    /// of its rows (the limiter buffer is the thread's, not kept after the band).
+    pub(super) fn band_update(c: &UpdateCtx, b: usize, out: UpdateOut) -> BandTally => band_update_rows
 }
 
 #[inline(always)]
-fn band_update_rows(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 {
+fn band_update_rows(c: &UpdateCtx, b: usize, out: UpdateOut) -> BandTally {
     if c.write_velocity { band_update_impl::<true>(c, b, out) } else { band_update_impl::<false>(c, b, out) }
 }
 
@@ -294,7 +310,7 @@ fn store<const VEL: bool>(
 }
 
 #[inline(always)]
-fn band_update_impl<const VEL: bool>(c: &UpdateCtx, b: usize, out: UpdateOut) -> f64 {
+fn band_update_impl<const VEL: bool>(c: &UpdateCtx, b: usize, out: UpdateOut) -> BandTally {
     let (nx, ny) = (c.nx, c.ny);
     let rows = band_range(b, ny);
     let (start, n) = (rows.start, rows.len());
@@ -374,5 +390,20 @@ fn band_update_impl<const VEL: bool>(c: &UpdateCtx, b: usize, out: UpdateOut) ->
             }
         }
     }
-    rounding
+    // Volumes through open edges (the expressions of a cell-by-cell loop over the edges).
+    let e = c.edges;
+    let mut west_east = Vec::new();
+    if e.west == Edge::Open || e.east == Edge::Open {
+        for j in band_range(b, ny) {
+            let (q, l) = (&c.fx[j * nfx..(j + 1) * nfx], row(lim, nx, j - start + 1));
+            west_east.push([(q[0] * vol * l[0]).min(0.0), (q[nx] * vol * l[nx - 1]).max(0.0)]);
+        }
+    }
+    let edge_row = |f: usize, r: usize, north: bool| -> Vec<f64> {
+        let q = row(c.fy, nx, f).iter().zip(row(lim, nx, r));
+        q.map(|(&q, &l)| if north { (q * vol * l).max(0.0) } else { (q * vol * l).min(0.0) }).collect()
+    };
+    let south = if start == 0 && e.south == Edge::Open { edge_row(0, 1, false) } else { Vec::new() };
+    let north = if start + n == ny && e.north == Edge::Open { edge_row(ny, n, true) } else { Vec::new() };
+    BandTally { rounding, west_east, south, north }
 }

@@ -4,8 +4,6 @@
 
 use volcano_core::Grid2;
 
-use super::bands::{BAND_ROWS, band_range};
-
 /// Reusable work arrays of one field (allocated once).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Scratch {
@@ -13,10 +11,6 @@ pub struct Scratch {
     pub(super) fx: Vec<f64>,
     /// y-face fluxes, `nx × (ny+1)`; face `j` is south of row `j`.
     pub(super) fy: Vec<f64>,
-    /// Per band: cell mobility ρ g h³/(3η(T)) of the band's rows and the row below.
-    pub(super) mob: Vec<Vec<f64>>,
-    /// Per band: limiter factor in [0, 1] of the row below, the band's rows, the row above.
-    pub(super) lim: Vec<Vec<f64>>,
     pub(super) h_new: Grid2<f64>,
     pub(super) t_new: Grid2<f64>,
 }
@@ -24,12 +18,9 @@ pub struct Scratch {
 impl Scratch {
     pub(crate) fn new(template: &Grid2<f64>) -> Self {
         let (nx, ny) = (template.nx(), template.ny());
-        let bands = ny.div_ceil(BAND_ROWS);
         Self {
             fx: vec![0.0; (nx + 1) * ny],
             fy: vec![0.0; nx * (ny + 1)],
-            mob: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 1) * nx]).collect(),
-            lim: (0..bands).map(|b| vec![0.0; (band_range(b, ny).len() + 2) * nx]).collect(),
             h_new: template.clone(),
             t_new: template.clone(),
         }
