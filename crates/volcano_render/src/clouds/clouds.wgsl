@@ -44,8 +44,8 @@ struct CloudUniform {
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> cloud: CloudUniform;
 @group(#{MATERIAL_BIND_GROUP}) @binding(1) var density_texture: texture_3d<f32>;
 @group(#{MATERIAL_BIND_GROUP}) @binding(2) var density_sampler: sampler;
-// The viewer's ash depth (volcano_render::plume::depth): r the distance (km) to the nearest
-// ash that hides what is behind it, g = 0 where there is such ash.
+// The viewer's ash depth (volcano_render::plume::depth): r the distance (km) to where the ash
+// begins along the ray (the nearest ash at least 3 % opaque), g = 0 where there is ash.
 @group(#{MATERIAL_BIND_GROUP}) @binding(3) var ash_depth_texture: texture_2d<f32>;
 
 const PI: f32 = 3.141592653589793;

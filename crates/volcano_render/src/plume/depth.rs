@@ -13,10 +13,10 @@
 //! behind a faint veil of ash but in front of dense ash is drawn under both (one depth per
 //! pixel, where the ash begins).
 //!
-//! A texture that was never written reads `(0, 0)` (ash at the eye: the whole ray is marched
-//! before the ash, the order of a camera without this pass), and the fallback image that an
-//! unset material binds reads `(1, 1)` (no ash), so a cloud drawn for another camera keeps the
-//! single-pass order. Cost: one more instanced draw of every ash instance (vertex expansion and
+//! A texture that was never written (no viewer camera) reads `(0, 0)` (ash at the eye: the
+//! whole ray is marched before the ash, the single-pass order), and the fallback image that an
+//! unset material binds reads `(1, 1)` (no ash). Another camera reads the viewer's image: its
+//! two parts still cover each ray once, so its clouds are whole, ordered by the viewer's ash. Cost: one more instanced draw of every ash instance (vertex expansion and
 //! the coverage of the colour pass, no lighting) into a 4-byte-per-pixel target.
 
 use bevy::camera::{MainPassResolutionOverride, Viewport};
