@@ -11,7 +11,9 @@
 //! (instances, meshes, cloud volumes) is not in these numbers.
 //!
 //! `--quality` runs the scene at a `VolcanoQuality` level, `--seconds` sets the length in
-//! simulated seconds, and `--report-every S` adds the soak report (module `soak`).
+//! simulated seconds, `--report-every S` adds the soak report (module `soak`), and
+//! `--realtime` paces the ticks at 50 Hz of wall time, as a game runs them (unpaced, a 2 ms
+//! tick leaves a weather step 0.1 s of wall time instead of a second).
 //!
 //! `DIR/ticks.csv` has every timed tick: its number, main-thread ms, whether a weather step
 //! started or was written back on it, and the same split by domain (to see where a p99 or a
@@ -101,6 +103,8 @@ pub struct BenchReport {
     pub wall_s: f64,
     /// The quality level, if one was set.
     pub quality: Option<String>,
+    /// Whether ticks were paced at the tick rate (`--realtime`).
+    pub realtime: bool,
     /// The soak report (`--report-every`), one row per interval.
     pub soak: Vec<soak::SoakRow>,
 }
@@ -131,6 +135,10 @@ pub struct BenchOptions {
     pub quality: Option<VolcanoQuality>,
     /// Soak report interval in base ticks (0: none).
     pub report_every_ticks: u64,
+    /// Start each timed base tick on the wall clock of a game running at the tick rate (50 Hz:
+    /// tick n at n × 20 ms, sleeping in between) instead of back to back; the weather step then
+    /// has a second of wall time, as in a game, instead of the ≈ 0.1 s an unpaced run leaves it.
+    pub realtime: bool,
 }
 
 /// Ms per domain from ms per set (in `SETS` order): plume, pyroclastic, coupling (the sets
@@ -234,7 +242,14 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         },
     };
     let mut next_report = first + 3_000;
+    let (pace_start, mut paced) = (Instant::now(), 0u32);
     while tick(&app) < first + ticks {
+        if opts.realtime {
+            // Untimed: the idle part of a 50 Hz frame.
+            let due = pace_start + Duration::from_secs_f64(f64::from(paced) / crate::TICK_HZ);
+            std::thread::sleep(due.saturating_duration_since(Instant::now()));
+            paced += 1;
+        }
         let before = (tick(&app), weather(&mut app));
         let sets_before = app.world().resource::<Stamps>().total;
         let t0 = Instant::now();
@@ -324,6 +339,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         other_tick_domains: split(&other_sets, other_ms.len(), mean(&other_ms)),
         wall_s: started.elapsed().as_secs_f64(),
         quality: opts.quality.map(|q| format!("{q:?}")),
+        realtime: opts.realtime,
         soak: soak.map(|s| s.rows).unwrap_or_default(),
     };
     if let Err(e) = std::fs::write(dir.join("ticks.csv"), rows) {

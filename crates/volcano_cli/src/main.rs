@@ -93,6 +93,10 @@ enum Command {
         /// tick p50/p99/max in DIR/soak.csv (and bench.json).
         #[arg(long, value_name = "S", value_parser = clap::value_parser!(u64).range(1..=3600))]
         report_every: Option<u64>,
+        /// Pace the timed ticks at 50 Hz of wall time, as a game runs them, instead of back to
+        /// back (the weather step then has a wall second to finish, as in a game).
+        #[arg(long)]
+        realtime: bool,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -211,7 +215,7 @@ fn main() -> ExitCode {
         Command::Pyroclastic { params, seconds, out } => {
             with_params(&params, |p| pyroclastic::run(p, seconds, &out))
         }
-        Command::Bench { scene, ticks, seconds, warmup_ticks, quality, report_every, out } => {
+        Command::Bench { scene, ticks, seconds, warmup_ticks, quality, report_every, realtime, out } => {
             let per_s = TICK_HZ as u64;
             let opts = bench::BenchOptions {
                 scene,
@@ -219,6 +223,7 @@ fn main() -> ExitCode {
                 warmup: warmup_ticks,
                 quality: quality.map(Quality::level),
                 report_every_ticks: report_every.map_or(0, |s| s * per_s),
+                realtime,
             };
             bench::run(&opts, &out)
         }
