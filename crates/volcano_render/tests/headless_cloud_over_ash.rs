@@ -152,12 +152,8 @@ fn a_cloud_in_front_of_the_ash_hides_it_and_one_behind_is_hidden() {
 /// spheres each (301,000 instances) 2–3 km away, with or without a cloud box over them (with
 /// one, the ash-depth pass draws every instance once more and the clouds march in two parts).
 fn frame_ms(with_ash: bool, with_cloud: bool) -> f64 {
-    use std::sync::Mutex;
-    use std::time::Instant;
     use volcano_plume::view::parent_key;
     use volcano_render::plume::AshParent;
-    let stamps: Arc<Mutex<Vec<Instant>>> = Arc::default();
-    let sink = stamps.clone();
     let out = common::out_path(&format!("headless_cloud_over_ash_cost_{with_ash}_{with_cloud}.png"));
     let mut app = common::capture_app(headless_default_plugins(), 960, 540, &out, 40);
     let stage = Stage { cloud: with_cloud.then_some((2_500.0, 800.0)), puff: false };
@@ -183,11 +179,8 @@ fn frame_ms(with_ash: bool, with_cloud: bool) -> f64 {
     };
     app.insert_resource(stage)
         .add_systems(Startup, (common::ash_stage, cloud))
-        .add_systems(PostUpdate, column.after(update_parents))
-        .add_systems(Last, move || sink.lock().unwrap().push(Instant::now()));
-    common::run_and_read(app, &out);
-    let t = stamps.lock().unwrap();
-    (t[40] - t[10]).as_secs_f64() * 1e3 / 30.0
+        .add_systems(PostUpdate, column.after(update_parents));
+    common::mean_frame_ms(app, &out)
 }
 
 /// Not a check (timings vary with the machine): what the ash-depth pass costs on this adapter.

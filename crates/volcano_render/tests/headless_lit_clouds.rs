@@ -135,8 +135,6 @@ fn a_cloud_slab_shades_the_ground_under_it() {
 /// Wall time per frame (ms) of updates 10–40 of a 960×540 view from inside a 24 km cloud field
 /// (the box covers the whole frame; cumulus-sized blobs), with the pass drawn or hidden.
 fn frame_ms(drawn: bool) -> f64 {
-    use std::sync::{Arc, Mutex};
-    use std::time::Instant;
     let (lo, hi) = (Vec3::new(-12_000.0, 0.0, -12_000.0), Vec3::new(12_000.0, 4_000.0, 12_000.0));
     let density = common::density_volume(128, lo, hi, |p| {
         let blob = (p.x / 1_700.0).sin() * (p.z / 1_300.0).cos() - ((p.y - 2_000.0) / 900.0).powi(2);
@@ -151,21 +149,17 @@ fn frame_ms(drawn: bool) -> f64 {
     };
     let toward_sun = Vec3::new(0.5, 0.6, 0.3).normalize();
     let setup = Setup { lo, hi, density, n: 128, orbit, toward_sun, plane: true };
-    let stamps: Arc<Mutex<Vec<Instant>>> = Arc::default();
-    let sink = stamps.clone();
     let out = common::out_path(&format!("headless_lit_clouds_cost_{drawn}.png"));
     let mut app = common::capture_app(headless_default_plugins(), 960, 540, &out, 40);
-    app.insert_resource(setup)
-        .add_systems(Startup, scene)
-        .add_systems(Update, move |mut boxes: Query<&mut Visibility, With<MeshMaterial3d<CloudMaterial>>>| {
+    app.insert_resource(setup).add_systems(Startup, scene).add_systems(
+        Update,
+        move |mut boxes: Query<&mut Visibility, With<MeshMaterial3d<CloudMaterial>>>| {
             for mut v in &mut boxes {
                 v.set_if_neq(if drawn { Visibility::Inherited } else { Visibility::Hidden });
             }
-        })
-        .add_systems(Last, move || sink.lock().unwrap().push(Instant::now()));
-    common::run_and_read(app, &out);
-    let t = stamps.lock().unwrap();
-    (t[40] - t[10]).as_secs_f64() * 1e3 / 30.0
+        },
+    );
+    common::mean_frame_ms(app, &out)
 }
 
 /// Not a check (timings vary with the machine): prints what the pass costs on this adapter.

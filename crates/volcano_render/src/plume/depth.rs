@@ -50,7 +50,7 @@ use bevy::render::{
 use indexmap::IndexMap;
 use std::ops::Range;
 
-use super::pipeline::{AshCloud, AshPipeline, DrawAshInstanced};
+use super::pipeline::{AshCloud, AshPipeline, DrawAshInstanced, specialized_ash_draws};
 use crate::camera::VolcanoViewer;
 
 /// Format of [`AshDepthImage`]: r the distance (km), g 0 where there is ash. Half floats are
@@ -287,21 +287,19 @@ fn queue_depth(
     for view in &views {
         let Some(phase) = phases.get_mut(&view.retained_view_entity) else { continue };
         let Some(&view_key) = view_keys.get(&view.retained_view_entity) else { continue };
-        for (entity, main_entity) in clouds.iter().filter(|_| in_use) {
-            let Some(mesh_instance) = mesh_instances.render_mesh_queue_data(*main_entity) else { continue };
-            let Some(mesh) = meshes.get(mesh_instance.mesh_asset_id()) else { continue };
-            let key = view_key
-                | MeshPipelineKey::from_primitive_topology_and_strip_index(
-                    mesh.primitive_topology(),
-                    mesh.index_format(),
-                );
-            let Ok(id) = pipelines.specialize(&cache, &pipeline, key, &mesh.layout) else {
-                error!("volcano: the ash-depth pipeline could not be specialised");
-                continue;
-            };
+        if !in_use {
+            continue;
+        }
+        let ready = specialized_ash_draws(
+            view_key,
+            &clouds,
+            (&meshes, &mesh_instances),
+            (&mut pipelines, &cache, &pipeline),
+        );
+        for (entity, main_entity, id) in ready {
             phase.add_transient(AshDepth3d {
                 distance: FloatOrd(0.0),
-                entity: (entity, *main_entity),
+                entity: (entity, main_entity),
                 pipeline: id,
                 draw_function: draw,
                 batch_range: 0..1,

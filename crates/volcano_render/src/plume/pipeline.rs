@@ -231,22 +231,17 @@ fn queue_ash(
     for view in &views {
         let Some(phase) = phases.get_mut(&view.retained_view_entity) else { continue };
         let Some(&view_key) = view_keys.get(&view.retained_view_entity) else { continue };
-        for (entity, main_entity) in &clouds {
-            let Some(mesh_instance) = mesh_instances.render_mesh_queue_data(*main_entity) else { continue };
-            let Some(mesh) = meshes.get(mesh_instance.mesh_asset_id()) else { continue };
-            let key = view_key
-                | MeshPipelineKey::from_primitive_topology_and_strip_index(
-                    mesh.primitive_topology(),
-                    mesh.index_format(),
-                );
-            let Ok(id) = pipelines.specialize(&cache, &pipeline, key, &mesh.layout) else {
-                error!("volcano: the ash pipeline could not be specialised");
-                continue;
-            };
+        let ready = specialized_ash_draws(
+            view_key,
+            &clouds,
+            (&meshes, &mesh_instances),
+            (&mut pipelines, &cache, &pipeline),
+        );
+        for (entity, main_entity, id) in ready {
             phase.add_retained(Transparent3d {
                 // Drawn first among transparent items (sorted within itself, see `prepare_buffer`).
                 sorting_info: TransparentSortingInfo3d::Sorted { mesh_center: Vec3::ZERO, depth_bias: 0.0 },
-                entity: (entity, *main_entity),
+                entity: (entity, main_entity),
                 pipeline: id,
                 draw_function: draw,
                 distance: f32::NEG_INFINITY,
@@ -256,6 +251,32 @@ fn queue_ash(
             });
         }
     }
+}
+
+/// The ash draw of each [`AshCloud`] entity whose quad mesh is ready, with `pipeline`
+/// specialised for a view of `view_key`: (render entity, main entity, pipeline). Shared by the
+/// colour pass and the ash-depth pass (`depth`).
+pub(super) fn specialized_ash_draws<S: SpecializedMeshPipeline<Key = MeshPipelineKey>>(
+    view_key: MeshPipelineKey,
+    clouds: &Query<(Entity, &MainEntity), With<AshCloud>>,
+    (meshes, mesh_instances): (&RenderAssets<RenderMesh>, &RenderMeshInstances),
+    (pipelines, cache, pipeline): (&mut SpecializedMeshPipelines<S>, &PipelineCache, &S),
+) -> Vec<(Entity, MainEntity, CachedRenderPipelineId)> {
+    let mut ready = Vec::new();
+    for (entity, main_entity) in clouds {
+        let Some(mesh_instance) = mesh_instances.render_mesh_queue_data(*main_entity) else { continue };
+        let Some(mesh) = meshes.get(mesh_instance.mesh_asset_id()) else { continue };
+        let key = view_key
+            | MeshPipelineKey::from_primitive_topology_and_strip_index(
+                mesh.primitive_topology(),
+                mesh.index_format(),
+            );
+        match pipelines.specialize(cache, pipeline, key, &mesh.layout) {
+            Ok(id) => ready.push((entity, *main_entity, id)),
+            Err(e) => error!("volcano: an ash pipeline could not be specialised: {e}"),
+        }
+    }
+    ready
 }
 
 type DrawAsh = (

@@ -105,3 +105,16 @@ pub fn density_volume(n: usize, lo: Vec3, hi: Vec3, f: impl Fn(Vec3) -> f32) -> 
     }
     d
 }
+
+/// Runs `app` (a [`capture_app`] of at least 40 updates writing `out`) and returns the mean wall
+/// time (ms) per update of updates 10–40: what a frame costs once the pipelines are compiled.
+pub fn mean_frame_ms(mut app: App, out: &Path) -> f64 {
+    use std::sync::{Arc, Mutex};
+    use std::time::Instant;
+    let stamps: Arc<Mutex<Vec<Instant>>> = Arc::default();
+    let sink = stamps.clone();
+    app.add_systems(Last, move || sink.lock().unwrap().push(Instant::now()));
+    run_and_read(app, out);
+    let t = stamps.lock().unwrap();
+    (t[40] - t[10]).as_secs_f64() * 1e3 / 30.0
+}
