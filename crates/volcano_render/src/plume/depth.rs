@@ -1,4 +1,4 @@
-//! The ash-depth pass: where the ash hides what is behind it, so that the clouds and the ash
+//! The ash-depth pass: where the ash begins along each view ray, so that the clouds and the ash
 //! fall in front of the column are drawn over it and those behind it under it.
 //!
 //! The ash is one transparent draw that writes no depth (`pipeline`), and the cloud pass
@@ -16,8 +16,10 @@
 //! A texture that was never written (no viewer camera) reads `(0, 0)` (ash at the eye: the
 //! whole ray is marched before the ash, the single-pass order), and the fallback image that an
 //! unset material binds reads `(1, 1)` (no ash). Another camera reads the viewer's image: its
-//! two parts still cover each ray once, so its clouds are whole, ordered by the viewer's ash. Cost: one more instanced draw of every ash instance (vertex expansion and
-//! the coverage of the colour pass, no lighting) into a 4-byte-per-pixel target.
+//! two parts still cover each ray once, so its clouds are whole, ordered by the viewer's ash.
+//! A resized image (a window resize) is a new texture: the split touches every cloud material
+//! so its bind group picks it up. Cost: one more instanced draw of every ash instance (vertex
+//! expansion and the coverage of the colour pass, no lighting) into a 4-byte-per-pixel target.
 
 use bevy::camera::{MainPassResolutionOverride, Viewport};
 use bevy::core_pipeline::core_3d::{main_opaque_pass_3d, main_transparent_pass_3d};
