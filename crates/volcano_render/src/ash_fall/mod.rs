@@ -206,13 +206,20 @@ pub fn build_ash_image(
     settings: &AshFallSettings,
 ) -> Result<(Image, Transform, f32), ConfigError> {
     settings.validate()?;
-    let mut spec = AshVolumeSpec::over(layers, settings.voxels_xy as usize, settings.voxels_z as usize);
-    spec.streaks = settings.streaks as f64;
-    spec.streak_m = settings.streak_m as f64;
-    spec.edge_fraction = settings.edge_fraction as f64;
-    spec.blur_m = settings.blur_m as f64;
-    spec.relief = settings.relief as f64;
-    spec.relief_m = settings.relief_m as f64;
+    let (z_min, z_max) = AshVolumeSpec::altitude_range(layers);
+    let spec = AshVolumeSpec {
+        nxy: settings.voxels_xy as usize,
+        nz: settings.voxels_z as usize,
+        z_min,
+        z_max,
+        streaks: settings.streaks as f64,
+        streak_m: settings.streak_m as f64,
+        seed: 11,
+        edge_fraction: settings.edge_fraction as f64,
+        blur_m: settings.blur_m as f64,
+        relief: settings.relief as f64,
+        relief_m: settings.relief_m as f64,
+    };
     let density = ash_density_volume(layers, grid, ground, &spec)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
     let filled = image

@@ -52,26 +52,14 @@ pub struct AshVolumeSpec {
 }
 
 impl AshVolumeSpec {
-    /// The volume over a stack of layers: from the lowest layer's bottom (not below sea level)
-    /// to the top layer's top.
-    pub fn over(layers: &[&LayerFields], nxy: usize, nz: usize) -> Self {
+    /// Altitudes (m) a volume over a stack of layers spans: from the lowest layer's bottom
+    /// (not below sea level) to the top layer's top.
+    pub fn altitude_range(layers: &[&LayerFields]) -> (f64, f64) {
         let z_min = layers.iter().map(|l| l.bottom).fold(f64::INFINITY, f64::min);
         let z_max = layers.iter().map(|l| l.bottom + l.thickness).fold(f64::NEG_INFINITY, f64::max);
         let z_min = if z_min.is_finite() { z_min.max(0.0) } else { 0.0 };
         let z_max = if z_max.is_finite() { z_max.max(z_min + 1.0) } else { z_min + 1.0 };
-        Self {
-            nxy,
-            nz,
-            z_min,
-            z_max,
-            streaks: 0.6,
-            streak_m: 400.0,
-            seed: 11,
-            edge_fraction: 0.12,
-            blur_m: 600.0,
-            relief: 0.8,
-            relief_m: 6_000.0,
-        }
+        (z_min, z_max)
     }
 
     /// Checks the sizes and the streak parameters; the error names the field.
