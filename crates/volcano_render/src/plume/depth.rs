@@ -34,7 +34,7 @@ use bevy::pbr::{
 use bevy::platform::collections::HashSet;
 use bevy::prelude::*;
 use bevy::render::{
-    Extract, ExtractSchedule, Render, RenderApp, RenderSystems,
+    Extract, ExtractSchedule, Render, RenderApp, RenderStartup, RenderSystems,
     camera::ExtractedCamera,
     extract_resource::{ExtractResource, ExtractResourcePlugin},
     mesh::RenderMesh,
@@ -52,7 +52,7 @@ use bevy::render::{
 use indexmap::IndexMap;
 use std::ops::Range;
 
-use super::pipeline::{AshCloud, AshPipeline, DrawAshInstanced, specialized_ash_draws};
+use super::pipeline::{AshCloud, AshPipeline, DrawAshInstanced, init_pipeline, specialized_ash_draws};
 use crate::camera::VolcanoViewer;
 
 /// Format of [`AshDepthImage`]: r the distance (km), g 0 where there is ash. Half floats are
@@ -89,6 +89,7 @@ pub(super) fn build(app: &mut App) {
         .init_resource::<ViewSortedRenderPhases<AshDepth3d>>()
         .init_resource::<SpecializedMeshPipelines<AshDepthPipeline>>()
         .add_render_command::<AshDepth3d, DrawAshDepth>()
+        .add_systems(RenderStartup, init_depth_pipeline.after(init_pipeline))
         .add_systems(ExtractSchedule, extract_phases)
         .add_systems(Render, queue_depth.in_set(RenderSystems::QueueMeshes))
         .add_systems(
@@ -201,10 +202,9 @@ impl CachedRenderPipelinePhaseItem for AshDepth3d {
 #[derive(Resource)]
 struct AshDepthPipeline(AshPipeline);
 
-impl FromWorld for AshDepthPipeline {
-    fn from_world(world: &mut World) -> Self {
-        Self(world.resource::<AshPipeline>().clone())
-    }
+/// Built from the colour pass's pipeline once that exists.
+fn init_depth_pipeline(mut commands: Commands, ash: Res<AshPipeline>) {
+    commands.insert_resource(AshDepthPipeline(ash.clone()));
 }
 
 impl SpecializedMeshPipeline for AshDepthPipeline {
@@ -267,7 +267,7 @@ fn extract_phases(
 #[allow(clippy::too_many_arguments)]
 fn queue_depth(
     draw_functions: Res<DrawFunctions<AshDepth3d>>,
-    pipeline: Option<Res<AshDepthPipeline>>,
+    pipeline: Res<AshDepthPipeline>,
     mut pipelines: ResMut<SpecializedMeshPipelines<AshDepthPipeline>>,
     cache: Res<PipelineCache>,
     meshes: Res<RenderAssets<RenderMesh>>,
@@ -277,13 +277,7 @@ fn queue_depth(
     views: Query<&ExtractedView>,
     view_keys: Res<ViewKeyCache>,
     target: Option<Res<AshDepthImage>>,
-    mut commands: Commands,
 ) {
-    let Some(pipeline) = pipeline else {
-        // The ash pipeline exists from `RenderStartup` on; build this one from it once.
-        commands.init_resource::<AshDepthPipeline>();
-        return;
-    };
     let draw = draw_functions.read().id::<DrawAshDepth>();
     let in_use = target.is_some_and(|t| t.in_use);
     for view in &views {

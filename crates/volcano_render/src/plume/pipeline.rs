@@ -162,7 +162,11 @@ pub(super) struct AshPipeline {
     parents_layout: BindGroupLayoutDescriptor,
 }
 
-fn init_pipeline(mut commands: Commands, assets: Res<AssetServer>, mesh_pipeline: Res<MeshPipeline>) {
+pub(super) fn init_pipeline(
+    mut commands: Commands,
+    assets: Res<AssetServer>,
+    mesh_pipeline: Res<MeshPipeline>,
+) {
     use bevy::render::render_resource::binding_types::storage_buffer_read_only_sized;
     let parents_layout = BindGroupLayoutDescriptor::new(
         "volcano ash parents",
