@@ -60,6 +60,10 @@ enum Command {
         /// angles in degrees), e.g. a close-up of a lava patch.
         #[arg(long, value_parser = parse_camera, allow_hyphen_values = true)]
         camera: Option<CameraSpec>,
+        /// Sun instead of the scene's: `AZIMUTH,ELEVATION` in degrees (azimuth clockwise from
+        /// north), the scene's illuminance kept; e.g. side light on a front-lit column.
+        #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
+        sun: Option<(f32, f32)>,
         /// Plume substeps per base tick instead of the thesis' 0.002 s steps (10 at 50 Hz):
         /// e.g. 2 (0.01 s steps, as `volcano eruption` uses) makes minutes-long renders ~5×
         /// cheaper; the column's apex moves by metres (docs/ARCHITECTURE.md §3.4).
@@ -240,14 +244,25 @@ fn main() -> ExitCode {
             plume_view,
             lava_view,
             camera,
+            sun,
             plume_substeps,
             bloom,
         } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
-            let views = (plume_view.into(), lava, camera, bloom);
+            let views = Views { plume: plume_view.into(), lava, camera, sun, bloom };
             render(&scene, ticks, out, (width, height), min_stddev, views, plume_substeps)
         }
     }
+}
+
+/// What `volcano render` draws and from where, beside the scene's own settings.
+struct Views {
+    plume: volcano::render::PlumeRenderMode,
+    lava: volcano::render::LavaRenderMode,
+    camera: Option<CameraSpec>,
+    /// Azimuth and elevation (degrees) instead of the scene's.
+    sun: Option<(f32, f32)>,
+    bloom: bool,
 }
 
 /// Parses `--camera FX,FY,FZ,YAW,PITCH,DISTANCE`.
@@ -260,6 +275,18 @@ fn parse_camera(text: &str) -> Result<CameraSpec, String> {
         return Err(format!("expected 6 comma-separated numbers, got {}", v.len()));
     };
     Ok(CameraSpec { focus: (fx, fy, fz), yaw_deg, pitch_deg, distance })
+}
+
+/// Parses `--sun AZIMUTH,ELEVATION` (degrees; the scene validates the ranges).
+fn parse_sun(text: &str) -> Result<(f32, f32), String> {
+    let v: Vec<f32> = text
+        .split(',')
+        .map(|t| t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}")))
+        .collect::<Result<_, _>>()?;
+    let [azimuth, elevation] = v[..] else {
+        return Err(format!("expected 2 comma-separated numbers, got {}", v.len()));
+    };
+    Ok((azimuth, elevation))
 }
 
 /// Runs `f` with the command line's plume parameters, or exits 2 with the error.
@@ -397,22 +424,21 @@ fn render(
     out: PathBuf,
     (width, height): (u32, u32),
     min_stddev: f64,
-    (view, lava_view, camera, bloom): (
-        volcano::render::PlumeRenderMode,
-        volcano::render::LavaRenderMode,
-        Option<CameraSpec>,
-        bool,
-    ),
+    Views { plume: view, lava: lava_view, camera, sun, bloom }: Views,
     plume_substeps: Option<u32>,
 ) -> ExitCode {
     if !(16..=8192).contains(&width) || !(16..=8192).contains(&height) {
         eprintln!("error: --width and --height must be in 16..=8192");
         return ExitCode::from(2);
     }
-    // The scene, with the camera override (validated with the rest of the scene).
+    // The scene, with the camera and sun overrides (validated with the rest of the scene).
     let spec = volcano::scenes::by_name(scene).map(|mut s| {
         if let Some(c) = camera {
             s.camera = c;
+        }
+        if let Some((azimuth, elevation)) = sun {
+            s.sun.azimuth_deg = azimuth;
+            s.sun.elevation_deg = elevation;
         }
         s
     });
@@ -511,6 +537,22 @@ fn render(
         Err(e) => {
             eprintln!("error: wrote an unreadable PNG: {e}");
             ExitCode::FAILURE
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sun_override_parses_and_rejects_bad_input() {
+        let cli = Cli::try_parse_from(["volcano", "render", "--out", "x.png", "--sun", "230,-5"]).unwrap();
+        let Command::Render { sun, .. } = cli.command else { panic!("not a render command") };
+        assert_eq!(sun, Some((230.0, -5.0)));
+        for bad in ["230", "230,28,1", "south,28"] {
+            let parsed = Cli::try_parse_from(["volcano", "render", "--out", "x.png", "--sun", bad]);
+            assert!(parsed.is_err(), "--sun {bad} was accepted");
         }
     }
 }
