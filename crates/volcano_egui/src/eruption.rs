@@ -111,6 +111,7 @@ fn parameter_widgets(ui: &mut egui::Ui, e: &mut Eruption) -> bool {
         let s = &mut e.spheres;
         changed |= ui.add(egui::Slider::new(&mut s.s1_per_slice, 1..=64).text("s1 per slice")).changed();
         changed |= slider(ui, &mut s.size_jitter, 0.0..=0.9, "size jitter");
+        changed |= slider(ui, &mut s.radial_jitter, 0.0..=0.6, "radial jitter");
         changed |= ui.add(egui::Slider::new(&mut s.s2_per_s1, 0..=500).text("s2 per s1")).changed();
         changed |= ui.add(egui::Slider::new(&mut s.s3_per_s2, 0..=100).text("s3 per s2")).changed();
         changed |= slider(ui, &mut e.umbrella_lifetime, 0.0..=3600.0, "umbrella lifetime (s)");

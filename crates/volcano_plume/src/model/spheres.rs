@@ -4,6 +4,9 @@
 //!   in the slice plane), sizes jittered (uniform 0.5–1.5, normalised to mean 1, as the
 //!   authors' prototype), a random angular offset, and a spin `Ω = v_s / r_s` about the ring
 //!   tangent (the sphere's surface moves with the slice's speed at the column's outside).
+//!   Our reading adds a radial jitter (default ±30 % of r/2, [`SphereParams::radial_jitter`]):
+//!   with every centre at exactly r/2, the rims of successive slices nested as concentric
+//!   circles wherever the column was seen along its axis (docs/ARCHITECTURE.md §4.3).
 //! - s2, s3: *procedural*, not simulated. Child `k` of a parent sits at a pseudo-random point of
 //!   the parent's surface derived from `(seed, parent id, k)` only, with radius ÷5 per level, and
 //!   turns rigidly with its parent. Rendering and export enumerate them with
@@ -27,11 +30,15 @@ pub struct SphereParams {
     pub s2_per_s1: u32,
     /// s3 spheres per s2 sphere (0 to skip the third scale).
     pub s3_per_s2: u32,
+    /// Radial jitter: each s1 centre lies at r/2 times a factor in `[1 − j, 1 + j]` (0 = the
+    /// thesis' ring). Taken from a hash of the sphere's ring angle, so it draws nothing from
+    /// the slice's random stream.
+    pub radial_jitter: f64,
 }
 
 impl Default for SphereParams {
     fn default() -> Self {
-        Self { s1_per_slice: 6, size_jitter: 0.5, s2_per_s1: 200, s3_per_s2: 0 }
+        Self { s1_per_slice: 6, size_jitter: 0.5, s2_per_s1: 200, s3_per_s2: 0, radial_jitter: 0.3 }
     }
 }
 
@@ -45,6 +52,7 @@ impl SphereParams {
         in_range("size_jitter", self.size_jitter, 0.0, 0.9)?;
         in_range("s2_per_s1", self.s2_per_s1 as f64, 0.0, 500.0)?;
         in_range("s3_per_s2", self.s3_per_s2 as f64, 0.0, 100.0)?;
+        in_range("radial_jitter", self.radial_jitter, 0.0, 0.6)?;
         Ok(())
     }
 }
@@ -56,12 +64,14 @@ pub struct S1Sphere {
     pub ring_angle: f64,
     /// Size factor (mean 1 over the slice); radius = factor × r/2.
     pub size_factor: f64,
+    /// Radial factor: the centre lies at factor × r/2 from the slice's axis.
+    pub radial_factor: f64,
 }
 
 impl S1Sphere {
     /// Centre relative to the slice centre, in the slice frame, for slice size `r`.
     pub fn local_offset(&self, r: f64) -> DVec3 {
-        DVec3::new(self.ring_angle.cos(), self.ring_angle.sin(), 0.0) * (0.5 * r)
+        DVec3::new(self.ring_angle.cos(), self.ring_angle.sin(), 0.0) * (0.5 * r * self.radial_factor)
     }
     /// Radius for slice size `r`.
     pub fn radius(&self, r: f64) -> f64 {
@@ -78,7 +88,8 @@ impl S1Sphere {
 }
 
 /// The s1 spheres of one slice: evenly spaced on the ring after a random angular offset, with
-/// jittered sizes normalised to mean 1. `rng` is the slice's own stream.
+/// jittered sizes normalised to mean 1, and radial factors hashed from the ring angles. `rng` is
+/// the slice's own stream.
 pub fn s1_ring(p: &SphereParams, rng: &mut impl rand::Rng) -> Vec<S1Sphere> {
     let n = p.s1_per_slice.max(1) as usize;
     let offset: f64 = rng.random_range(0.0..std::f64::consts::TAU);
@@ -86,11 +97,14 @@ pub fn s1_ring(p: &SphereParams, rng: &mut impl rand::Rng) -> Vec<S1Sphere> {
     let raw: Vec<f64> =
         (0..n).map(|_| if j > 0.0 { rng.random_range(1.0 - j..=1.0 + j) } else { 1.0 }).collect();
     let mean = raw.iter().sum::<f64>() / n as f64;
+    let radial = p.radial_jitter.clamp(0.0, 0.6);
     raw.iter()
         .enumerate()
-        .map(|(i, s)| S1Sphere {
-            ring_angle: offset + std::f64::consts::TAU * i as f64 / n as f64,
-            size_factor: s / mean,
+        .map(|(i, s)| {
+            let ring_angle = offset + std::f64::consts::TAU * i as f64 / n as f64;
+            let bits = ring_angle.to_bits();
+            let u = hash32(bits as u32 ^ hash32((bits >> 32) as u32)) as f64 / u32::MAX as f64;
+            S1Sphere { ring_angle, size_factor: s / mean, radial_factor: 1.0 + radial * (2.0 * u - 1.0) }
         })
         .collect()
 }
@@ -224,8 +238,26 @@ mod tests {
         assert!((mean - 1.0).abs() < 1e-12);
         assert!(ring.iter().all(|s| s.size_factor > 0.5 / 1.5 - 1e-9 && s.size_factor < 1.5 / 0.5 + 1e-9));
         let r = 80.0;
+        let radii: Vec<f64> = ring.iter().map(|s| s.local_offset(r).length()).collect();
+        assert!(
+            radii.iter().all(|&d| (28.0 - 1e-9..=52.0 + 1e-9).contains(&d)),
+            "centres within ±30 % of r/2: {radii:?}"
+        );
+        let spread =
+            radii.iter().cloned().fold(f64::MIN, f64::max) - radii.iter().cloned().fold(f64::MAX, f64::min);
+        assert!(spread > 4.0, "radial jitter barely acts: {radii:?}");
+        let exact = s1_ring(&SphereParams { radial_jitter: 0.0, ..p.clone() }, &mut derive_stream(7, 1));
+        for s in &exact {
+            assert!(
+                (s.local_offset(r).length() - 40.0).abs() < 1e-9,
+                "without jitter, centres on the ring of radius r/2"
+            );
+        }
+        // The jitter draws nothing from the stream: the same angles and sizes either way.
+        for (a, b) in ring.iter().zip(&exact) {
+            assert_eq!((a.ring_angle, a.size_factor), (b.ring_angle, b.size_factor));
+        }
         for s in &ring {
-            assert!((s.local_offset(r).length() - 40.0).abs() < 1e-9, "centres on the ring of radius r/2");
             assert!(s.spin_axis().dot(s.local_offset(r)).abs() < 1e-9, "spin about the ring tangent");
             assert!((s.angular_speed(100.0, r) - 100.0 / s.radius(r)).abs() < 1e-9);
         }
