@@ -253,6 +253,9 @@ mod tests {
                 "without jitter, centres on the ring of radius r/2"
             );
         }
+        for bad in [0.7, -0.1, f64::NAN] {
+            assert!(SphereParams { radial_jitter: bad, ..p.clone() }.validate().is_err(), "{bad} accepted");
+        }
         // The jitter draws nothing from the stream: the same angles and sizes either way.
         for (a, b) in ring.iter().zip(&exact) {
             assert_eq!((a.ring_angle, a.size_factor), (b.ring_angle, b.size_factor));
