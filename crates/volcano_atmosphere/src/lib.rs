@@ -20,5 +20,5 @@ pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, SharedFields, WeatherPipelineSettings,
     WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at, atmosphere_fields,
-    current_thread_nice, flush_weather, join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+    flush_weather, join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

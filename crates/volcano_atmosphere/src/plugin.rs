@@ -2,12 +2,10 @@
 //! simulated second at any fixed rate by default, docs/ARCHITECTURE.md §3.4). An [`Atmosphere`] entity carries the grid,
 //! coefficients, clock and ground; each [`AirLayer`] entity holds one layer's fields in one
 //! component. Each weather tick writes back the step started one weather step earlier and
-//! starts the next one off the main thread on a snapshot ([`pipeline`], §3.3), at a lower OS
-//! priority where it can ([`priority`]).
+//! starts the next one off the main thread on a snapshot ([`pipeline`], §3.3).
 
 mod components;
 pub mod pipeline;
-pub mod priority;
 mod shared;
 mod snapshot;
 mod spawn;
@@ -22,7 +20,6 @@ pub use components::{
 pub use pipeline::{
     AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,
 };
-pub use priority::current_thread_nice;
 pub use shared::SharedFields;
 pub use spawn::{spawn_atmosphere, spawn_scenario, spawn_scenario_with};
 

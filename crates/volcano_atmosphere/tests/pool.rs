@@ -47,11 +47,7 @@ fn run_app() -> WeatherPipelineStatus {
     .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
     // An hour's start delay: the run can only finish because each join (every tick joins the
     // step before) ends the delay at once.
-    .insert_resource(WeatherPipelineSettings {
-        off_thread: true,
-        start_delay: Duration::from_secs(3600),
-        ..default()
-    })
+    .insert_resource(WeatherPipelineSettings { off_thread: true, start_delay: Duration::from_secs(3600) })
     .add_systems(FixedUpdate, (busy, busy, busy));
     let scenario = Scenario::builtin("mixed").unwrap();
     app.add_systems(Startup, move |mut commands: Commands| {

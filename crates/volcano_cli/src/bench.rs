@@ -27,7 +27,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use serde::Serialize;
 use volcano::prelude::*;
-use volcano_atmosphere::{WeatherPipelineSettings, WeatherPipelineStatus};
+use volcano_atmosphere::WeatherPipelineStatus;
 
 mod soak;
 
@@ -105,10 +105,6 @@ pub struct BenchReport {
     pub quality: Option<String>,
     /// Whether ticks were paced at the tick rate (`--realtime`).
     pub realtime: bool,
-    /// `WeatherPipelineSettings::background_nice` of the run (`--weather-nice`).
-    pub weather_background_nice: u8,
-    /// Nice value of the thread that computed the last weather step written back (Linux).
-    pub weather_step_nice: Option<i32>,
     /// The soak report (`--report-every`), one row per interval.
     pub soak: Vec<soak::SoakRow>,
 }
@@ -143,8 +139,6 @@ pub struct BenchOptions {
     /// tick n at n × 20 ms, sleeping in between) instead of back to back; the weather step then
     /// has a second of wall time, as in a game, instead of the ≈ 0.1 s an unpaced run leaves it.
     pub realtime: bool,
-    /// `WeatherPipelineSettings::background_nice` for the run (`None`: the crate's default).
-    pub weather_nice: Option<u8>,
 }
 
 /// Ms per domain from ms per set (in `SETS` order): plume, pyroclastic, coupling (the sets
@@ -195,10 +189,6 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         .insert_resource(Time::<Fixed>::from_hz(crate::TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / crate::TICK_HZ)))
         .init_resource::<Stamps>()
-        .insert_resource(WeatherPipelineSettings {
-            background_nice: opts.weather_nice.unwrap_or(WeatherPipelineSettings::default().background_nice),
-            ..default()
-        })
         .add_systems(
             FixedUpdate,
             (
@@ -350,12 +340,6 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         wall_s: started.elapsed().as_secs_f64(),
         quality: opts.quality.map(|q| format!("{q:?}")),
         realtime: opts.realtime,
-        weather_background_nice: app.world().resource::<WeatherPipelineSettings>().background_nice,
-        weather_step_nice: {
-            let world = app.world_mut();
-            let mut q = world.query::<&WeatherPipelineStatus>();
-            q.iter(world).find_map(|s| s.last_step_nice)
-        },
         soak: soak.map(|s| s.rows).unwrap_or_default(),
     };
     if let Err(e) = std::fs::write(dir.join("ticks.csv"), rows) {

@@ -101,11 +101,6 @@ enum Command {
         /// back (the weather step then has a wall second to finish, as in a game).
         #[arg(long)]
         realtime: bool,
-        /// How much nicer than the game the off-thread weather step runs
-        /// (`WeatherPipelineSettings::background_nice`, Linux; 0 = on Bevy's async pool as
-        /// before). Without it, the crate's default.
-        #[arg(long, value_name = "N", value_parser = clap::value_parser!(u8).range(0..=19))]
-        weather_nice: Option<u8>,
         /// Output directory.
         #[arg(long)]
         out: PathBuf,
@@ -224,17 +219,7 @@ fn main() -> ExitCode {
         Command::Pyroclastic { params, seconds, out } => {
             with_params(&params, |p| pyroclastic::run(p, seconds, &out))
         }
-        Command::Bench {
-            scene,
-            ticks,
-            seconds,
-            warmup_ticks,
-            quality,
-            report_every,
-            realtime,
-            weather_nice,
-            out,
-        } => {
+        Command::Bench { scene, ticks, seconds, warmup_ticks, quality, report_every, realtime, out } => {
             let per_s = TICK_HZ as u64;
             let opts = bench::BenchOptions {
                 scene,
@@ -243,7 +228,6 @@ fn main() -> ExitCode {
                 quality: quality.map(Quality::level),
                 report_every_ticks: report_every.map_or(0, |s| s * per_s),
                 realtime,
-                weather_nice,
             };
             bench::run(&opts, &out)
         }

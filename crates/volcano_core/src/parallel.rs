@@ -8,8 +8,7 @@
 //! without touching the pool.
 //!
 //! The bands run on one of Bevy's pools ([`Pool`]): the `ComputeTaskPool` by default, the
-//! `AsyncComputeTaskPool` inside [`on_pool`]`(Pool::AsyncCompute, ..)`, or a `'static` pool of
-//! the caller's own inside `on_pool(Pool::Own(pool), ..)`. In an app they are
+//! `AsyncComputeTaskPool` inside [`on_pool`]`(Pool::AsyncCompute, ..)`. In an app they are
 //! the pools `TaskPoolPlugin` built (so the app's thread budget is the only one); in a bare
 //! `World`, a test, a command-line tool or a bench they are created on first use. The calling
 //! thread helps run the bands while it waits, so a call from inside another band (nested
@@ -22,8 +21,7 @@
 //! its bands been on the compute pool, the task's own thread could pick up that joining
 //! system while helping and wait for itself for ever (the deadlock the first version of this
 //! helper had). So the weather step runs its bands on the async compute pool, whose tasks
-//! never wait for a system (or, at a lower OS priority, on a pool of its own, `Pool::Own`,
-//! whose tasks never wait for a system either). `tests/pool.rs` in `volcano_atmosphere` runs the pipeline in a
+//! never wait for a system. `tests/pool.rs` in `volcano_atmosphere` runs the pipeline in a
 //! multi-threaded app on a two-thread compute pool.
 //!
 //! The helper is written by hand rather than with rayon on purpose: rayon brings a second
@@ -61,8 +59,8 @@ use bevy::tasks::{AsyncComputeTaskPool, ComputeTaskPool, TaskPool};
 /// to eight cores while each band is long enough that its task's cost does not show.
 pub const BAND_ROWS: usize = 32;
 
-/// Which task pool the helper's bands run on (see the module docs).
-#[derive(Debug, Clone, Copy, Default)]
+/// Which of Bevy's task pools the helper's bands run on (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 pub enum Pool {
     /// Bevy's `ComputeTaskPool`: work a system waits for while it runs (the lava grid, the
     /// pyroclastic particles).
@@ -71,32 +69,6 @@ pub enum Pool {
     /// Bevy's `AsyncComputeTaskPool`: work inside a task that a system may block on (the
     /// weather step of the off-thread pipeline).
     AsyncCompute,
-    /// A pool of the caller's own, living for the rest of the process, whose tasks never wait
-    /// for a system (e.g. the weather's background-priority pool, `volcano_atmosphere`'s
-    /// `WeatherPipelineSettings::background_nice`): the bands then never run on Bevy's threads.
-    Own(&'static TaskPool),
-}
-
-/// Two pools are equal when they are the same pool (`Own` by address).
-impl PartialEq for Pool {
-    fn eq(&self, other: &Self) -> bool {
-        match (self, other) {
-            (Pool::Compute, Pool::Compute) | (Pool::AsyncCompute, Pool::AsyncCompute) => true,
-            (Pool::Own(a), Pool::Own(b)) => std::ptr::eq(*a, *b),
-            _ => false,
-        }
-    }
-}
-
-impl Eq for Pool {}
-
-impl std::hash::Hash for Pool {
-    fn hash<H: std::hash::Hasher>(&self, state: &mut H) {
-        std::mem::discriminant(self).hash(state);
-        if let Pool::Own(p) = self {
-            std::ptr::hash(*p, state);
-        }
-    }
 }
 
 impl Pool {
@@ -106,7 +78,6 @@ impl Pool {
         match self {
             Pool::Compute => ComputeTaskPool::get_or_init(TaskPool::default),
             Pool::AsyncCompute => AsyncComputeTaskPool::get_or_init(TaskPool::default),
-            Pool::Own(pool) => pool,
         }
     }
 

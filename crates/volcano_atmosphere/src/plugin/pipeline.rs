@@ -11,10 +11,6 @@
 //! that join only blocks if the worker has not finished. The components therefore always hold
 //! a complete state one weather step behind the weather clock, and the state at every tick is
 //! the same whichever thread ran the step and whatever the frame rate.
-//!
-//! With [`WeatherPipelineSettings::background_nice`] (default 10, Linux) an off-thread step
-//! runs on a pool of its own at a lower OS priority instead of on Bevy's pool: the design and
-//! why (a lowered thread cannot be raised back without privilege) are in [`super::priority`].
 
 use std::sync::Arc;
 use std::time::Instant;
@@ -27,7 +23,6 @@ use volcano_core::prelude::*;
 use super::components::{
     AirLayer, Atmosphere, AtmosphereGround, AtmosphereTimeline, WeatherStep, WeatherStepped,
 };
-use super::priority::{MAX_NICE, background_pool, current_thread_nice};
 use super::shared::SharedFields;
 use super::snapshot::{merge_ground, snapshot_ground, snapshot_layers};
 use crate::model::fields::{AtmosphereState, Ground, LayerFields};
@@ -36,9 +31,8 @@ use crate::model::run::apply_event;
 use crate::model::scenario::Event;
 use crate::model::step::{StepReport, Workspace, step};
 
-/// The pool the weather step's bands run on when it runs on the main thread or on Bevy's async
-/// compute pool: the async compute pool, whose tasks never wait for a system (with the compute
-/// pool, `tests/pool.rs` hangs). A step on the background pool runs its bands there.
+/// The pool the weather step's bands run on: the async compute pool, whose tasks never wait for
+/// a system (with the compute pool, `tests/pool.rs` hangs).
 const POOL: parallel::Pool = parallel::Pool::AsyncCompute;
 
 /// Where weather steps run (a resource of [`crate::AtmospherePlugin`]).
@@ -46,10 +40,9 @@ const POOL: parallel::Pool = parallel::Pool::AsyncCompute;
 #[reflect(Resource, Default)]
 pub struct WeatherPipelineSettings {
     /// Run each step on Bevy's `AsyncComputeTaskPool` (when the app has one, e.g. through
-    /// `TaskPoolPlugin`), or on the background pool beside it (`background_nice`). When
-    /// false, or without the pool, the step runs on the main thread as it starts and its
-    /// result still waits for the next weather tick: the state is bit-identical either way,
-    /// only the thread differs.
+    /// `TaskPoolPlugin`). When false, or without the pool, the step runs on the main thread
+    /// as it starts and its result still waits for the next weather tick: the state is
+    /// bit-identical either way, only the thread differs.
     pub off_thread: bool,
     /// Wall-clock time an off-thread step waits before it starts working (default 20 ms).
     /// Started at once, its first burst (a newly woken thread copying the layers, 5 MB at
@@ -60,24 +53,11 @@ pub struct WeatherPipelineSettings {
     /// steps in one base tick, `join_weather`, `flush_weather`); keep it well under the weather
     /// cadence's wall time (a second of game time at 50 Hz), or the write-back waits.
     pub start_delay: std::time::Duration,
-    /// How much lower than the game's threads an off-thread step runs, as a Linux nice
-    /// increment (default 10; 0 = off, the step runs on Bevy's `AsyncComputeTaskPool`; values
-    /// above [`MAX_NICE`] count as 19, and the resulting nice is capped at 19). Above 0 the
-    /// step and its bands run on a pool of their own (as many threads as the async compute
-    /// pool, named `Weather+N`) whose threads lowered themselves once when created, so the
-    /// OS runs the base tick's threads first and the step in the tick's idle time (the
-    /// design, and why a Bevy thread is not lowered for the step's duration instead:
-    /// [`priority`](super::priority)'s module docs). On other systems, and for steps on the
-    /// main thread, it does nothing. The state is bit-identical for every value. At nice +10
-    /// the step gets about a tenth of a core that a base-tick thread also wants (kernel
-    /// weights 110 vs 1,024); a higher value starves it more when something else of the game
-    /// keeps the cores busy, until the write-back waits for it.
-    pub background_nice: u8,
 }
 
 impl Default for WeatherPipelineSettings {
     fn default() -> Self {
-        Self { off_thread: true, start_delay: std::time::Duration::from_millis(20), background_nice: 10 }
+        Self { off_thread: true, start_delay: std::time::Duration::from_millis(20) }
     }
 }
 
@@ -92,8 +72,7 @@ pub struct WeatherPipelineStatus {
     pub started: u64,
     /// Steps whose result was written back.
     pub applied: u64,
-    /// Of the started steps, those run off the main thread (on the `AsyncComputeTaskPool`, or
-    /// on the background pool of [`WeatherPipelineSettings::background_nice`]).
+    /// Of the started steps, those run on the `AsyncComputeTaskPool`.
     pub off_thread: u64,
     /// Write-backs that had to wait for the worker to finish.
     pub waited: u64,
@@ -102,11 +81,6 @@ pub struct WeatherPipelineStatus {
     pub last_start_ms: f64,
     /// Main-thread time of the last write-back (join included), ms.
     pub last_apply_ms: f64,
-    /// Nice value of the thread that computed the last step written back, read by that thread
-    /// as the step began (Linux; `None` elsewhere): the game's own nice with
-    /// `background_nice` 0 or on the main thread, that plus `background_nice` (at most 19) on
-    /// the background pool.
-    pub last_step_nice: Option<i32>,
 }
 
 /// What a step starts from: the shared layers, buffers to copy them into, the rest of the state
@@ -126,8 +100,6 @@ struct Stepped {
     result: Result<StepReport, ConfigError>,
     /// `state.is_valid()` in debug builds (checked on the worker, asserted on write-back).
     valid: bool,
-    /// The nice value of the thread that ran the step ([`WeatherPipelineStatus::last_step_nice`]).
-    nice: Option<i32>,
 }
 
 enum Job {
@@ -201,9 +173,8 @@ impl AtmosphereWork {
 /// events due, steps. Its bands run on the async compute pool, on or off the main thread alike:
 /// a system joins this step one weather step later, and a compute-pool thread helping with the
 /// step's bands could pick up that very system and wait for itself (`volcano_core::parallel`'s
-/// module docs). On the background pool (`bands` = `Pool::Own`) its bands run on that pool.
-fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64, bands: parallel::Pool) -> Stepped {
-    let nice = current_thread_nice();
+/// module docs).
+fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64) -> Stepped {
     let StepInput { shared, spare_layers, shell, events, work } = input;
     let refs: Vec<&LayerFields> = shared.iter().map(|l| &**l).collect();
     let layers = snapshot_layers(spare_layers, &refs);
@@ -216,7 +187,7 @@ fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64, bands: paralle
     }
     let (work, result) = match work.map_or_else(|| Workspace::new(&state), Ok) {
         Ok(mut work) => {
-            let result = parallel::on_pool(bands, || step(&mut state, params, &mut work, dt));
+            let result = parallel::on_pool(POOL, || step(&mut state, params, &mut work, dt));
             (Some(work), result)
         }
         Err(e) => (None, Err(e)),
@@ -224,7 +195,7 @@ fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64, bands: paralle
     // docs/ARCHITECTURE.md §7.1: debug builds check that the state stays finite and
     // non-negative.
     let valid = !cfg!(debug_assertions) || state.is_valid();
-    Stepped { state, work, result, valid, nice }
+    Stepped { state, work, result, valid }
 }
 
 /// The layers of `atmosphere`, sorted by index (read through `Mut` without marking them
@@ -253,10 +224,9 @@ fn write_back(
     started_tick: u64,
     now: u64,
 ) -> Option<WeatherStepped> {
-    let Stepped { mut state, work: scratch, result, valid, nice } = done;
+    let Stepped { mut state, work: scratch, result, valid } = done;
     work.work = scratch;
     t.status.in_flight_since = None;
-    t.status.last_step_nice = nice;
     debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
     let fits = t.layers.len() == state.layers.len()
         && t.layers
@@ -354,18 +324,6 @@ pub(crate) fn start_weather(
     }
     let now = tick.map_or(0, |t| t.0);
     let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
-    if settings.background_nice > MAX_NICE {
-        warn_once!(
-            "WeatherPipelineSettings::background_nice {} is above {MAX_NICE}; {MAX_NICE} is used",
-            settings.background_nice
-        );
-    }
-    // The pool the step runs on and the pool of its bands: the background pool when there is
-    // one (Linux, `background_nice` > 0), else Bevy's async compute pool.
-    let pool = pool.map(|p| match background_pool(settings.background_nice, p.thread_num()) {
-        Some(own) => (own, parallel::Pool::Own(own)),
-        None => (&**p, POOL),
-    });
     for ((entity, mut atmo, mut ground, mut work, mut status), timeline) in &mut atmospheres {
         let clock = Instant::now();
         let mut mine = layers_of(entity, &mut layers);
@@ -403,7 +361,7 @@ pub(crate) fn start_weather(
         let params = atmo.params.clone();
         let (wake, woken) = std::sync::mpsc::channel::<()>();
         let job = match pool {
-            Some((pool, bands)) => {
+            Some(pool) => {
                 status.off_thread += 1;
                 let delay = settings.start_delay;
                 Job::Running(pool.spawn(async move {
@@ -413,10 +371,10 @@ pub(crate) fn start_weather(
                     if !delay.is_zero() {
                         let _ = woken.recv_timeout(delay);
                     }
-                    run_step(input, &params, dt, bands)
+                    run_step(input, &params, dt)
                 }))
             }
-            None => Job::Done(Box::new(run_step(input, &params, dt, POOL))),
+            None => Job::Done(Box::new(run_step(input, &params, dt))),
         };
         work.in_flight = Some(InFlight { started_tick: now, job, wake: Some(wake) });
         status.in_flight_since = Some(now);
