@@ -278,14 +278,13 @@ fn queue_depth(
     view_keys: Res<ViewKeyCache>,
     target: Option<Res<AshDepthImage>>,
 ) {
+    if !target.is_some_and(|t| t.in_use) {
+        return;
+    }
     let draw = draw_functions.read().id::<DrawAshDepth>();
-    let in_use = target.is_some_and(|t| t.in_use);
     for view in &views {
         let Some(phase) = phases.get_mut(&view.retained_view_entity) else { continue };
         let Some(&view_key) = view_keys.get(&view.retained_view_entity) else { continue };
-        if !in_use {
-            continue;
-        }
         let ready = specialized_ash_draws(
             view_key,
             &clouds,
