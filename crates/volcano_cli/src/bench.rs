@@ -171,8 +171,13 @@ struct TickTimes {
 }
 
 impl TickTimes {
+    /// Most ticks reserved up front: four simulated hours (5.8 MB). A longer `--ticks` grows
+    /// the vector past it as it goes (a huge count must not be one allocation it cannot get).
+    const MAX_RESERVED: u64 = 4 * 3_600 * 50;
+
     fn with_capacity(ticks: u64) -> Self {
-        Self { all: Vec::with_capacity(ticks as usize), weather: (0.0, 0), other: (0.0, 0) }
+        let reserve = ticks.min(Self::MAX_RESERVED) as usize;
+        Self { all: Vec::with_capacity(reserve), weather: (0.0, 0), other: (0.0, 0) }
     }
 
     fn push(&mut self, ms: f64, weather: bool) {
@@ -430,5 +435,7 @@ mod tests {
         assert_eq!((times.weather.1, times.other.1), (7_200, 172_800));
         assert_eq!((TickTimes::mean(times.weather), TickTimes::mean(times.other)), (3.0, 1.0));
         assert_eq!(TickTimes::mean((0.0, 0)), 0.0);
+        // An absurd tick count reserves the cap, not what was asked.
+        assert_eq!(TickTimes::with_capacity(u64::MAX).all.capacity(), TickTimes::MAX_RESERVED as usize);
     }
 }
