@@ -173,7 +173,7 @@ mod tests {
     use super::*;
 
     /// The live heap follows an allocation: 64 MiB allocated and touched show in it, and go
-    /// when freed. (Resident memory would not tell the two apart after the free.)
+    /// when freed (a `heap_mib` that read nothing, or only grew, fails).
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
     #[test]
     fn heap_follows_a_64_mib_allocation() {

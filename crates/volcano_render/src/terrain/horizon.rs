@@ -260,6 +260,8 @@ fn loop_mean<const N: usize>(values: &[[f32; N]], keep: impl Fn(usize) -> bool, 
     if n == 0 || w == 0 {
         return values.to_vec();
     }
+    // Wider than the loop is the whole loop (and `2w + 1` cannot overflow).
+    let w = w.min(n);
     // Over the loop three times, so every window is one contiguous range.
     let mut sums = vec![([0f64; N], 0u32); 3 * n + 1];
     for i in 0..3 * n {
@@ -519,6 +521,7 @@ mod tests {
         assert_eq!((even[1][0], even[0][0]), (1.0, 0.0));
         assert_eq!(loop_mean(&v, |_| false, 2), v);
         assert_eq!(loop_mean(&v, |_| true, 0), v);
+        assert_eq!(loop_mean(&v, |_| true, usize::MAX), wide);
     }
 
     /// An island's sea stays sea out to the ring's edge, whatever the hills.
