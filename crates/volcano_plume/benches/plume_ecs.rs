@@ -94,6 +94,11 @@ fn bench(c: &mut Criterion) {
     group.bench_function("gather parents only (ECS queries + sort)", |b| {
         b.iter(|| gather_parents(app.world_mut()))
     });
+    let (_, parents) = gather_parents(app.world_mut());
+    let light_settings = AshLightSettings::default();
+    group.bench_function("light parents only (sun and sky depth grids)", |b| {
+        b.iter(|| light_parents(&parents, &light_settings))
+    });
     group.bench_function("CPU instances only (old path)", |b| b.iter(|| update_instances(app.world_mut())));
     // The old frame: the tick, then the CPU build of every instance.
     group.bench_function("one tick (10 substeps) + CPU instances (old path)", |b| {

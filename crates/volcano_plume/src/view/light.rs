@@ -15,6 +15,13 @@ use bevy::prelude::*;
 
 use super::ParentSphere;
 
+mod depth;
+use depth::DepthGrid;
+use volcano_core::parallel::{Bands, par_map};
+
+/// Parents looked up per task of [`light_parents`].
+const PARENTS_PER_BAND: usize = 1_024;
+
 /// Lighting inputs of the ash renderer (a resource, editable live through reflection).
 #[derive(Resource, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Resource)]
@@ -107,18 +114,21 @@ pub fn light_parents(parents: &[ParentSphere], settings: &AshLightSettings) -> V
         return vec![ParentLight::CLEAR; parents.len()];
     }
     let n = settings.max_cells_per_axis as usize;
-    let sun = DepthGrid::build(parents, settings.sun.normalize(), settings.extinction, n);
-    let up = DepthGrid::build(parents, Vec3::Y, settings.extinction, n);
-    let mut own = Vec::new();
-    parents
-        .iter()
-        .map(|p| {
-            let t = |g: &Option<DepthGrid>, own: &mut Vec<(usize, f32)>| {
-                g.as_ref().map_or(1.0, |g| (-g.depth_at_surface(p, own)).exp())
+    // The two grids, then the parents in fixed bands, on the compute pool: each result is a
+    // pure function of its inputs, so the light is the same on any number of threads.
+    let towards = vec![settings.sun.normalize(), Vec3::Y];
+    let mut grids = par_map(towards, |_, w| DepthGrid::build(parents, w, settings.extinction, n)).into_iter();
+    let (sun, up) = (grids.next().flatten(), grids.next().flatten());
+    let bands = Bands::of(PARENTS_PER_BAND).map_ranges(parents.len(), |band| {
+        band.map(|i| {
+            let t = |g: &Option<DepthGrid>| {
+                g.as_ref().map_or(1.0, |g| (-g.depth_at_surface(i, &parents[i])).exp())
             };
-            ParentLight { sun: t(&sun, &mut own), sky: t(&up, &mut own), vent: 0.0 }
+            ParentLight { sun: t(&sun), sky: t(&up), vent: 0.0 }
         })
-        .collect()
+        .collect::<Vec<_>>()
+    });
+    bands.concat()
 }
 
 /// Light from each parent's vent (same order as `parents`): `1 / (1 + (d / reach)²)`, `d`
@@ -143,171 +153,6 @@ pub fn vent_light(parents: &[ParentSphere], vents: &[Vec3], reach_m: f32, out: &
 
 fn valid(p: &ParentSphere) -> bool {
     p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0 && p.density.is_finite() && p.density > 0.0
-}
-
-/// Optical depth toward a light, on a grid whose third axis points at it.
-struct DepthGrid {
-    /// Rows: the grid axes u, v, w (w toward the light).
-    axes: [Vec3; 3],
-    /// Grid coordinates of the lower corner.
-    origin: Vec3,
-    /// Cell size (m).
-    h: f32,
-    dims: [usize; 3],
-    /// Optical depth from each cell centre to the grid's end toward the light.
-    tau: Vec<f32>,
-    /// Fraction of the splatted extinction each cell kept under its density cap (1 where the
-    /// parents' sum stayed below it): a parent's own share of a cell is scaled by it too.
-    kept: Vec<f32>,
-    extinction: f32,
-}
-
-impl DepthGrid {
-    fn build(parents: &[ParentSphere], toward: Vec3, extinction: f32, max_cells: usize) -> Option<Self> {
-        let w = toward;
-        let u = w.any_orthonormal_vector();
-        let axes = [u, w.cross(u), w];
-        let local = |c: Vec3| Vec3::new(c.dot(axes[0]), c.dot(axes[1]), c.dot(axes[2]));
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for p in parents.iter().filter(|p| valid(p)) {
-            let c = local(p.center);
-            lo = lo.min(c - p.radius);
-            hi = hi.max(c + p.radius);
-        }
-        if !lo.is_finite() || !hi.is_finite() {
-            return None;
-        }
-        let extent = hi - lo;
-        let h = (extent.max_element() / max_cells as f32).max(1.0);
-        let dims = (extent / h).to_array().map(|e| (e.ceil() as usize).clamp(1, max_cells));
-        let cells = dims[0] * dims[1] * dims[2];
-        let mut grid =
-            Self { axes, origin: lo, h, dims, tau: vec![0.0; cells], kept: vec![1.0; cells], extinction };
-        // Extinction coefficient per cell (1/m), then the running sum toward the light. The
-        // parents are overlapping samples of one continuum (a slice's ring spheres overlap
-        // their neighbours, and a column's slices overlap many deep), so their masses are not
-        // stacked: a cell holds at most the density of the densest parent reaching it (their
-        // union). Sparse puffs smaller than a cell still add up below that cap.
-        let mut sigma = vec![0.0f32; grid.tau.len()];
-        let mut cap = vec![0.0f32; grid.tau.len()];
-        let mut cells = Vec::new();
-        for p in parents.iter().filter(|p| valid(p)) {
-            cells.clear();
-            grid.splat(p, &mut cells);
-            let s = grid.cross_section(p) / (h * h * h);
-            let densest = extinction * p.density;
-            for &(i, wt) in &cells {
-                sigma[i] += s * wt;
-                cap[i] = cap[i].max(densest);
-            }
-        }
-        for ((s, &c), kept) in sigma.iter_mut().zip(&cap).zip(grid.kept.iter_mut()) {
-            if *s > c {
-                *kept = c / *s;
-                *s = c;
-            }
-        }
-        let [nx, ny, nz] = dims;
-        for i in 0..nx * ny {
-            let mut acc = 0.0;
-            for k in (0..nz).rev() {
-                let c = i * nz + k;
-                grid.tau[c] = acc + 0.5 * sigma[c] * h;
-                acc += sigma[c] * h;
-            }
-        }
-        Some(grid)
-    }
-
-    /// Extinction cross-section of a parent, `κ ρ V` (m²).
-    fn cross_section(&self, p: &ParentSphere) -> f32 {
-        self.extinction * p.density * 4.0 / 3.0 * std::f32::consts::PI * p.radius.powi(3)
-    }
-
-    fn local(&self, c: Vec3) -> Vec3 {
-        (Vec3::new(c.dot(self.axes[0]), c.dot(self.axes[1]), c.dot(self.axes[2])) - self.origin) / self.h
-    }
-
-    fn index(&self, i: [usize; 3]) -> usize {
-        (i[0] * self.dims[1] + i[1]) * self.dims[2] + i[2]
-    }
-
-    /// Cells a parent's mass goes to, with weights summing to 1: trilinear around the centre
-    /// for spheres smaller than a cell, else the cells whose centre lies inside the sphere.
-    fn splat(&self, p: &ParentSphere, out: &mut Vec<(usize, f32)>) {
-        let g = self.local(p.center) - 0.5; // in cell-centre coordinates
-        let r = p.radius / self.h;
-        if r > 1.0 {
-            let span = r.min(12.0);
-            let lo = (g - span).ceil().max(Vec3::ZERO);
-            let hi = (g + span).floor();
-            let mut n = 0usize;
-            for x in lo.x as usize..=(hi.x.max(0.0) as usize).min(self.dims[0] - 1) {
-                for y in lo.y as usize..=(hi.y.max(0.0) as usize).min(self.dims[1] - 1) {
-                    for z in lo.z as usize..=(hi.z.max(0.0) as usize).min(self.dims[2] - 1) {
-                        if (Vec3::new(x as f32, y as f32, z as f32) - g).length() <= span {
-                            out.push((self.index([x, y, z]), 1.0));
-                            n += 1;
-                        }
-                    }
-                }
-            }
-            if n > 0 {
-                out.iter_mut().for_each(|c| c.1 = 1.0 / n as f32);
-                return;
-            }
-        }
-        self.trilinear(g, |i, wt| out.push((i, wt)));
-    }
-
-    /// Calls `f(cell, weight)` for the (up to 8) cells around `g` (cell-centre coordinates,
-    /// clamped to the grid).
-    fn trilinear(&self, g: Vec3, mut f: impl FnMut(usize, f32)) {
-        let max = Vec3::new(self.dims[0] as f32, self.dims[1] as f32, self.dims[2] as f32) - 1.0;
-        let g = g.clamp(Vec3::ZERO, max);
-        let base = g.floor();
-        let t = g - base;
-        for corner in 0..8u32 {
-            let o = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
-            let mut wt = 1.0;
-            let mut idx = [0usize; 3];
-            for a in 0..3 {
-                let ta = t[a];
-                wt *= if o[a] == 1 { ta } else { 1.0 - ta };
-                idx[a] = ((base[a] as usize) + o[a] as usize).min(self.dims[a] - 1);
-            }
-            if wt > 0.0 {
-                f(self.index(idx), wt);
-            }
-        }
-    }
-
-    /// Optical depth from the parent's light-facing surface to the light, without the
-    /// parent's own contribution. `own` is scratch space.
-    fn depth_at_surface(&self, p: &ParentSphere, own: &mut Vec<(usize, f32)>) -> f32 {
-        if !valid(p) {
-            return 0.0;
-        }
-        let q = self.local(p.center + self.axes[2] * p.radius) - 0.5;
-        let nz = self.dims[2];
-        let mut total = 0.0;
-        let mut mine = 0.0;
-        own.clear();
-        self.splat(p, own);
-        let own_sigma = self.cross_section(p) / (self.h * self.h * self.h);
-        self.trilinear(q, |c, wt| {
-            total += wt * self.tau[c];
-            // The parent's share of tau[c]: its cells in the same grid column at or beyond c.
-            let (column, k) = (c / nz, c % nz);
-            for &(o, ow) in own.iter() {
-                if o / nz == column && o % nz >= k {
-                    let part = if o % nz == k { 0.5 } else { 1.0 };
-                    mine += wt * part * own_sigma * ow * self.h * self.kept[o];
-                }
-            }
-        });
-        (total - mine).max(0.0)
-    }
 }
 
 #[cfg(test)]
