@@ -39,6 +39,11 @@ pub struct AshLightSettings {
     /// Distance (m) from the vent at which its incandescent light on the ash has fallen to
     /// half ([`vent_light`]; > 0).
     pub vent_reach_m: f32,
+    /// Compute the light on Bevy's `AsyncComputeTaskPool`, one frame behind: each frame uses
+    /// the light of the previous frame's parents (matched by parent) and starts its own
+    /// (`volcano_render`'s renderer; [`light_parents`] itself always computes at once). Off:
+    /// the light is computed on the main thread each frame.
+    pub off_thread: bool,
 }
 
 impl Default for AshLightSettings {
@@ -48,6 +53,7 @@ impl Default for AshLightSettings {
             extinction: 0.003,
             max_cells_per_axis: 64,
             vent_reach_m: 500.0,
+            off_thread: true,
         }
     }
 }

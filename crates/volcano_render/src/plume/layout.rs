@@ -16,8 +16,10 @@ use bevy::prelude::*;
 use volcano_plume::view::{
     AshInstance, AshLightSettings, CurrentCloudSettings, EruptionView, ParentLight, ParentSphere,
     PlumeViewSettings, PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction,
-    light_parents, plan_parents, s2_key, s3_key, vent_light,
+    plan_parents, s2_key, s3_key, vent_light,
 };
+
+use super::light_task::AshLightTask;
 
 /// One parent as the renderer's vertex shader reads it (64 bytes, a `std430` storage-buffer
 /// element; the WGSL struct `AshParent` in `ash.wgsl` mirrors it).
@@ -88,7 +90,7 @@ pub struct PlumeParents(pub Arc<AshParents>);
 
 /// Packs the frame's parents for GPU expansion: one [`AshParent`] per parent that draws
 /// anything ([`plan_parents`]) and the prefix sum of the counts. `light` is per parent (from
-/// [`light_parents`]); missing entries are fully lit. `out` is reused.
+/// [`light_parents`](volcano_plume::view::light_parents)); missing entries are fully lit. `out` is reused.
 pub fn build_parents(
     settings: &PlumeViewSettings,
     viewpoint: Option<Vec3>,
@@ -135,7 +137,7 @@ pub fn update_parents(world: &mut World) {
     let light_settings = world.get_resource_or_init::<AshLightSettings>().clone();
     let light = match light_settings.validate() {
         Ok(()) => {
-            let mut light = light_parents(&parents, &light_settings);
+            let mut light = world.resource_mut::<AshLightTask>().light(parents.clone(), &light_settings);
             let vents: Vec<Vec3> = eruptions.iter().map(|e| e.vent).collect();
             vent_light(&parents, &vents, light_settings.vent_reach_m, &mut light);
             light
@@ -159,6 +161,7 @@ pub(super) fn build(app: &mut App) {
     app.init_resource::<PlumeViewSettings>()
         .init_resource::<PlumeViewpoint>()
         .init_resource::<PlumeParents>()
+        .init_resource::<AshLightTask>()
         .init_resource::<AshLightSettings>()
         .init_resource::<CurrentCloudSettings>()
         .register_type::<AshLightSettings>()

@@ -5,7 +5,8 @@
 //!   turns with the spin projected on the screen (thesis §3.7.1); s2/s3 detail spheres are
 //!   lit sphere impostors; pyroclastic particles flattened dark puffs. All are coloured by
 //!   density (dark brown-grey near the vent, light grey aloft), lit by the sun through the ash
-//!   toward it and by the sky through the ash above (`volcano_plume::view::light_parents`), with
+//!   toward it and by the sky through the ash above (`volcano_plume::view::light_parents`, one
+//!   frame behind on the async pool: `light_task`), with
 //!   soft blended edges and an incandescent glow at the vent. [`update_parents`] packs the
 //!   parents and their instance counts ([`layout`]: what each draws comes from
 //!   `volcano_plume::view::plan_parents`); the vertex shader expands the detail spheres (see
@@ -15,6 +16,7 @@
 mod debug;
 mod depth;
 pub mod layout;
+mod light_task;
 mod pipeline;
 
 use bevy::asset::embedded_asset;
