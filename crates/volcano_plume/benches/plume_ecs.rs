@@ -59,6 +59,20 @@ fn frame_parents(world: &mut World) -> (usize, u32) {
     (drawn, total)
 }
 
+/// What stays on the main thread when the renderer lights the parents off it
+/// (`AshLightSettings::off_thread`): gather and plan.
+fn frame_parents_unlit(world: &mut World) -> (usize, u32) {
+    let (eruptions, parents) = gather_parents(world);
+    let settings = world.get_resource_or_init::<PlumeViewSettings>().clone();
+    let viewpoint = world.get_resource_or_init::<PlumeViewpoint>().0;
+    let (mut drawn, mut total) = (0, 0);
+    plan_parents(&settings, viewpoint, &eruptions, &parents, |d| {
+        drawn += 1;
+        total = d.end;
+    });
+    (drawn, total)
+}
+
 fn count<C: Component>(app: &mut App) -> usize {
     app.world_mut().query::<&C>().iter(app.world()).count()
 }
@@ -86,6 +100,12 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             app.update();
             frame_parents(app.world_mut())
+        })
+    });
+    group.bench_function("one tick (10 substeps) + GPU-path parents, light off the main thread", |b| {
+        b.iter(|| {
+            app.update();
+            frame_parents_unlit(app.world_mut())
         })
     });
     group.bench_function("GPU-path parents only (gather + light + plan + prefix sum)", |b| {
