@@ -262,13 +262,11 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let mut rows = match std::fs::File::create(dir.join("ticks.csv")) {
         Ok(f) => std::io::BufWriter::new(f),
         Err(e) => {
-            eprintln!("error: cannot write ticks.csv: {e}");
-            return ExitCode::FAILURE;
+            return ticks_csv_failed(e);
         }
     };
     if let Err(e) = writeln!(rows, "tick,ms,weather,plume,pyroclastic,coupling,weather_set,lava,rest") {
-        eprintln!("error: cannot write ticks.csv: {e}");
-        return ExitCode::FAILURE;
+        return ticks_csv_failed(e);
     }
     // (tick, ms, weather tick, ms per set) of the slowest tick.
     let mut slowest = (0, 0.0, false, [0.0; SETS.len()]);
@@ -337,8 +335,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             d[3].1,
             d[4].1
         ) {
-            eprintln!("error: cannot write ticks.csv: {e}");
-            return ExitCode::FAILURE;
+            return ticks_csv_failed(e);
         }
         times.push(ms, after.1 != before.1);
         let sums = if after.1 != before.1 { &mut weather_sets } else { &mut other_sets };
@@ -402,8 +399,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         soak: soak.map(|s| s.rows).unwrap_or_default(),
     };
     if let Err(e) = rows.flush() {
-        eprintln!("error: cannot write ticks.csv: {e}");
-        return ExitCode::FAILURE;
+        return ticks_csv_failed(e);
     }
     let json = serde_json::to_string_pretty(&report).unwrap_or_default();
     if let Err(e) = std::fs::write(dir.join("bench.json"), &json) {
@@ -412,6 +408,12 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     }
     println!("{json}");
     ExitCode::SUCCESS
+}
+
+/// Reports a failed write of `ticks.csv`.
+fn ticks_csv_failed(e: std::io::Error) -> ExitCode {
+    eprintln!("error: cannot write ticks.csv: {e}");
+    ExitCode::FAILURE
 }
 
 #[cfg(test)]
