@@ -5,7 +5,8 @@
 //! volcano, a quarter of them buoyant. The sequential step is measured too, for the ratio, and
 //! the whole domain step (`model::flows::step`: the same particles, their deposits, books, cap
 //! and lift-off) as the plugin calls it, without the ECS gathering and write-back; and one pass
-//! of the deposit's relaxation, which the plugin runs four times a second.
+//! of the deposit's relaxation, which the plugin runs four times a second; and the renderer's
+//! ash light of those particles.
 
 use bevy::math::{DVec2, DVec3};
 use criterion::{Criterion, criterion_group, criterion_main};
@@ -20,6 +21,7 @@ use volcano_plume::model::flows::{
 use volcano_plume::model::params::PlumeParams;
 use volcano_plume::model::pyroclastic::{Particle, PyroclasticParams, find_clusters, step_particle};
 use volcano_plume::model::slice::SliceEnv;
+use volcano_plume::view::{AshLightSettings, ParentSphere, light_parents};
 
 fn bench(c: &mut Criterion) {
     let terrain =
@@ -136,6 +138,31 @@ fn bench(c: &mut Criterion) {
             |m| black_box(m.relax(&terrain, 1)),
             criterion::BatchSize::LargeInput,
         )
+    });
+    // The renderer lights every particle as a parent sphere (`light_parents`, off the main
+    // thread one frame behind by default): the cost of a frame's light for the particles alone.
+    let parents: Vec<ParentSphere> = base
+        .iter()
+        .enumerate()
+        .map(|(k, q)| ParentSphere {
+            id: k as u64,
+            eruption: 0,
+            center: bevy::math::Vec3::new(
+                q.position.x as f32,
+                (vent_y + q.position.z) as f32,
+                -q.position.y as f32,
+            ),
+            radius: q.radius as f32,
+            rotation: bevy::math::Quat::IDENTITY,
+            density: q.density() as f32,
+            umbrella: false,
+            flow: true,
+            cloud: false,
+        })
+        .collect();
+    let light = AshLightSettings::default();
+    c.bench_function("pyroclastic: ash light of 50k particles (light_parents)", |b| {
+        b.iter(|| black_box(light_parents(&parents, &light)))
     });
     c.bench_function("pyroclastic: clustering 50k (12.5k buoyant) only", |b| {
         b.iter(|| {

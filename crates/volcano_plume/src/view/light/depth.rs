@@ -175,7 +175,8 @@ impl DepthGrid {
                         }
                     });
                 }
-                None => grid.trilinear(grid.cell_coords(p.center), |i, wt| {
+                None => grid.trilinear(grid.cell_coords(p.center), |cell, wt| {
+                    let i = grid.index(cell);
                     sigma[i] += s * wt;
                     cap[i] = cap[i].max(densest);
                 }),
@@ -225,22 +226,24 @@ impl DepthGrid {
         }
         let g = self.cell_coords(p.center);
         let span = r.min(MAX_SPAN);
-        let (lo, hi) = ((g - span).ceil().max(Vec3::ZERO), (g + span).floor());
         Some(Ball {
             g,
             span2: span * span,
-            lo: [0, 1, 2].map(|a| lo[a] as usize),
-            hi: [0, 1, 2].map(|a| (hi[a].max(0.0) as usize).min(self.dims[a] - 1)),
+            // ⌈g − span⌉ and ⌊g + span⌋, clamped to the grid.
+            lo: [0, 1, 2].map(|a| (-floor(span - g[a])).max(0) as usize),
+            hi: [0, 1, 2].map(|a| (floor(g[a] + span).max(0) as usize).min(self.dims[a] - 1)),
         })
     }
 
     /// Calls `f(cell, weight)` for the (up to 8) cells around `g` (cell-centre coordinates,
     /// clamped to the grid).
-    fn trilinear(&self, g: Vec3, mut f: impl FnMut(usize, f32)) {
+    fn trilinear(&self, g: Vec3, mut f: impl FnMut([usize; 3], f32)) {
         let max = Vec3::new(self.dims[0] as f32, self.dims[1] as f32, self.dims[2] as f32) - 1.0;
         let g = g.clamp(Vec3::ZERO, max);
-        let base = g.floor();
-        let t = g - base;
+        // g ≥ 0: truncation is the floor, without the library call `floorf` is on baseline
+        // x86-64 (6 % of the light of 50,000 particles).
+        let cell = [g.x as usize, g.y as usize, g.z as usize];
+        let t = g - Vec3::new(cell[0] as f32, cell[1] as f32, cell[2] as f32);
         for corner in 0..8u32 {
             let o = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
             let mut wt = 1.0;
@@ -248,10 +251,10 @@ impl DepthGrid {
             for a in 0..3 {
                 let ta = t[a];
                 wt *= if o[a] == 1 { ta } else { 1.0 - ta };
-                idx[a] = ((base[a] as usize) + o[a] as usize).min(self.dims[a] - 1);
+                idx[a] = (cell[a] + o[a] as usize).min(self.dims[a] - 1);
             }
             if wt > 0.0 {
-                f(self.index(idx), wt);
+                f(idx, wt);
             }
         }
     }
@@ -264,35 +267,35 @@ impl DepthGrid {
             return 0.0;
         }
         let q = self.cell_coords(p.center + self.axes[2] * p.radius);
-        let [_, ny, nz] = self.dims;
+        let nz = self.dims[2];
         let own_sigma = self.cross_section(p) / (self.h * self.h * self.h);
         let weight = self.ball_weight.get(index).copied().unwrap_or(0.0);
         let ball = if weight > 0.0 { self.ball(p) } else { None };
-        let mut points = [(usize::MAX, 0.0f32); 8];
+        // A small parent's own cells, as grid coordinates (no divisions in the loop below:
+        // they were most of a lookup's cost).
+        let (mut points, mut count) = ([([0usize; 3], 0.0f32); 8], 0);
         if ball.is_none() {
-            let mut next = points.iter_mut();
-            self.trilinear(self.cell_coords(p.center), |i, wt| {
-                if let Some(slot) = next.next() {
-                    *slot = (i, wt);
-                }
+            self.trilinear(self.cell_coords(p.center), |cell, wt| {
+                points[count] = (cell, wt);
+                count += 1;
             });
         }
         let (mut total, mut mine) = (0.0, 0.0);
-        self.trilinear(q, |c, wt| {
-            total += wt * self.tau[c];
+        self.trilinear(q, |[x, y, k], wt| {
+            let column = (x * self.dims[1] + y) * nz;
+            total += wt * self.tau[column + k];
             // The parent's share of tau[c]: its cells in the same grid column at or beyond c
             // (half of c itself, whose tau counts half its own cell).
-            let (column, k) = (c / nz, c % nz);
-            let mut add = |o: usize, ow: f32| {
-                let part = if o % nz == k { 0.5 } else { 1.0 };
-                mine += wt * part * own_sigma * ow * self.h * self.kept[o];
+            let mut add = |z: usize, ow: f32| {
+                let part = if z == k { 0.5 } else { 1.0 };
+                mine += wt * part * own_sigma * ow * self.h * self.kept[column + z];
             };
-            if let Some(run) = ball.and_then(|b| b.run(column / ny, column % ny)) {
-                (run.0.max(k)..=run.1).for_each(|z| add(column * nz + z, weight));
+            if let Some(run) = ball.and_then(|b| b.run(x, y)) {
+                (run.0.max(k)..=run.1).for_each(|z| add(z, weight));
             }
-            for &(o, ow) in points.iter().filter(|(o, _)| *o != usize::MAX) {
-                if o / nz == column && o % nz >= k {
-                    add(o, ow);
+            for &([ox, oy, oz], ow) in &points[..count] {
+                if ox == x && oy == y && oz >= k {
+                    add(oz, ow);
                 }
             }
         });

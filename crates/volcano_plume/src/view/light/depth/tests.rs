@@ -37,7 +37,7 @@ fn cells_by_definition(grid: &DepthGrid, p: &ParentSphere) -> Vec<(usize, f32)> 
     let n = out.len();
     out.iter_mut().for_each(|c| c.1 = 1.0 / n as f32);
     if n == 0 {
-        grid.trilinear(g, |i, wt| out.push((i, wt)));
+        grid.trilinear(g, |cell, wt| out.push((grid.index(cell), wt)));
     }
     out
 }
@@ -50,7 +50,8 @@ fn depth_by_scanning(grid: &DepthGrid, p: &ParentSphere) -> f32 {
     let own = cells_by_definition(grid, p);
     let own_sigma = grid.cross_section(p) / (grid.h * grid.h * grid.h);
     let (mut total, mut mine) = (0.0, 0.0);
-    grid.trilinear(q, |c, wt| {
+    grid.trilinear(q, |cell, wt| {
+        let c = grid.index(cell);
         total += wt * grid.tau[c];
         let (column, k) = (c / nz, c % nz);
         for &(o, ow) in &own {
