@@ -56,9 +56,9 @@ pub use sky::{
 };
 pub use smooth_motion::SmoothMotionPlugin;
 pub use terrain::{
-    DepositRenderPlugin, DepositTint, GroundSample, HorizonError, Relief, TerrainHorizon, TerrainHorizonMesh,
-    TerrainMesh, TerrainRenderPlugin, UnrenderedTerrain, VentMarker, ground_color, horizon_mesh,
-    terrain_mesh,
+    DepositRenderPlugin, DepositTint, GroundDetail, GroundDetailExtension, GroundSample, HorizonError,
+    Relief, TerrainHorizon, TerrainHorizonMesh, TerrainMaterial, TerrainMesh, TerrainRenderPlugin,
+    UnrenderedTerrain, VentMarker, ground_color, horizon_mesh, terrain_mesh,
 };
 pub use window_capture::WindowScreenshotPlugin;
 
