@@ -1,7 +1,8 @@
-//! Rendering for the volcano plugin set: the terrain mesh and vent markers ([`terrain`]), the
-//! eruption column ([`plume`]), the ash deposit ([`terrain::deposit`]), lava ([`lava`]), volumetric
-//! clouds ([`clouds`]), an orbit camera ([`camera`]), the opt-in sun, ambient light and sky
-//! ([`sky`]) and windowless offscreen capture for tests and the CLI ([`headless`]).
+//! Rendering for the volcano plugin set: the terrain mesh with per-pixel ground detail and vent
+//! markers ([`terrain`]), the eruption column ([`plume`]), the ash deposit
+//! ([`terrain::deposit`]), lava ([`lava`]), volumetric clouds ([`clouds`]), an orbit camera
+//! ([`camera`]), the opt-in sun, ambient light and sky ([`sky`]) and windowless offscreen
+//! capture for tests and the CLI ([`headless`]).
 //!
 //! [`VolcanoRenderPlugins`] draws the simulation and touches nothing of the game's lighting or
 //! cameras, except that a camera the game tags [`GlowCamera`] is HDR with bloom. Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
