@@ -1,7 +1,8 @@
-//! Rendering for the volcano plugin set: the terrain mesh and vent markers ([`terrain`]), the
-//! eruption column ([`plume`]), the ash deposit ([`terrain::deposit`]), lava ([`lava`]), volumetric
-//! clouds ([`clouds`]), an orbit camera ([`camera`]), the opt-in sun, ambient light and sky
-//! ([`sky`]) and windowless offscreen capture for tests and the CLI ([`headless`]).
+//! Rendering for the volcano plugin set: the terrain mesh with per-pixel ground detail and vent
+//! markers ([`terrain`]), the eruption column ([`plume`]), the ash deposit
+//! ([`terrain::deposit`]), lava ([`lava`]), volumetric clouds ([`clouds`]), an orbit camera
+//! ([`camera`]), the opt-in sun, ambient light and sky ([`sky`]) and windowless offscreen
+//! capture for tests and the CLI ([`headless`]).
 //!
 //! [`VolcanoRenderPlugins`] draws the simulation and touches nothing of the game's lighting or
 //! cameras, except that a camera the game tags [`GlowCamera`] is HDR with bloom. Scenes without lighting of their own add [`VolcanoSkyPlugin`] and spawn their camera
@@ -56,9 +57,9 @@ pub use sky::{
 };
 pub use smooth_motion::SmoothMotionPlugin;
 pub use terrain::{
-    DepositRenderPlugin, DepositTint, GroundSample, HorizonError, Relief, TerrainHorizon, TerrainHorizonMesh,
-    TerrainMesh, TerrainRenderPlugin, UnrenderedTerrain, VentMarker, ground_color, horizon_mesh,
-    terrain_mesh,
+    DepositRenderPlugin, DepositTint, GroundDetail, GroundDetailExtension, GroundSample, HorizonError,
+    Relief, TerrainHorizon, TerrainHorizonMesh, TerrainMaterial, TerrainMesh, TerrainRenderPlugin,
+    UnrenderedTerrain, VentMarker, ground_color, horizon_mesh, terrain_mesh,
 };
 pub use window_capture::WindowScreenshotPlugin;
 

@@ -7,7 +7,8 @@
 //! [`MAX_VERTICES_PER_SIDE`]² vertices. Colours follow land-cover rules with procedural detail
 //! ([`ground_color`]: rock on steep slopes, scoria and ash on the upper cone, vegetation low,
 //! snow high, value-noise variation); nodes under frozen lava (the terrain's added layer) turn
-//! basalt grey.
+//! basalt grey. The material ([`TerrainMaterial`]) adds per-pixel detail finer than the
+//! vertices ([`GroundDetail`], module `detail`).
 
 use bevy::asset::RenderAssetUsages;
 use bevy::color::{Color, ColorToComponents, LinearRgba, Srgba};
@@ -16,6 +17,7 @@ use bevy::pbr::{MeshMaterial3d, StandardMaterial};
 use bevy::prelude::*;
 mod cover;
 pub mod deposit;
+mod detail;
 mod horizon;
 mod region;
 
@@ -24,6 +26,7 @@ use volcano_core::{LandCover, Terrain, TerrainChanged, VentPosition, Volcano};
 pub use cover::{GroundSample, Relief, ground_color, value_noise};
 pub(crate) use cover::{lattice_hash, mix, smoothstep};
 pub use deposit::{DepositRenderPlugin, DepositTint};
+pub use detail::{GROUND_DETAIL_SHADER, GroundDetail, GroundDetailExtension, TerrainMaterial};
 pub use horizon::{HorizonError, TerrainHorizon, TerrainHorizonMesh, horizon_mesh};
 
 use region::update_changed_regions;
@@ -58,6 +61,7 @@ pub struct TerrainRenderPlugin;
 
 impl Plugin for TerrainRenderPlugin {
     fn build(&self, app: &mut App) {
+        detail::build(app);
         app.register_type::<TerrainMesh>()
             .register_type::<VentMarker>()
             .register_type::<UnrenderedTerrain>()
@@ -78,6 +82,7 @@ impl Plugin for TerrainRenderPlugin {
     fn finish(&self, app: &mut App) {
         // After every plugin's build, so the mesh and material asset stores exist.
         if app.world().contains_resource::<Assets<StandardMaterial>>()
+            && app.world().contains_resource::<Assets<TerrainMaterial>>()
             && app.world().contains_resource::<Assets<Mesh>>()
         {
             app.init_resource::<TerrainAssets>();
@@ -88,21 +93,26 @@ impl Plugin for TerrainRenderPlugin {
 /// Shared handles, created when the plugin finishes (needs the PBR asset stores).
 #[derive(Resource)]
 struct TerrainAssets {
-    terrain_material: Handle<StandardMaterial>,
+    terrain_material: Handle<TerrainMaterial>,
     vent_material: Handle<StandardMaterial>,
     vent_mesh: Handle<Mesh>,
 }
 
 impl FromWorld for TerrainAssets {
     fn from_world(world: &mut World) -> Self {
-        let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
-        let terrain_material = materials.add(StandardMaterial {
+        // An invalid setting at start-up is reported by `detail::apply_ground_detail`.
+        let detail = world.get_resource::<GroundDetail>().copied().filter(|d| d.validate().is_ok());
+        let base = StandardMaterial {
             base_color: Color::WHITE,
             perceptual_roughness: 0.95,
             metallic: 0.0,
             reflectance: 0.25,
             ..default()
-        });
+        };
+        let extension = GroundDetailExtension::from(detail.unwrap_or(GroundDetail::OFF));
+        let terrain_material =
+            world.resource_mut::<Assets<TerrainMaterial>>().add(TerrainMaterial { base, extension });
+        let mut materials = world.resource_mut::<Assets<StandardMaterial>>();
         // Emissive in nits, scaled by the camera exposure: glows orange-red at daylight exposure.
         let vent_material = materials.add(StandardMaterial {
             base_color: Color::srgb(0.35, 0.03, 0.01),
