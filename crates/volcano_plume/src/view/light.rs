@@ -161,23 +161,25 @@ fn valid(p: &ParentSphere) -> bool {
     p.center.is_finite() && p.radius.is_finite() && p.radius > 0.0 && p.density.is_finite() && p.density > 0.0
 }
 
+/// A plain s1 parent of eruption 0 (tests of this module and of [`depth`]).
+#[cfg(test)]
+fn sphere(id: u64, center: Vec3, radius: f32, density: f32) -> ParentSphere {
+    ParentSphere {
+        id,
+        eruption: 0,
+        center,
+        radius,
+        rotation: Quat::IDENTITY,
+        density,
+        umbrella: false,
+        flow: false,
+        cloud: false,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn sphere(id: u64, center: Vec3, radius: f32, density: f32) -> ParentSphere {
-        ParentSphere {
-            id,
-            eruption: 0,
-            center,
-            radius,
-            rotation: Quat::IDENTITY,
-            density,
-            umbrella: false,
-            flow: false,
-            cloud: false,
-        }
-    }
 
     fn settings(sun: Vec3) -> AshLightSettings {
         AshLightSettings { sun, ..Default::default() }

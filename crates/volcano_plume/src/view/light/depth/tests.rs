@@ -1,20 +1,7 @@
 use rand::RngExt;
 
+use super::super::sphere;
 use super::*;
-
-fn sphere(id: u64, center: Vec3, radius: f32, density: f32) -> ParentSphere {
-    ParentSphere {
-        id,
-        eruption: 0,
-        center,
-        radius,
-        rotation: Quat::IDENTITY,
-        density,
-        umbrella: false,
-        flow: false,
-        cloud: false,
-    }
-}
 
 /// A parent's cells by their definition, every cell of the grid tested (x, then y, then z
 /// ascending): those whose centre lies within the capped radius, `1 / n` each; if there are
