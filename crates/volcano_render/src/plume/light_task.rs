@@ -82,8 +82,10 @@ impl AshLightTask {
     ) -> Vec<ParentLight> {
         let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
         let Some(pool) = pool else {
+            // Kept as the last light, so switching back on carries this frame's, not an old one.
             self.running = None;
-            return light_parents(&parents, settings);
+            self.last = LitParents::compute(&parents, settings);
+            return self.last.light.clone();
         };
         if let Some(task) = self.running.take() {
             self.last = block_on(task);
@@ -188,5 +190,9 @@ mod tests {
         let parents = frame(&(0..20).collect::<Vec<_>>(), 0.0);
         let mut task = AshLightTask::default();
         assert_eq!(task.light(parents.clone(), &settings), light_parents(&parents, &settings));
+        // Switched back on, the first frame carries the light of the last one computed.
+        AsyncComputeTaskPool::get_or_init(TaskPool::default);
+        let on = AshLightSettings { off_thread: true, ..settings.clone() };
+        assert_eq!(task.light(parents.clone(), &on), light_parents(&parents, &settings));
     }
 }
