@@ -261,9 +261,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     // ≈ 11 MB, the resident-memory creep the soak report showed.
     let mut rows = match std::fs::File::create(dir.join("ticks.csv")) {
         Ok(f) => std::io::BufWriter::new(f),
-        Err(e) => {
-            return ticks_csv_failed(e);
-        }
+        Err(e) => return ticks_csv_failed(e),
     };
     if let Err(e) = writeln!(rows, "tick,ms,weather,plume,pyroclastic,coupling,weather_set,lava,rest") {
         return ticks_csv_failed(e);
@@ -313,6 +311,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         // Ms of each set in this tick.
         let sets: [f64; SETS.len()] =
             std::array::from_fn(|i| (sets_after[i] - sets_before[i]).as_secs_f64() * 1e3);
+        // A weather step started or was written back on this tick.
+        let weather_tick = after.1 != before.1;
         if after.1.0 != before.1.0 {
             start_ms.push(pipeline_ms(&mut app).0);
         }
@@ -320,7 +320,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             apply_ms.push(pipeline_ms(&mut app).1);
         }
         if ms > slowest.1 {
-            slowest = (after.0, ms, after.1 != before.1, sets);
+            slowest = (after.0, ms, weather_tick, sets);
         }
         let d = by_domain(&sets);
         let rest = ms - d.iter().map(|x| x.1).sum::<f64>();
@@ -328,7 +328,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             rows,
             "{},{ms:.4},{},{:.4},{:.4},{:.4},{:.4},{:.4},{rest:.4}",
             after.0,
-            u8::from(after.1 != before.1),
+            u8::from(weather_tick),
             d[0].1,
             d[1].1,
             d[2].1,
@@ -337,8 +337,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         ) {
             return ticks_csv_failed(e);
         }
-        times.push(ms, after.1 != before.1);
-        let sums = if after.1 != before.1 { &mut weather_sets } else { &mut other_sets };
+        times.push(ms, weather_tick);
+        let sums = if weather_tick { &mut weather_sets } else { &mut other_sets };
         for (sum, x) in sums.iter_mut().zip(&sets) {
             *sum += x;
         }

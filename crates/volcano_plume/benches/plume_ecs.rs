@@ -43,30 +43,21 @@ fn column_app() -> App {
 }
 
 /// The plain-data part of the renderer's frame (what `volcano_render`'s `update_parents` does
-/// before the GPU layout): gather, light, plan. Returns the parents drawn and the instances
-/// they expand to.
-fn frame_parents(world: &mut World) -> (usize, u32) {
+/// before the GPU layout): gather, light (unless `lit` is false: what stays on the main thread
+/// when the renderer lights the parents off it, `AshLightSettings::off_thread`), plan. Returns
+/// the parents drawn and the instances they expand to.
+fn frame_parents(world: &mut World, lit: bool) -> (usize, u32) {
     let (eruptions, parents) = gather_parents(world);
     let settings = world.get_resource_or_init::<PlumeViewSettings>().clone();
     let viewpoint = world.get_resource_or_init::<PlumeViewpoint>().0;
-    let light = light_parents(&parents, &world.get_resource_or_init::<AshLightSettings>().clone());
+    let light = if lit {
+        light_parents(&parents, &world.get_resource_or_init::<AshLightSettings>().clone())
+    } else {
+        Vec::new()
+    };
     let (mut drawn, mut total) = (0, 0);
     plan_parents(&settings, viewpoint, &eruptions, &parents, |d| {
         std::hint::black_box(light.get(d.index));
-        drawn += 1;
-        total = d.end;
-    });
-    (drawn, total)
-}
-
-/// What stays on the main thread when the renderer lights the parents off it
-/// (`AshLightSettings::off_thread`): gather and plan.
-fn frame_parents_unlit(world: &mut World) -> (usize, u32) {
-    let (eruptions, parents) = gather_parents(world);
-    let settings = world.get_resource_or_init::<PlumeViewSettings>().clone();
-    let viewpoint = world.get_resource_or_init::<PlumeViewpoint>().0;
-    let (mut drawn, mut total) = (0, 0);
-    plan_parents(&settings, viewpoint, &eruptions, &parents, |d| {
         drawn += 1;
         total = d.end;
     });
@@ -88,7 +79,7 @@ fn bench(c: &mut Criterion) {
     app.update();
     update_instances(app.world_mut());
     let instances = app.world().resource::<PlumeInstances>().0.len();
-    let (drawn, total) = frame_parents(app.world_mut());
+    let (drawn, total) = frame_parents(app.world_mut(), true);
     eprintln!(
         "state: {slices} slices, {s1} s1 spheres, {instances} instances per frame (CPU build), \
          {drawn} parents planned expanding to {total} instances (GPU path)"
@@ -99,17 +90,17 @@ fn bench(c: &mut Criterion) {
     group.bench_function("one tick (10 substeps) + GPU-path parents", |b| {
         b.iter(|| {
             app.update();
-            frame_parents(app.world_mut())
+            frame_parents(app.world_mut(), true)
         })
     });
     group.bench_function("one tick (10 substeps) + GPU-path parents, light off the main thread", |b| {
         b.iter(|| {
             app.update();
-            frame_parents_unlit(app.world_mut())
+            frame_parents(app.world_mut(), false)
         })
     });
     group.bench_function("GPU-path parents only (gather + light + plan + prefix sum)", |b| {
-        b.iter(|| frame_parents(app.world_mut()))
+        b.iter(|| frame_parents(app.world_mut(), true))
     });
     group.bench_function("gather parents only (ECS queries + sort)", |b| {
         b.iter(|| gather_parents(app.world_mut()))

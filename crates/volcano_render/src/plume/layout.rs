@@ -137,7 +137,7 @@ pub fn update_parents(world: &mut World) {
     let light_settings = world.get_resource_or_init::<AshLightSettings>().clone();
     let light = match light_settings.validate() {
         Ok(()) => {
-            let mut light = world.resource_mut::<AshLightTask>().light(parents.clone(), &light_settings);
+            let mut light = world.resource_mut::<AshLightTask>().light(&parents, &light_settings);
             let vents: Vec<Vec3> = eruptions.iter().map(|e| e.vent).collect();
             vent_light(&parents, &vents, light_settings.vent_reach_m, &mut light);
             light

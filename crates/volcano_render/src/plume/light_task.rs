@@ -77,21 +77,21 @@ impl AshLightTask {
     /// with `off_thread` false, computed now.
     pub(super) fn light(
         &mut self,
-        parents: Vec<ParentSphere>,
+        parents: &[ParentSphere],
         settings: &AshLightSettings,
     ) -> Vec<ParentLight> {
         let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
         let Some(pool) = pool else {
             // Kept as the last light, so switching back on carries this frame's, not an old one.
             self.running = None;
-            self.last = LitParents::compute(&parents, settings);
+            self.last = LitParents::compute(parents, settings);
             return self.last.light.clone();
         };
         if let Some(task) = self.running.take() {
             self.last = block_on(task);
         }
-        let light = self.last.carry(&parents);
-        let settings = settings.clone();
+        let light = self.last.carry(parents);
+        let (parents, settings) = (parents.to_vec(), settings.clone());
         // Its grids and lookups run their bands on the same pool: a task the main thread may
         // wait for must not fill the compute pool that runs the app's systems.
         self.running =
@@ -147,12 +147,12 @@ mod tests {
             7.0,
         );
         let mut task = AshLightTask::default();
-        let lit_first = task.light(first.clone(), &settings);
+        let lit_first = task.light(&first, &settings);
         assert!(
             lit_first.iter().all(|l| *l == ParentLight::CLEAR),
             "nothing computed before the first frame"
         );
-        let lit_second = task.light(second.clone(), &settings);
+        let lit_second = task.light(&second, &settings);
         let reference = light_parents(&first, &settings);
         let of_first = |id: u64, umbrella: bool| {
             let i = first.iter().position(|p| p.id == id && p.umbrella == umbrella).unwrap();
@@ -170,7 +170,7 @@ mod tests {
         }
         assert!(shaded > 10, "the test's parents shade each other ({shaded} shaded)");
         // The third frame gets the second's light, computed from the second's positions.
-        let lit_third = task.light(second.clone(), &settings);
+        let lit_third = task.light(&second, &settings);
         assert_eq!(lit_third, light_parents(&second, &settings));
     }
 
@@ -189,10 +189,10 @@ mod tests {
         let settings = AshLightSettings { off_thread: false, sun: Vec3::new(-1.0, 0.2, 0.0), ..default() };
         let parents = frame(&(0..20).collect::<Vec<_>>(), 0.0);
         let mut task = AshLightTask::default();
-        assert_eq!(task.light(parents.clone(), &settings), light_parents(&parents, &settings));
+        assert_eq!(task.light(&parents, &settings), light_parents(&parents, &settings));
         // Switched back on, the first frame carries the light of the last one computed.
         AsyncComputeTaskPool::get_or_init(TaskPool::default);
         let on = AshLightSettings { off_thread: true, ..settings.clone() };
-        assert_eq!(task.light(parents.clone(), &on), light_parents(&parents, &settings));
+        assert_eq!(task.light(&parents, &on), light_parents(&parents, &settings));
     }
 }
