@@ -470,6 +470,9 @@ fn render(
         .insert_resource(Time::<Fixed>::from_hz(TICK_HZ))
         .insert_resource(view)
         .insert_resource(lava_view)
+        // A still: the ash lit from the last ticked frame's parents, taken up by the first
+        // settling frame (a light every tick; a game's default is every third).
+        .insert_resource(volcano::plume::AshLightSettings { refresh_ticks: 1, ..default() })
         // Several base ticks per update so long runs do not render thousands of software
         // frames: `chunk` divides `ticks`, so exactly `ticks` ticks are simulated; afterwards
         // time stops while the capture settles.

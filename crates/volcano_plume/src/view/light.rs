@@ -39,11 +39,20 @@ pub struct AshLightSettings {
     /// Distance (m) from the vent at which its incandescent light on the ash has fallen to
     /// half ([`vent_light`]; > 0).
     pub vent_reach_m: f32,
-    /// Compute the light on Bevy's `AsyncComputeTaskPool`, one frame behind: each frame uses
-    /// the light of the previous frame's parents (matched by parent) and starts its own
-    /// (`volcano_render`'s renderer; [`light_parents`] itself always computes at once). Off:
-    /// the light is computed on the main thread each frame.
+    /// Compute the light on Bevy's `AsyncComputeTaskPool`: frames use the last light
+    /// finished, matched to their parents, while the next one runs (`volcano_render`'s
+    /// renderer, at the cadence of [`Self::refresh_ticks`]; [`light_parents`] itself always
+    /// computes at once). Off: each light is computed on the main thread when it is due.
     pub off_thread: bool,
+    /// Base ticks (`SimTick`) between two lights of the renderer (1..=1,000): a new light
+    /// starts once this many ticks have passed since the last one started, or at once when
+    /// the sun turns by more than [`Self::SUN_TURN_DEG`] or the grid or extinction change;
+    /// frames in between carry the last light over to their parents. A light off the main
+    /// thread is taken up `refresh_ticks` ticks or rendered frames after it started, whichever
+    /// comes first, so it has that long to finish. The ash moves metres per tick against grid
+    /// cells of tens to hundreds of metres: a light per frame bought nothing a viewer sees
+    /// (docs/ARCHITECTURE.md, "How ash is lit"). 1 lights once per base tick.
+    pub refresh_ticks: u32,
 }
 
 impl Default for AshLightSettings {
@@ -54,6 +63,7 @@ impl Default for AshLightSettings {
             max_cells_per_axis: 64,
             vent_reach_m: 500.0,
             off_thread: true,
+            refresh_ticks: 3,
         }
     }
 }
@@ -73,6 +83,9 @@ pub enum AshLightError {
     /// The vent's reach is not a positive finite distance.
     #[error("vent_reach_m {0} must be finite and > 0")]
     VentReach(f32),
+    /// The refresh interval is 0 or more than 1,000 ticks.
+    #[error("refresh_ticks {0} must be in 1..=1000")]
+    RefreshTicks(u32),
 }
 
 impl AshLightSettings {
@@ -90,7 +103,23 @@ impl AshLightSettings {
         if !self.vent_reach_m.is_finite() || self.vent_reach_m <= 0.0 {
             return Err(AshLightError::VentReach(self.vent_reach_m));
         }
+        if !(1..=1_000).contains(&self.refresh_ticks) {
+            return Err(AshLightError::RefreshTicks(self.refresh_ticks));
+        }
         Ok(())
+    }
+
+    /// Largest turn of the sun (degrees) that does not start a new light at once.
+    pub const SUN_TURN_DEG: f32 = 0.5;
+
+    /// Whether a light computed with `other` is still this one's: the same grid and
+    /// extinction and a sun within [`Self::SUN_TURN_DEG`] (the vent's reach and where the
+    /// light runs do not change what [`light_parents`] computes).
+    pub fn lights_like(&self, other: &Self) -> bool {
+        let turn = self.sun.normalize_or_zero().dot(other.sun.normalize_or_zero());
+        self.extinction == other.extinction
+            && self.max_cells_per_axis == other.max_cells_per_axis
+            && turn >= Self::SUN_TURN_DEG.to_radians().cos()
     }
 }
 
@@ -259,6 +288,8 @@ mod tests {
             AshLightSettings { extinction: -1.0, ..Default::default() },
             AshLightSettings { extinction: f32::INFINITY, ..Default::default() },
             AshLightSettings { max_cells_per_axis: 1, ..Default::default() },
+            AshLightSettings { refresh_ticks: 0, ..Default::default() },
+            AshLightSettings { refresh_ticks: 1_001, ..Default::default() },
         ] {
             assert!(bad.validate().is_err(), "{bad:?}");
             let l = light_parents(&[sphere(0, Vec3::ZERO, 1.0, 1.0)], &bad);

@@ -13,6 +13,7 @@
 use std::sync::Arc;
 
 use bevy::prelude::*;
+use volcano_core::SimTick;
 use volcano_plume::view::{
     AshInstance, AshLightSettings, CurrentCloudSettings, EruptionView, ParentLight, ParentSphere,
     PlumeViewSettings, PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction,
@@ -137,7 +138,8 @@ pub fn update_parents(world: &mut World) {
     let light_settings = world.get_resource_or_init::<AshLightSettings>().clone();
     let light = match light_settings.validate() {
         Ok(()) => {
-            let mut light = world.resource_mut::<AshLightTask>().light(&parents, &light_settings);
+            let tick = world.get_resource::<SimTick>().map(|t| t.0);
+            let mut light = world.resource_mut::<AshLightTask>().light(&parents, &light_settings, tick);
             let vents: Vec<Vec3> = eruptions.iter().map(|e| e.vent).collect();
             vent_light(&parents, &vents, light_settings.vent_reach_m, &mut light);
             light

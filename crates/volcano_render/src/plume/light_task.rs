@@ -1,15 +1,19 @@
-//! The ash light one frame behind, off the main thread ([`AshLightSettings::off_thread`]).
+//! The ash light off the main thread ([`AshLightSettings::off_thread`]), every few base ticks
+//! ([`AshLightSettings::refresh_ticks`]).
 //!
 //! Lighting the parents ([`light_parents`]: two optical-depth grids and a lookup per parent)
-//! costs the main thread several milliseconds a frame with ~6,000 parents, more with the
-//! particles of pyroclastic currents. So each frame takes the light computed from the previous
-//! frame's parents, waiting for it if it is not done yet (a frame is deterministic: it never
-//! depends on how fast the task ran), matches it to this frame's parents by their sort key
-//! (eruption, kind, id: [`gather_parents`](volcano_plume::view::gather_parents)'s order, so one
-//! merge pass), and starts the light of this frame's parents on the `AsyncComputeTaskPool`.
-//! A parent new since then takes the light of the parent before it in that order when it is of
+//! costs ≈ 10 ms of the pool with ~6,000 parents, twice that with the particles of
+//! pyroclastic currents. So a light starts on the `AsyncComputeTaskPool` only every
+//! `refresh_ticks` base ticks (or at once when the sun turns or the grid changes), and is
+//! taken up `refresh_ticks` ticks or frames after it started, whichever comes first, waiting
+//! for it if it is not done yet: a frame never depends on how fast the task ran. Every frame
+//! matches the last light taken up to its own parents by their sort key (eruption, kind, id:
+//! [`gather_parents`](volcano_plume::view::gather_parents)'s order, so one merge pass). A
+//! parent new since then takes the light of the parent before it in that order when it is of
 //! the same eruption and kind (a new s1 sphere is born beside the previous one), else full
-//! light. The light lags the ash by one frame (tens of milliseconds): nothing a viewer sees.
+//! light. The light lags the ash by one to two refresh intervals (60–120 ms at the default 3
+//! ticks of 1/50 s): the ash moves metres in that time, against grid cells of tens to hundreds
+//! of metres.
 
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, Task, block_on};
@@ -64,41 +68,75 @@ impl LitParents {
     }
 }
 
-/// The light in flight and the last one finished (a render-app-free resource of the main
-/// world, used by [`update_parents`](super::update_parents)).
+/// A light in flight and the rendered frames since it started.
+struct Running {
+    task: Task<LitParents>,
+    frames: u32,
+}
+
+/// The light in flight, the last one finished and when the last one started (a
+/// render-app-free resource of the main world, used by [`update_parents`](super::update_parents)).
 #[derive(Resource, Default)]
 pub(super) struct AshLightTask {
-    running: Option<Task<LitParents>>,
+    running: Option<Running>,
     last: LitParents,
+    /// Base tick (if known) and settings of the last light started.
+    started: Option<(Option<u64>, AshLightSettings)>,
+    /// Lights started so far.
+    starts: u64,
 }
 
 impl AshLightTask {
-    /// The light of `parents` for this frame (see the module docs); without the async pool or
-    /// with `off_thread` false, computed now.
+    /// The light of `parents` for this frame at base tick `tick` (`None`: unknown, a light
+    /// every frame). A light is due when [`AshLightSettings::refresh_ticks`] ticks have
+    /// passed since the last one started (or the tick went back), or the settings light
+    /// differently ([`AshLightSettings::lights_like`]). Off the main thread, the running
+    /// light is taken up when the next is due or `refresh_ticks` frames after it started,
+    /// waiting for it if need be, so a frame never depends on how fast the task ran; frames
+    /// carry the last light taken up (see the module docs). Without the async pool or with
+    /// `off_thread` false, a due light is computed now.
     pub(super) fn light(
         &mut self,
         parents: &[ParentSphere],
         settings: &AshLightSettings,
+        tick: Option<u64>,
     ) -> Vec<ParentLight> {
+        let every = settings.refresh_ticks.max(1);
+        let due = self.started.as_ref().is_none_or(|(t0, was)| {
+            let ticks = tick.zip(*t0).and_then(|(t, t0)| t.checked_sub(t0));
+            !was.lights_like(settings) || ticks.is_none_or(|d| d >= u64::from(every))
+        });
         let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
+        if let Some(running) = &mut self.running {
+            running.frames += 1;
+        }
+        if self.running.as_ref().is_some_and(|r| due || r.frames >= every || pool.is_none()) {
+            self.last = block_on(self.running.take().expect("checked above").task);
+        }
+        if !due {
+            return self.last.carry(parents);
+        }
+        self.started = Some((tick, settings.clone()));
+        self.starts += 1;
         let Some(pool) = pool else {
-            // Kept as the last light, so switching back on carries this frame's, not an old one.
-            self.running = None;
+            // Kept as the last light, so switching back on carries this light, not an old one.
             self.last = LitParents::compute(parents, settings);
             return self.last.light.clone();
         };
-        if let Some(task) = self.running.take() {
-            self.last = block_on(task);
-        }
         let light = self.last.carry(parents);
         let (parents, settings) = (parents.to_vec(), settings.clone());
         // Its grids and lookups run their bands on the same pool: a task the main thread may
         // wait for must not fill the compute pool that runs the app's systems.
-        self.running =
-            Some(pool.spawn(async move {
-                on_pool(Pool::AsyncCompute, || LitParents::compute(&parents, &settings))
-            }));
+        let task = pool
+            .spawn(async move { on_pool(Pool::AsyncCompute, || LitParents::compute(&parents, &settings)) });
+        self.running = Some(Running { task, frames: 0 });
         light
+    }
+
+    /// Lights started so far.
+    #[cfg(test)]
+    fn starts(&self) -> u64 {
+        self.starts
     }
 }
 
@@ -147,12 +185,12 @@ mod tests {
             7.0,
         );
         let mut task = AshLightTask::default();
-        let lit_first = task.light(&first, &settings);
+        let lit_first = task.light(&first, &settings, None);
         assert!(
             lit_first.iter().all(|l| *l == ParentLight::CLEAR),
             "nothing computed before the first frame"
         );
-        let lit_second = task.light(&second, &settings);
+        let lit_second = task.light(&second, &settings, None);
         let reference = light_parents(&first, &settings);
         let of_first = |id: u64, umbrella: bool| {
             let i = first.iter().position(|p| p.id == id && p.umbrella == umbrella).unwrap();
@@ -170,7 +208,7 @@ mod tests {
         }
         assert!(shaded > 10, "the test's parents shade each other ({shaded} shaded)");
         // The third frame gets the second's light, computed from the second's positions.
-        let lit_third = task.light(&second, &settings);
+        let lit_third = task.light(&second, &settings, None);
         assert_eq!(lit_third, light_parents(&second, &settings));
     }
 
@@ -189,10 +227,92 @@ mod tests {
         let settings = AshLightSettings { off_thread: false, sun: Vec3::new(-1.0, 0.2, 0.0), ..default() };
         let parents = frame(&(0..20).collect::<Vec<_>>(), 0.0);
         let mut task = AshLightTask::default();
-        assert_eq!(task.light(&parents, &settings), light_parents(&parents, &settings));
+        assert_eq!(task.light(&parents, &settings, None), light_parents(&parents, &settings));
         // Switched back on, the first frame carries the light of the last one computed.
         AsyncComputeTaskPool::get_or_init(TaskPool::default);
         let on = AshLightSettings { off_thread: true, ..settings.clone() };
-        assert_eq!(task.light(&parents, &on), light_parents(&parents, &settings));
+        assert_eq!(task.light(&parents, &on, None), light_parents(&parents, &settings));
+    }
+
+    /// The same row of parents at tick `t`: they drift with the ticks, so each tick's light
+    /// differs from the others'.
+    fn at_tick(t: u64) -> Vec<ParentSphere> {
+        frame(&(0..30).collect::<Vec<_>>(), 40.0 * t as f32)
+    }
+
+    #[test]
+    fn a_light_starts_every_refresh_ticks_and_is_taken_up_that_many_frames_later() {
+        AsyncComputeTaskPool::get_or_init(TaskPool::default);
+        let settings = AshLightSettings { sun: Vec3::new(-1.0, 0.2, 0.0), refresh_ticks: 3, ..default() };
+        let own = |t: u64| light_parents(&at_tick(t), &settings);
+        assert_ne!(own(0), own(3), "the ticks' lights differ");
+        let mut task = AshLightTask::default();
+        // One tick per frame: lights start at ticks 0, 3, 6, 9; each is taken up at the next
+        // start, and the frames in between carry it.
+        for t in 0..11u64 {
+            let light = task.light(&at_tick(t), &settings, Some(t));
+            let expected = match t {
+                0..=2 => vec![ParentLight::CLEAR; 30],
+                _ => own(t / 3 * 3 - 3),
+            };
+            assert_eq!(light, expected, "tick {t}");
+        }
+        assert_eq!(task.starts(), 4);
+        // Two ticks per frame: a start at every other frame (ticks 12, 16, 20), each taken up
+        // two frames later by the next start.
+        for (frame, t) in (12..=20u64).step_by(2).enumerate() {
+            task.light(&at_tick(t), &settings, Some(t));
+            assert_eq!(task.starts(), 5 + frame as u64 / 2, "tick {t}");
+        }
+    }
+
+    #[test]
+    fn a_paused_simulation_takes_up_its_light_after_refresh_frames_and_a_sun_turn_starts_one() {
+        AsyncComputeTaskPool::get_or_init(TaskPool::default);
+        let sun = Vec3::new(-1.0, 0.2, 0.0);
+        let settings = AshLightSettings { sun, refresh_ticks: 3, ..default() };
+        let parents = at_tick(0);
+        let mut task = AshLightTask::default();
+        for frame in 0..6 {
+            let light = task.light(&parents, &settings, Some(7));
+            let expected =
+                if frame < 3 { vec![ParentLight::CLEAR; 30] } else { light_parents(&parents, &settings) };
+            assert_eq!(light, expected, "frame {frame}");
+        }
+        assert_eq!(task.starts(), 1, "nothing changed: no new light");
+        // A turn under SUN_TURN_DEG keeps the light; one over it starts a new one at once,
+        // taken up three frames later.
+        let turn = |deg: f32| AshLightSettings {
+            sun: Quat::from_rotation_z(deg.to_radians()) * sun,
+            ..settings.clone()
+        };
+        task.light(&parents, &turn(0.4), Some(7));
+        assert_eq!(task.starts(), 1);
+        let turned = turn(2.0);
+        for frame in 0..4 {
+            let light = task.light(&parents, &turned, Some(7));
+            let expected = light_parents(&parents, if frame < 3 { &settings } else { &turned });
+            assert_eq!(light, expected, "frame {frame} after the turn");
+        }
+        assert_eq!(task.starts(), 2);
+        assert_ne!(light_parents(&parents, &settings), light_parents(&parents, &turned));
+    }
+
+    #[test]
+    fn on_the_main_thread_a_light_is_computed_only_when_due() {
+        let settings = AshLightSettings {
+            sun: Vec3::new(-1.0, 0.2, 0.0),
+            refresh_ticks: 2,
+            off_thread: false,
+            ..default()
+        };
+        let mut task = AshLightTask::default();
+        for t in 0..6u64 {
+            let light = task.light(&at_tick(t), &settings, Some(t));
+            assert_eq!(light, light_parents(&at_tick(t / 2 * 2), &settings), "tick {t}");
+        }
+        assert_eq!(task.starts(), 3);
+        // The tick went back (a new scene): a light at once.
+        assert_eq!(task.light(&at_tick(1), &settings, Some(1)), light_parents(&at_tick(1), &settings));
     }
 }
