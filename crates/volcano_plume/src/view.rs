@@ -54,7 +54,7 @@ pub struct ParentSphere {
     pub radius: f32,
     /// Orientation (spin about the ring tangent); detail spheres turn rigidly with it.
     pub rotation: Quat,
-    /// Density of the slice it belongs to (kg/m³).
+    /// Density (kg/m³) of its slice; of an umbrella sphere, as it detached times its ash kept.
     pub density: f32,
     /// Whether it has left its slice for the umbrella.
     pub umbrella: bool,
@@ -81,7 +81,7 @@ pub struct EruptionView {
 
 /// Reads every eruption and first-scale sphere, in a deterministic order.
 pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere>) {
-    let mut eruptions: Vec<(Entity, EruptionView)> = world
+    let mut eruptions: Vec<(Entity, EruptionView, f64)> = world
         .query::<(Entity, &Eruption, &VolcanoRng, Option<&VentPosition>)>()
         .iter(world)
         .map(|(e, er, rng, vent)| {
@@ -91,11 +91,11 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
                 rho0: er.params.rho0 as f32,
                 vent: vent.map_or(Vec3::ZERO, |v| v.0),
             };
-            (e, view)
+            (e, view, er.umbrella_fallout_s)
         })
         .collect();
-    eruptions.sort_by_key(|(e, _)| *e);
-    let index: EntityHashMap<usize> = eruptions.iter().enumerate().map(|(i, (e, _))| (*e, i)).collect();
+    eruptions.sort_by_key(|(e, ..)| *e);
+    let index: EntityHashMap<usize> = eruptions.iter().enumerate().map(|(i, (e, ..))| (*e, i)).collect();
     let slices: EntityHashMap<(usize, f32)> = world
         .query::<(Entity, &PlumeSlice)>()
         .iter(world)
@@ -119,13 +119,17 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
     }
     for (u, t) in world.query::<(&Umbrella, &Transform)>().iter(world) {
         if let Some(&eruption) = index.get(&u.volcano) {
+            // The sphere has shed `1 − exp(−age/τ)` of its ash (the model's fallout law), which
+            // the air's ash draws once coupled: drawn at the density it detached with, that
+            // ash was drawn twice.
+            let kept = (-u.age / eruptions[eruption].2).exp();
             parents.push(ParentSphere {
                 id: u.id,
                 eruption,
                 center: t.translation,
                 radius: u.radius as f32,
                 rotation: t.rotation,
-                density: u.density as f32,
+                density: (u.density * kept) as f32,
                 umbrella: true,
                 flow: false,
                 cloud: false,
@@ -168,7 +172,7 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
         }
     }
     parents.sort_by_key(|p| (p.eruption, p.flow, p.cloud, p.umbrella, p.id));
-    (eruptions.into_iter().map(|(_, v)| v).collect(), parents)
+    (eruptions.into_iter().map(|(_, v, _)| v).collect(), parents)
 }
 
 /// One sphere of any scale: `level` 1 for a parent, 2 or 3 for detail spheres.
