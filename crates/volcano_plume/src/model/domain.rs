@@ -51,8 +51,6 @@ mod state;
 
 use std::collections::HashMap;
 
-use volcano_core::parallel::Bands;
-
 pub use inputs::{Emitter, PlumeAir, PlumeInputs, RingSource, StepCaps};
 pub use report::{
     Emitted, Finished, NeutralEvent, Outcome, PlumeReport, RemovedSlice, RemovedSphere, SliceFate, SphereFate,
@@ -165,38 +163,23 @@ fn cap_slices(state: &mut PlumeState, max: usize, gone: &mut [Option<SliceFate>]
     }
 }
 
-/// Live slices per band of [`step_slices`]: a slice step is ≈ 0.15 µs, so a band of 256 is
-/// long enough that handing it to a pool thread does not show (one band runs inline).
-const SLICES_PER_BAND: usize = 256;
-
-/// What the parallel part of [`step_slices`] leaves for the ordered part.
-#[derive(Clone, Copy)]
-struct SliceStepped {
-    reached_neutral: bool,
-    finite: bool,
-    finishing: bool,
-}
-
 /// Steps every live slice; returns the positions of those that reached their apex or
-/// collapsed, in order. Each slice's step reads only its own state and the air, so the slices
-/// step in fixed bands on the compute pool (`volcano_core::parallel`); what they report is
-/// then booked in slice order, so the result is the same bits on any number of threads.
+/// collapsed, in order.
 fn step_slices(
     state: &mut PlumeState,
     inputs: &PlumeInputs,
     gone: &mut [Option<SliceFate>],
     report: &mut PlumeReport,
 ) -> Vec<usize> {
-    let (p, dt, air) = (inputs.params, inputs.dt, inputs.air);
+    let (p, dt) = (inputs.params, inputs.dt);
     let own_air = p.air();
-    let skip: &[Option<SliceFate>] = gone;
-    let stepped = Bands::of(SLICES_PER_BAND).map_rows(state.slices.as_mut_slice(), 1, |k, one| {
-        let slice = &mut one[0];
-        if skip[k].is_some() {
-            return None;
+    let mut finishing = Vec::new();
+    for (k, slice) in state.slices.iter_mut().enumerate() {
+        if gone[k].is_some() {
+            continue;
         }
         let vent_altitude = slice.vent.y as f64;
-        let out = match air {
+        let out = match inputs.air {
             // Coupled: the layers' air and wind around the column (§4.3.3).
             PlumeAir::Coupled(a) => {
                 let wind = |z: f64| a.wind_at(vent_altitude + z);
@@ -210,24 +193,14 @@ fn step_slices(
         slice.ash_pending += out.sedimented;
         // Spin of the ring spheres: Ω = v / r_s about the ring tangent (mean size r_s = r/2).
         slice.ring_phase += slice.state.velocity.length() / (0.5 * slice.state.r).max(1e-9) * dt;
-        Some(SliceStepped {
-            reached_neutral: out.reached_neutral,
-            finite: slice.state.is_finite(),
-            finishing: matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella),
-        })
-    });
-    let mut finishing = Vec::new();
-    for (k, done) in stepped.into_iter().enumerate() {
-        let Some(done) = done else { continue };
-        let slice = &state.slices[k];
-        if done.reached_neutral {
+        if out.reached_neutral {
             report.neutral.push(NeutralEvent {
                 at: k,
                 altitude: slice.state.neutral_altitude.unwrap_or(0.0),
                 speed: slice.state.neutral_speed.unwrap_or(0.0),
             });
         }
-        if !done.finite {
+        if !slice.state.is_finite() {
             let lost = slice.ash_pending + slice.state.solid_mass.max(0.0);
             state.ash.lost_kg += lost;
             gone[k] = Some(SliceFate::NonFinite(report.non_finite.len()));
@@ -239,7 +212,7 @@ fn step_slices(
             });
             continue;
         }
-        if done.finishing {
+        if matches!(slice.state.phase, Phase::Collapsed | Phase::Umbrella) {
             finishing.push(k);
         }
     }

@@ -17,7 +17,6 @@ use bevy::ecs::entity::EntityHashMap;
 use bevy::ecs::system::SystemParam;
 use bevy::prelude::*;
 use volcano_core::clock::crossings;
-use volcano_core::parallel::Bands;
 use volcano_core::prelude::*;
 
 use super::{orientation, spawn_with_ring};
@@ -58,8 +57,6 @@ struct Gathered {
     spheres: Vec<Entity>,
     /// How many umbrella spheres were gathered.
     gathered_spheres: usize,
-    /// World orientation of each slice of `state` after the step (in bands on the pool).
-    rotations: Vec<Quat>,
 }
 
 /// An s1 sphere's entity and its place in the s1 query (`None`: spawned in this step, not in
@@ -209,10 +206,6 @@ pub(super) fn step_plume(
         };
         g.report = domain::step(&mut g.state, &inputs);
         g.found = found.into_inner();
-        let live = &g.state.slices;
-        let bands = Bands::of(256)
-            .map_ranges(live.len(), |r| r.map(|j| orientation(&live[j].state)).collect::<Vec<_>>());
-        g.rotations = bands.concat();
     }
 
     // Write back. The emitted slices first, as the emission spawned them before all else.
@@ -223,7 +216,14 @@ pub(super) fn step_plume(
             let (transform, live) = match g.report.slice_fates[em.at] {
                 SliceFate::Kept(j) => {
                     let s = &g.state.slices[j];
-                    (Transform { translation: world(s), rotation: g.rotations[j], scale: Vec3::ONE }, s)
+                    (
+                        Transform {
+                            translation: world(s),
+                            rotation: orientation(&s.state),
+                            scale: Vec3::ONE,
+                        },
+                        s,
+                    )
                 }
                 // Gone in its first step: spawned as it left, removed below.
                 _ => (at, &em.slice),
@@ -290,7 +290,7 @@ pub(super) fn step_plume(
             slice.ring_phase = s.ring_phase;
             slice.ash_pending = s.ash_pending;
             transform.translation = world(s);
-            transform.rotation = plumes[v].rotations[j];
+            transform.rotation = orientation(&s.state);
         }
     }
 
@@ -515,7 +515,6 @@ fn gathered(volcano: Entity, emission: &EmissionState, budget: &PlumeAshBudget) 
         rings: Vec::new(),
         spheres: Vec::new(),
         gathered_spheres: 0,
-        rotations: Vec::new(),
     }
 }
 
