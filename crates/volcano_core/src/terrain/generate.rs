@@ -165,38 +165,42 @@ impl StratovolcanoParams {
     }
 }
 
-/// The radial gully field of [`StratovolcanoParams::generate`], in about [−1, 1]. Our own law
-/// for the look (issue 18), not from the thesis: it is tuned against aerial views of
-/// stratovolcanoes (Mayon, Fuji, Ruapehu), whose flanks carry gullies a few hundred metres
-/// apart, irregular, branching and merging, a few times longer than wide, that fade out on the
-/// lower apron.
+/// The radial gully field of [`StratovolcanoParams::generate`], about [−1, 1] (standard
+/// deviation 0.40 on the upper and middle flank). Our own law for the look (issue 18), not from
+/// the thesis: it is tuned against aerial views of stratovolcanoes (Mayon, Fuji, Ruapehu),
+/// whose flanks carry gullies a few hundred metres apart, irregular, branching and merging, a
+/// few times longer than wide, that die out on the lower apron.
 ///
-/// Ridged multifractal noise (`1 − |n|`, squared, each octave weighted by the one before, as
-/// in `noise::RidgedMulti`) sampled in polar coordinates around the crater:
+/// Ridged multifractal noise (`(1 − |n|)²`, each octave weighted by the one before, as in
+/// `noise::RidgedMulti`) sampled in polar coordinates around the crater, with its sign flipped
+/// so that the sharp ridged lines are V-shaped gully floors between broad interfluves:
 ///
 /// - **Across the slope**, octave `i` (of [`Gullies::OCTAVES`]) goes round a circle of radius
 ///   `k_i = K0 · 2^i` in noise space, so one noise unit spans `r / k_i` metres: the coarsest
-///   octave has about `r / 3` (1 km at mid-flank). An octave is faded in only where its unit is
-///   at least [`Gullies::MIN_CELLS`] cells (fully at twice that), so no octave is ever finer
-///   than the grid can draw at that radius: near the summit only the coarse octaves remain,
-///   downslope finer ones join in, and the gully count grows outwards (branching). Before
-///   issue 18, five octaves on a fixed circle reached 26 m across the slope at mid-flank, below
-///   the 40 m cell, and aliased into hairline streaks.
+///   octave has `r / 3` (1 km at mid-flank). An octave fades in only where its unit is at least
+///   [`Gullies::MIN_CELLS`] cells (fully at twice that), so no octave is ever finer than the
+///   grid can draw at that radius: near the summit only the coarsest remains, downslope finer
+///   ones join in and gullies branch; a coarse grid (the tests' 100–500 m cells) gets fewer,
+///   broader gullies rather than aliased ones. Before issue 18, five octaves on a fixed circle
+///   of radius 6 reached 26 m across the slope at mid-flank, below the 40 m cell, and aliased
+///   into hairline streaks.
 /// - **Down the slope** the coordinate is `(k_i / ELONGATION) · ln(r / r_foot)`: `(θ, ln r)` is
 ///   conformal, so every octave is [`Gullies::ELONGATION`] times longer down the slope than
-///   across it at every radius (was 6:1 at mid-flank and 30:1 near the crater).
-/// - The ridge crest `|n|` is rounded (`√(n² + ε²)`, `ε` = two cells over the octave's unit,
-///   at least 0.15) so crests are about two cells wide rather than one-node creases.
+///   across it at every radius (the old ridges: 6:1 at mid-flank, 30:1 near the crater).
+/// - The crest `|n|` is rounded (`√(n² + ε²)`, `ε` = two cells over the octave's unit, at
+///   least 0.15), so gully floors are about two cells wide rather than one-node creases.
 /// - The angle is warped by a slow noise (about ±0.1 rad, changing over the flank's length),
-///   so gullies bend and do not run as straight rays.
-/// - The envelope rises from the crater rim over 0.1 `cone_radius`, is full down to
-///   0.55 `cone_radius` and falls smoothly to zero at 0.9 `cone_radius`: the gentle concave
-///   apron is where real gullies end in fans, so none run out onto the plain.
+///   so gullies bend instead of running as straight rays.
+/// - The envelope rises from the crater rim over 0.1 `r_foot`, is full down to 0.5 `r_foot`
+///   and falls smoothly to zero at the foot (0.22 of full at 0.85 `r_foot`, where the old
+///   `sin(π r / r_foot)` still gave 0.45): the gentle concave apron is where real gullies end
+///   in fans, so they fade out instead of running on as straight lines.
 ///
-/// Measured on the default cone at 40 m (tests below, seeds 7, 1, 2): the share of
+/// Measured on the default cone at 40 m (tests below, seeds 7, 1, 2): the share of the
 /// cross-slope slope variance at wavelengths under three cells is at most 0.03 from
-/// 0.2 `cone_radius` outwards (0.05–0.24 before), and the correlation length is 3.5–7 times
-/// longer down the slope than across it (7.7–12.8 before), at least 80 m across (61 m before).
+/// 0.15 `r_foot` outwards (0.03–0.24 before, 0.09–0.24 at 0.15–0.3 `r_foot`), and the correlation
+/// length is 2.9–6.5 times longer down the slope than across it (5.6–12.8 before), at least
+/// 85 m across (61 m before).
 struct Gullies {
     octaves: Vec<Perlin>,
     warp: Perlin,
@@ -212,11 +216,14 @@ impl Gullies {
     /// Noise-space circle radius of the coarsest octave (one unit = `r / K0` m across).
     const K0: f64 = 3.0;
     /// Octave amplitude ratio.
-    const PERSISTENCE: f64 = 0.6;
+    const PERSISTENCE: f64 = 0.7;
     /// Down-slope over cross-slope length of every octave.
     const ELONGATION: f64 = 4.0;
     /// An octave fades in from this many cells per noise unit, fully at twice as many.
     const MIN_CELLS: f64 = 5.0;
+    /// Scale of the field: its standard deviation between 0.2 and 0.5 `r_foot` is then 0.40, as
+    /// the pre-issue-18 ridges' was, so `ridge_amplitude` keeps its size.
+    const GAIN: f64 = 1.3;
     /// Angular warp amplitude, in units of the coarsest octave's angular unit (1 / K0 rad).
     const WARP: f64 = 0.8;
 
@@ -235,7 +242,7 @@ impl Gullies {
     fn at(&self, x: f64, z: f64) -> f64 {
         let r = (x * x + z * z).sqrt();
         let rho = r / self.r_foot;
-        let envelope = smoothstep((r - self.r_crater) / (0.1 * self.r_foot)) * smoothstep((0.9 - rho) / 0.35);
+        let envelope = smoothstep((r - self.r_crater) / (0.1 * self.r_foot)) * smoothstep((1.0 - rho) / 0.5);
         if envelope <= 0.0 {
             return 0.0;
         }
@@ -272,7 +279,8 @@ impl Gullies {
         }
         // Mean of the active octaves mapped to [−1, 1]; a fading-in coarsest octave (norm < 1)
         // fades the field with it.
-        envelope * (2.0 * sum / norm - 1.0) * norm.min(1.0)
+        // Ridges of the octave sum are the gully floors: sign flipped.
+        -Self::GAIN * envelope * (2.0 * sum / norm - 1.0) * norm.min(1.0)
     }
 }
 
@@ -457,6 +465,40 @@ mod tests {
             }
         }
         assert!(bad.is_empty(), "{bad:?}");
+    }
+
+    /// The gully relief keeps the old ridges' size on the upper and middle flank (standard
+    /// deviation 0.40 `ridge_amplitude` before issue 18), dies out on the apron and is nil on
+    /// the plain.
+    #[test]
+    fn gully_relief_fades_out_on_the_apron() {
+        for seed in [7, 1, 2] {
+            let (p, g) = flank(seed);
+            let rf = p.cone_radius as f64;
+            let sd = |lo: f64, hi: f64| {
+                let (mut n, mut s, mut s2) = (0.0, 0.0, 0.0);
+                for j in 0..g.ny() {
+                    for i in 0..g.nx() {
+                        let q = g.position(i, j);
+                        let rho = (q.x as f64).hypot(q.y as f64) / rf;
+                        if (lo..hi).contains(&rho) {
+                            let v = g.get(i, j) as f64;
+                            n += 1.0;
+                            s += v;
+                            s2 += v * v;
+                        }
+                    }
+                }
+                ((s2 / n - (s / n).powi(2)).max(0.0)).sqrt() / p.ridge_amplitude as f64
+            };
+            let (mid, apron, plain) = (sd(0.2, 0.5), sd(0.8, 0.9), sd(1.0, 1.06));
+            println!(
+                "seed {seed}: relief sd / ridge_amplitude at 0.2–0.5 r_foot {mid:.3}, 0.8–0.9 {apron:.3}, beyond the foot {plain:.3}"
+            );
+            assert!((0.3..0.5).contains(&mid), "seed {seed}: mid-flank relief {mid:.3}");
+            assert!(apron < 0.35 * mid, "seed {seed}: apron relief {apron:.3} against {mid:.3}");
+            assert!(plain < 1e-3, "seed {seed}: relief {plain:.3} beyond the foot");
+        }
     }
 
     #[test]
