@@ -213,6 +213,18 @@ fn step_flows(
             buoyant: pp.buoyant,
         });
     }
+    // The model keeps each volcano's particles in id order (a new one gets the next id, a
+    // removal keeps the order); the query's order drifts from it as despawns swap-remove.
+    // Stepped in the query's order, two particles depositing on one node in one step were
+    // summed in another order than the model alone sums them (1 ulp apart). So, in id order.
+    for (own, flows) in owned.iter_mut().zip(&mut state.volcanoes) {
+        if !flows.particles.is_sorted_by_key(|p| p.id) {
+            let mut order: Vec<u32> = (0..flows.particles.len() as u32).collect();
+            order.sort_unstable_by_key(|&i| flows.particles[i as usize].id);
+            *own = order.iter().map(|&i| own[i as usize]).collect();
+            flows.particles = order.iter().map(|&i| flows.particles[i as usize].clone()).collect();
+        }
+    }
     let inputs: Vec<VolcanoInputs> = volcanoes
         .iter()
         .zip(&collapses)
