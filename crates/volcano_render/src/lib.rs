@@ -38,7 +38,10 @@ pub mod smooth_motion;
 pub mod terrain;
 pub mod window_capture;
 
-use bevy::app::{PluginGroup, PluginGroupBuilder};
+use bevy::app::{App, PluginGroup, PluginGroupBuilder};
+use bevy::asset::AssetApp;
+use bevy::pbr::{Material, MaterialPlugin};
+use bevy::render::RenderApp;
 
 pub use ash_fall::{AshFallDraw, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
 pub use camera::{
@@ -83,6 +86,21 @@ impl PluginGroup for VolcanoRenderPlugins {
             .add(CloudRenderPlugin)
             .add(AshFallRenderPlugin)
             .add(SmoothMotionPlugin)
+    }
+}
+
+/// Adds `M`'s [`MaterialPlugin`] once; in an app without a renderer (the model tests and
+/// `volcano bench` run the plugins headless, without `RenderPlugin`) only `M`'s asset type,
+/// so the systems that hold `Assets<M>` still run. Each of the crate's own materials goes
+/// through here (the clouds' and the terrain's).
+pub(crate) fn add_material<M: Material>(app: &mut App)
+where
+    M::Data: PartialEq + Eq + std::hash::Hash + Clone,
+{
+    if app.get_sub_app(RenderApp).is_none() {
+        app.init_asset::<M>();
+    } else if !app.is_plugin_added::<MaterialPlugin<M>>() {
+        app.add_plugins(MaterialPlugin::<M>::default());
     }
 }
 

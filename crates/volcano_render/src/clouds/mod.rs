@@ -22,9 +22,7 @@ pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 pub use split::{CloudFrontDraw, CloudFrontOf, split_materials};
 
 use bevy::asset::embedded_asset;
-use bevy::pbr::MaterialPlugin;
 use bevy::prelude::*;
-use bevy::render::RenderApp;
 use volcano_atmosphere::view::{AtmosphereState, ClusterMemory, VolumeSpec, cloud_density};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
@@ -181,12 +179,7 @@ pub struct CloudRenderPlugin;
 impl Plugin for CloudRenderPlugin {
     fn build(&self, app: &mut App) {
         embedded_asset!(app, "clouds.wgsl");
-        // Without a renderer (headless model tests) only the asset type is needed.
-        if app.get_sub_app(RenderApp).is_some() {
-            app.add_plugins(MaterialPlugin::<CloudMaterial>::default());
-        } else {
-            app.init_asset::<CloudMaterial>();
-        }
+        crate::add_material::<CloudMaterial>(app);
         app.register_type::<CloudRenderSettings>()
             .register_type::<CloudVolume>()
             .register_type::<CloudDraw>()

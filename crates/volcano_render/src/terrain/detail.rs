@@ -21,9 +21,8 @@
 //! half on snow (bright); none on water (blue over red). These are look rules, not physics.
 
 use bevy::asset::embedded_asset;
-use bevy::pbr::{ExtendedMaterial, MaterialExtension, MaterialPlugin, StandardMaterial};
+use bevy::pbr::{ExtendedMaterial, MaterialExtension, StandardMaterial};
 use bevy::prelude::*;
-use bevy::render::RenderApp;
 use bevy::render::render_resource::AsBindGroup;
 use bevy::shader::ShaderRef;
 use volcano_core::ConfigError;
@@ -99,13 +98,7 @@ impl MaterialExtension for GroundDetailExtension {
 /// the [`GroundDetail`] resource.
 pub(super) fn build(app: &mut App) {
     embedded_asset!(app, "detail.wgsl");
-    if app.get_sub_app(RenderApp).is_some() {
-        if !app.is_plugin_added::<MaterialPlugin<TerrainMaterial>>() {
-            app.add_plugins(MaterialPlugin::<TerrainMaterial>::default());
-        }
-    } else {
-        app.init_asset::<TerrainMaterial>();
-    }
+    crate::add_material::<TerrainMaterial>(app);
     app.init_resource::<GroundDetail>()
         .register_type::<GroundDetail>()
         .register_type::<GroundDetailExtension>()
