@@ -11,6 +11,11 @@
 //!    189.7 when written. With the shadow removed (tried: `shade = 1.0` in `clouds.wgsl`) both
 //!    halves are 189.7 and this fails; with an empty density image they match too (the second
 //!    render of the test).
+//! 3. The same round cloud with the lumps noise (`CloudRenderSettings::detail`) and without:
+//!    the outline must turn lumpy (the standard deviation of its radius over 72 directions
+//!    more than doubles) and the inside more textured (the mean luminance step between
+//!    neighbouring pixels rises by 30 %), at about the same size. With `sigma_detailed`
+//!    returning `sigma_at(p)` in `clouds.wgsl` both renders are the same and this fails.
 
 mod common;
 
@@ -35,6 +40,7 @@ struct Setup {
     /// Direction toward the sun.
     toward_sun: Vec3,
     plane: bool,
+    settings: CloudRenderSettings,
 }
 
 fn scene(
@@ -46,9 +52,9 @@ fn scene(
     mut standard: ResMut<Assets<StandardMaterial>>,
 ) {
     let s = &*setup;
-    let settings = CloudRenderSettings::default();
+    let settings = &s.settings;
     let image = density_image(&s.density, s.n, s.n, settings.density_scale).unwrap();
-    let material = CloudMaterial::new(CloudUniform::new(s.lo, s.hi, &settings), images.add(image));
+    let material = CloudMaterial::new(CloudUniform::new(s.lo, s.hi, settings), images.add(image));
     commands.spawn((
         Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
         MeshMaterial3d(clouds.add(material)),
@@ -72,6 +78,12 @@ fn scene(
         DirectionalLight { illuminance: 100_000.0, shadow_maps_enabled: false, ..default() },
         Transform::from_rotation(Quat::from_rotation_arc(Vec3::NEG_Z, -s.toward_sun)),
     ));
+}
+
+/// The default settings without the erosion noise (the first two checks are of the
+/// lighting of a smooth volume).
+fn smooth() -> CloudRenderSettings {
+    CloudRenderSettings { detail: 0.0, ..default() }
 }
 
 /// Renders the setup; returns the mean RGB of the left and right thirds' inner bands.
@@ -99,10 +111,87 @@ fn a_cloud_has_a_sun_side_and_a_shadow_side() {
     // The camera looks north (−z) from the south; its right is +x. Sun from the right, a
     // little up and a little behind the camera.
     let toward_sun = Vec3::new(1.0, 0.3, 0.3).normalize();
-    let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false };
+    let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings: smooth() };
     let (shadow, sun) = render("headless_lit_clouds_ball.png", setup);
     let (ls, lu) = (common::luminance(shadow), common::luminance(sun));
     assert!(lu > ls + 30.0, "sun side {lu:.1} not clearly brighter than the shadow side {ls:.1}");
+}
+
+/// The ball of the first check (or, `empty`, its volume without cloud) rendered with
+/// `settings`: the frame's RGB.
+fn ball(name: &str, settings: CloudRenderSettings, empty: bool) -> Vec<u8> {
+    let (lo, hi) = (Vec3::new(-1_500.0, 500.0, -1_500.0), Vec3::new(1_500.0, 3_500.0, 1_500.0));
+    let centre = Vec3::new(0.0, 2_000.0, 0.0);
+    let density = common::density_volume(64, lo, hi, |p| {
+        let d = 0.5 * (1.0 - ((p - centre).length() - 1_000.0) / 200.0).clamp(0.0, 1.0);
+        if empty { 0.0 } else { d }
+    });
+    let orbit = OrbitCamera { focus: centre, yaw: 0.0, pitch: 0.0, distance: 4_000.0, ..default() };
+    let toward_sun = Vec3::new(1.0, 0.3, 0.3).normalize();
+    let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings };
+    let out = common::out_path(name);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    app.insert_resource(setup).add_systems(Startup, scene);
+    common::run_and_read(app, &out).2
+}
+
+/// (mean luminance step between horizontal neighbours over the ball's box, mean and standard
+/// deviation of the outline's radius in pixels over 72 directions from the centre) of a
+/// render of the ball; a pixel is cloud where it differs from the `sky` render (the empty
+/// volume) by more than 12 in the sum of its channels.
+fn ball_texture(name: &str, rgb: &[u8], sky: &[u8]) -> (f64, f64, f64) {
+    let at = |x: u32, y: u32| 3 * (y * W + x) as usize;
+    let lum = |x: u32, y: u32| {
+        let i = at(x, y);
+        common::luminance([rgb[i] as f64, rgb[i + 1] as f64, rgb[i + 2] as f64])
+    };
+    let cloud = |x: u32, y: u32| {
+        (0..3).map(|c| (rgb[at(x, y) + c] as i32 - sky[at(x, y) + c] as i32).abs()).sum::<i32>() > 12
+    };
+    let (cx, cy) = (W / 2, H / 2);
+    let (mut step, mut steps) = (0.0, 0usize);
+    for y in cy - 80..cy + 80 {
+        for x in cx - 80..cx + 79 {
+            step += (lum(x + 1, y) - lum(x, y)).abs();
+            steps += 1;
+        }
+    }
+    let step = step / steps as f64;
+    let radii: Vec<f64> = (0..72)
+        .map(|k| {
+            let a = (k as f64 * 5.0).to_radians();
+            (1..95)
+                .map(|r| r as f64)
+                .find(|r| !cloud((cx as f64 + r * a.cos()) as u32, (cy as f64 - r * a.sin()) as u32))
+                .unwrap_or(95.0)
+        })
+        .collect();
+    let mean = radii.iter().sum::<f64>() / radii.len() as f64;
+    let sd = (radii.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / radii.len() as f64).sqrt();
+    eprintln!("{name}: mean step {step:.2}, outline radius {mean:.1} ± {sd:.2} px");
+    (step, mean, sd)
+}
+
+#[test]
+fn the_erosion_noise_breaks_up_a_smooth_cloud() {
+    let sky = ball("headless_lit_clouds_sky.png", default(), true);
+    let smooth_rgb = ball("headless_lit_clouds_smooth.png", smooth(), false);
+    let detail_rgb = ball("headless_lit_clouds_detail.png", default(), false);
+    let (smooth_step, smooth_r, smooth_sd) = ball_texture("smooth", &smooth_rgb, &sky);
+    let (detail_step, detail_r, detail_sd) = ball_texture("with the noise", &detail_rgb, &sky);
+    assert!(smooth_sd < 3.0, "the smooth ball is not round: outline {smooth_r:.1} ± {smooth_sd:.2} px");
+    assert!(
+        detail_sd > 2.0 * smooth_sd + 2.0,
+        "no lumps on the outline: ± {detail_sd:.2} px with the noise, ± {smooth_sd:.2} without"
+    );
+    assert!(
+        detail_step > 1.3 * smooth_step,
+        "no lumps inside: mean step {detail_step:.2} with the noise, {smooth_step:.2} without"
+    );
+    assert!(
+        (detail_r - smooth_r).abs() < 0.25 * smooth_r,
+        "the noise should reshape the cloud, not shrink or grow it: {detail_r:.1} against {smooth_r:.1} px"
+    );
 }
 
 #[test]
@@ -119,7 +208,16 @@ fn a_cloud_slab_shades_the_ground_under_it() {
     };
     // Sun 70° high in the south: the shadow's edge runs along x = 0, shifted only in z.
     let toward_sun = Vec3::new(0.0, 70f32.to_radians().sin(), 70f32.to_radians().cos()).normalize();
-    let setup = |density| Setup { lo, hi, density, n: 64, orbit: orbit.clone(), toward_sun, plane: true };
+    let setup = |density| Setup {
+        lo,
+        hi,
+        density,
+        n: 64,
+        orbit: orbit.clone(),
+        toward_sun,
+        plane: true,
+        settings: smooth(),
+    };
     let (under, open) =
         render("headless_lit_clouds_shadow.png", setup(common::density_volume(64, lo, hi, slab)));
     let (lu, lo_) = (common::luminance(under), common::luminance(open));
@@ -148,7 +246,7 @@ fn frame_ms(drawn: bool) -> f64 {
         ..default()
     };
     let toward_sun = Vec3::new(0.5, 0.6, 0.3).normalize();
-    let setup = Setup { lo, hi, density, n: 128, orbit, toward_sun, plane: true };
+    let setup = Setup { lo, hi, density, n: 128, orbit, toward_sun, plane: true, settings: default() };
     let out = common::out_path(&format!("headless_lit_clouds_cost_{drawn}.png"));
     let mut app = common::capture_app(headless_default_plugins(), 960, 540, &out, 40);
     app.insert_resource(setup).add_systems(Startup, scene).add_systems(

@@ -249,6 +249,11 @@ pub fn ash_material(
         march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
         light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, 60.0),
         tint: Vec4::new(colour.red, colour.green, colour.blue, 0.0),
+        // No noise. The pass's lumps (`CloudRenderSettings::detail`) were tried on the curtain,
+        // stretched 4× vertically as fall shafts (2026-11-27): a view ray crosses kilometres
+        // of thin ash and averages many features, so the frame barely changed (mean
+        // horizontal luminance step 1.13 → 1.15 in `headless_ash_fall`'s scene).
+        detail: Vec4::ZERO,
         segment: CloudMaterial::BEHIND_ASH,
     };
     CloudMaterial::new(uniform, image)

@@ -4,7 +4,7 @@
 // scene (depth prepass, when the camera has one). Per sample: a short march toward the sun
 // (Beer–Lambert), three octaves of approximated multiple scattering, a two-lobe
 // Henyey–Greenstein phase (forward lobe: silver lining), a powder term, and ambient sky light
-// dimmed by the cloud above the sample. Where the view ray meets the opaque scene, a second
+// dimmed by the cloud above the sample; lumps from a noise (`sigma_detailed`). Where the view ray meets the opaque scene, a second
 // sun march from that point gives the cloud's shadow, applied by darkening what is behind
 // through the blend (premultiplied alpha: out = cloud + scene · T_view · shadow).
 // Each box is drawn twice (volcano_render::clouds::split): the part of each ray behind the
@@ -36,6 +36,8 @@ struct CloudUniform {
     light: vec4<f32>,
     // Colour of the scattered light (linear RGB; white for cloud water, brown grey for ash).
     tint: vec4<f32>,
+    // x density-noise strength (0: none), y 1 / noise feature size (1/m), z displacement (m).
+    detail: vec4<f32>,
     // 0: the part of each ray behind the ash (all of it where there is none), drawn before the
     // ash; 1: the part in front of the ash, drawn after it (volcano_render::clouds::split).
     segment: u32,
@@ -71,6 +73,65 @@ fn sigma_at(p: vec3<f32>) -> f32 {
     return -cloud.density_scale * log(1.0 - t) * cloud.extinction;
 }
 
+// Hash of a lattice point to [0, 1] (integer mixing; any such hash would do).
+fn lattice_hash(c: vec3<i32>) -> f32 {
+    var h = (bitcast<u32>(c.x) * 73856093u) ^ (bitcast<u32>(c.y) * 19349663u) ^ (bitcast<u32>(c.z) * 83492791u);
+    h = (h ^ (h >> 16u)) * 0x45d9f3bu;
+    h = (h ^ (h >> 16u)) * 0x45d9f3bu;
+    h = h ^ (h >> 16u);
+    return f32(h) * (1.0 / 4294967295.0);
+}
+
+// Value noise in [0, 1]: the lattice hashes blended by a smoothstep.
+fn value_noise(p: vec3<f32>) -> f32 {
+    let i = vec3<i32>(floor(p));
+    let f = fract(p);
+    let u = f * f * (3.0 - 2.0 * f);
+    let x00 = mix(lattice_hash(i), lattice_hash(i + vec3(1, 0, 0)), u.x);
+    let x10 = mix(lattice_hash(i + vec3(0, 1, 0)), lattice_hash(i + vec3(1, 1, 0)), u.x);
+    let x01 = mix(lattice_hash(i + vec3(0, 0, 1)), lattice_hash(i + vec3(1, 0, 1)), u.x);
+    let x11 = mix(lattice_hash(i + vec3(0, 1, 1)), lattice_hash(i + vec3(1, 1, 1)), u.x);
+    return mix(mix(x00, x10, u.y), mix(x01, x11, u.y), u.z);
+}
+
+// The density volume's voxels are ≈ 100 m and smoothed, so every cloud is a smooth rounded
+// blob. Two look rules (after production cloud renderers; not physics; the ash fall uses
+// neither) give it lumps: the volume is read at a position displaced by a noise vector of up
+// to `detail.z` metres (its outline bulges out and in), and the density read there is
+// multiplied by 1 + strength · (2n − 1) for a finer noise n in [0, 1] (mean 1: the clouds'
+// amount is kept, a thin deck is textured rather than erased).
+fn sigma_detailed(p: vec3<f32>) -> f32 {
+    if cloud.detail.x <= 0.0 {
+        return sigma_at(p);
+    }
+    let q = p * cloud.detail.y;
+    // Two octaves of displacement: bulges the size of the features, and lumps on them
+    // 2.7 times smaller and displaced 0.4 times as far.
+    let q2 = q * 2.7 + vec3(5.3, 1.9, 7.7);
+    let warp = vec3(
+        value_noise(q + vec3(31.7, 0.0, 0.0)),
+        value_noise(q + vec3(0.0, 47.3, 0.0)),
+        value_noise(q + vec3(0.0, 0.0, 23.9)),
+    ) - vec3(0.5) + 0.4 * (vec3(
+        value_noise(q2 + vec3(11.1, 0.0, 0.0)),
+        value_noise(q2 + vec3(0.0, 13.7, 0.0)),
+        value_noise(q2 + vec3(0.0, 0.0, 19.3)),
+    ) - vec3(0.5));
+    let r = p + 2.0 * cloud.detail.z * warp;
+    let uvw = (r - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
+    if any(uvw < vec3(0.0)) || any(uvw > vec3(1.0)) {
+        return 0.0;
+    }
+    let t = textureSampleLevel(density_texture, density_sampler, uvw, 0.0).r;
+    if t <= 0.0 {
+        return 0.0;
+    }
+    let n = 0.6 * value_noise(q * 1.9 + vec3(17.3, 5.1, 9.7)) + 0.4 * value_noise(q * 4.3 + vec3(3.1, 8.2, 1.3));
+    // Density times 1 + strength · (2n − 1): mean 1, so a thin deck is textured, not erased.
+    let density = -cloud.density_scale * log(1.0 - min(t, 0.996));
+    return density * max(1.0 + cloud.detail.x * (2.0 * n - 1.0), 0.0) * cloud.extinction;
+}
+
 // Optical depth from `p` toward the sun `l`, up to the volume's exit or the march length;
 // steps grow quadratically (fine near the sample, coarse far away).
 fn sun_depth(p: vec3<f32>, l: vec3<f32>, jitter: f32) -> f32 {
@@ -88,7 +149,14 @@ fn sun_depth(p: vec3<f32>, l: vec3<f32>, jitter: f32) -> f32 {
             continue;
         }
         let mid = mix(prev, t, 0.25 + 0.5 * jitter);
-        tau += sigma_at(p + l * mid) * (t - prev);
+        let q = p + l * mid;
+        var sigma = 0.0;
+        if i < 2.0 {
+            sigma = sigma_detailed(q);
+        } else {
+            sigma = sigma_at(q);
+        }
+        tau += sigma * (t - prev);
         prev = t;
     }
     return tau;
@@ -178,7 +246,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         for (var i = 0.0; i < n; i += 1.0) {
             let t = t0 + (i + jitter) * dt;
             let p = origin + ray * t;
-            let sigma = sigma_at(p);
+            let sigma = sigma_detailed(p);
             if sigma <= 1e-7 {
                 continue;
             }

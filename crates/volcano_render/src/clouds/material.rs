@@ -47,6 +47,10 @@ pub struct CloudUniform {
     /// Colour of the scattered light (linear RGB, multiplies the albedo; w unused): white for
     /// cloud water, a brown grey for the ash fall ([`crate::ash_fall`]).
     pub tint: Vec4,
+    /// Lumps from a procedural noise: x strength of the density noise (0 = none, the shader
+    /// skips the noise), y 1 / feature size (1/m), z displacement (m), w unused
+    /// ([`CloudRenderSettings::detail`]; 0 for the ash fall).
+    pub detail: Vec4,
     /// Which part of each view ray this draw marches: [`CloudMaterial::BEHIND_ASH`] (from the
     /// ash, or the eye where there is none, to the scene; drawn before the ash) or
     /// [`CloudMaterial::IN_FRONT_OF_ASH`] (from the eye to the ash; drawn after it). See
@@ -67,6 +71,7 @@ impl CloudUniform {
             march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
             light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, s.powder_length_m),
             tint: Vec4::ONE,
+            detail: Vec4::new(s.detail, 1.0 / s.detail_m, s.detail_displacement_m, 0.0),
             segment: CloudMaterial::BEHIND_ASH,
         }
     }

@@ -66,6 +66,18 @@ pub struct CloudRenderSettings {
     pub powder: f32,
     /// Path length (m) over which the powder term saturates.
     pub powder_length_m: f32,
+    /// Strength of the procedural lumps (0 = the smooth volume and no noise at all, up to
+    /// 0.9): the density is multiplied by 1 ± `detail` by a noise of mean 0 and read at a
+    /// displaced position ([`Self::detail_displacement_m`]). The density volume's voxels are
+    /// ≈ 100 m and smoothed, so without it every cloud is a smooth, rounded blob. A look
+    /// setting, not physics (`clouds.wgsl`, `sigma_detailed`).
+    pub detail: f32,
+    /// Size (m) of the noise's features (the displacement's; the density noise's are 1.9 and
+    /// 4.3 times smaller).
+    pub detail_m: f32,
+    /// How far (m, at most) the noise displaces where the volume is read: the clouds'
+    /// outlines bulge out and in by up to this much.
+    pub detail_displacement_m: f32,
     /// Ray-march steps per pixel along the view ray (8–1024).
     pub step_count: u32,
     /// Steps of the march toward the sun per sample (1–32).
@@ -104,6 +116,9 @@ impl Default for CloudRenderSettings {
             backward_weight: 0.5,
             powder: 0.6,
             powder_length_m: 60.0,
+            detail: 0.5,
+            detail_m: 450.0,
+            detail_displacement_m: 220.0,
             step_count: 192,
             sun_steps: 6,
             sun_distance_m: 3_000.0,
@@ -132,6 +147,9 @@ impl CloudRenderSettings {
         in_range("backward_weight", self.backward_weight as f64, 0.0, 1.0)?;
         in_range("powder", self.powder as f64, 0.0, 1.0)?;
         in_range("powder_length_m", self.powder_length_m as f64, 1.0, 10_000.0)?;
+        in_range("detail", self.detail as f64, 0.0, 0.9)?;
+        in_range("detail_m", self.detail_m as f64, 10.0, 10_000.0)?;
+        in_range("detail_displacement_m", self.detail_displacement_m as f64, 0.0, 5_000.0)?;
         in_range("step_count", self.step_count as f64, 8.0, 1024.0)?;
         in_range("sun_steps", self.sun_steps as f64, 1.0, 32.0)?;
         in_range("sun_distance_m", self.sun_distance_m as f64, 10.0, 100_000.0)?;
