@@ -173,7 +173,7 @@ fn ball_texture(name: &str, rgb: &[u8], sky: &[u8]) -> (f64, f64, f64) {
 }
 
 #[test]
-fn the_erosion_noise_breaks_up_a_smooth_cloud() {
+fn the_detail_noise_breaks_up_a_smooth_cloud() {
     let sky = ball("headless_lit_clouds_sky.png", default(), true);
     let smooth_rgb = ball("headless_lit_clouds_smooth.png", smooth(), false);
     let detail_rgb = ball("headless_lit_clouds_detail.png", default(), false);

@@ -101,7 +101,8 @@ fn value_noise(p: vec3<f32>) -> f32 {
 // multiplied by 1 + strength · (2n − 1) for a finer noise n in [0, 1] (mean 1: the clouds'
 // amount is kept, a thin deck is textured rather than erased).
 fn sigma_detailed(p: vec3<f32>) -> f32 {
-    if cloud.detail.x <= 0.0 {
+    let inside = (p - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
+    if cloud.detail.x <= 0.0 || any(inside < vec3(0.0)) || any(inside > vec3(1.0)) {
         return sigma_at(p);
     }
     let q = p * cloud.detail.y;
@@ -117,11 +118,10 @@ fn sigma_detailed(p: vec3<f32>) -> f32 {
         value_noise(q2 + vec3(0.0, 13.7, 0.0)),
         value_noise(q2 + vec3(0.0, 0.0, 19.3)),
     ) - vec3(0.5));
-    let r = p + 2.0 * cloud.detail.z * warp;
+    // Kept inside the volume: a read displaced out of it would carve straight-walled holes
+    // into clouds along the box's sides (seen in `skyscape` where the view enters the box).
+    let r = clamp(p + 2.0 * cloud.detail.z * warp, cloud.volume_min, cloud.volume_max);
     let uvw = (r - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
-    if any(uvw < vec3(0.0)) || any(uvw > vec3(1.0)) {
-        return 0.0;
-    }
     let t = textureSampleLevel(density_texture, density_sampler, uvw, 0.0).r;
     if t <= 0.0 {
         return 0.0;
