@@ -129,8 +129,9 @@ type Eruptions<'a> = (
     Option<&'a OnTerrain>,
 );
 
-/// The domain's step: gathers every erupting volcano's particles (in id order, as the model keeps them), books and
-/// collapsed slices and every terrain's deposit map, runs [`flows::step`] and writes back:
+/// The domain's step: gathers every erupting volcano's particles (in id order, as the model
+/// keeps them), books and collapsed slices and every terrain's deposit map, runs
+/// [`flows::step`] and writes back:
 /// particle entities updated, spawned or despawned, books and maps put back, messages sent,
 /// what the caps did added to [`crate::caps::PlumeCapReport`]. Particles whose volcano is gone
 /// (or has no eruption) are despawned unbooked.

@@ -89,9 +89,9 @@ impl PluginGroup for VolcanoRenderPlugins {
     }
 }
 
-/// Adds `M`'s [`MaterialPlugin`] once; in an app without a renderer (the model tests and
-/// `volcano bench` run the plugins headless, without `RenderPlugin`) only `M`'s asset type,
-/// so the systems that hold `Assets<M>` still run. Each of the crate's own materials goes
+/// Adds `M`'s [`MaterialPlugin`] once; in an app without a renderer (tests that run the
+/// plugins without `RenderPlugin`) only `M`'s asset type, so the systems that hold
+/// `Assets<M>` still run. Each of the crate's own materials goes
 /// through here (the clouds' and the terrain's).
 pub(crate) fn add_material<M: Material>(app: &mut App)
 where

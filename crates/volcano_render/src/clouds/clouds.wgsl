@@ -4,9 +4,10 @@
 // scene (depth prepass, when the camera has one). Per sample: a short march toward the sun
 // (Beer–Lambert), three octaves of approximated multiple scattering, a two-lobe
 // Henyey–Greenstein phase (forward lobe: silver lining), a powder term, and ambient sky light
-// dimmed by the cloud above the sample; lumps from a noise (`sigma_detailed`). Where the view ray meets the opaque scene, a second
-// sun march from that point gives the cloud's shadow, applied by darkening what is behind
-// through the blend (premultiplied alpha: out = cloud + scene · T_view · shadow).
+// dimmed by the cloud above the sample; lumps from a noise (`sigma_detailed`). Where the view
+// ray meets the opaque scene, a second sun march from that point gives the cloud's shadow,
+// applied by darkening what is behind through the blend (premultiplied alpha: out = cloud +
+// scene · T_view · shadow).
 // Each box is drawn twice (volcano_render::clouds::split): the part of each ray behind the
 // viewer's ash before the ash, the part in front of it after; both keep the whole ray's step
 // length (a short part at least 16 steps), so the pair costs about one march.

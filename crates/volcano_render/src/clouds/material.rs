@@ -181,4 +181,21 @@ mod tests {
         let u = CloudUniform::new(lo, hi, &CloudRenderSettings::default());
         assert_eq!((u.volume_min.y, u.volume_max.y), (500.0, 2500.0));
     }
+
+    #[test]
+    fn the_lumps_settings_are_validated_and_reach_the_uniform() {
+        let s =
+            CloudRenderSettings { detail: 0.3, detail_m: 200.0, detail_displacement_m: 80.0, ..default() };
+        s.validate().unwrap();
+        let u = CloudUniform::new(Vec3::ZERO, Vec3::ONE, &s);
+        assert_eq!(u.detail, Vec4::new(0.3, 1.0 / 200.0, 80.0, 0.0));
+        for (bad, name) in [
+            (CloudRenderSettings { detail: 1.5, ..default() }, "detail"),
+            (CloudRenderSettings { detail_m: 0.0, ..default() }, "detail_m"),
+            (CloudRenderSettings { detail_displacement_m: f32::NAN, ..default() }, "detail_displacement_m"),
+        ] {
+            let e = bad.validate().unwrap_err().to_string();
+            assert!(e.contains(name), "{e}");
+        }
+    }
 }
