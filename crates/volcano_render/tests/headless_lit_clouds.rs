@@ -80,8 +80,8 @@ fn scene(
     ));
 }
 
-/// The default settings without the erosion noise (the first two checks are of the
-/// lighting of a smooth volume).
+/// The default settings without the lumps noise (the first two checks are of the lighting
+/// of a smooth volume).
 fn smooth() -> CloudRenderSettings {
     CloudRenderSettings { detail: 0.0, ..default() }
 }
@@ -99,27 +99,10 @@ fn render(name: &str, setup: Setup) -> ([f64; 3], [f64; 3]) {
     (left, right)
 }
 
-#[test]
-fn a_cloud_has_a_sun_side_and_a_shadow_side() {
-    // A 1.2 km ball of 0.5 g/m³ with a soft rim, 4 km in front of the camera (≈ 60 px).
-    let (lo, hi) = (Vec3::new(-1_500.0, 500.0, -1_500.0), Vec3::new(1_500.0, 3_500.0, 1_500.0));
-    let centre = Vec3::new(0.0, 2_000.0, 0.0);
-    let density = common::density_volume(64, lo, hi, |p| {
-        0.5 * (1.0 - ((p - centre).length() - 1_000.0) / 200.0).clamp(0.0, 1.0)
-    });
-    let orbit = OrbitCamera { focus: centre, yaw: 0.0, pitch: 0.0, distance: 4_000.0, ..default() };
-    // The camera looks north (−z) from the south; its right is +x. Sun from the right, a
-    // little up and a little behind the camera.
-    let toward_sun = Vec3::new(1.0, 0.3, 0.3).normalize();
-    let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings: smooth() };
-    let (shadow, sun) = render("headless_lit_clouds_ball.png", setup);
-    let (ls, lu) = (common::luminance(shadow), common::luminance(sun));
-    assert!(lu > ls + 30.0, "sun side {lu:.1} not clearly brighter than the shadow side {ls:.1}");
-}
-
-/// The ball of the first check (or, `empty`, its volume without cloud) rendered with
-/// `settings`: the frame's RGB.
-fn ball(name: &str, settings: CloudRenderSettings, empty: bool) -> Vec<u8> {
+/// A 1.2 km ball of 0.5 g/m³ with a soft rim (or, `empty`, its volume without cloud), 4 km in
+/// front of the camera (≈ 60 px). The camera looks north (−z) from the south; its right is
+/// +x. Sun from the right, a little up and a little behind the camera.
+fn ball_setup(settings: CloudRenderSettings, empty: bool) -> Setup {
     let (lo, hi) = (Vec3::new(-1_500.0, 500.0, -1_500.0), Vec3::new(1_500.0, 3_500.0, 1_500.0));
     let centre = Vec3::new(0.0, 2_000.0, 0.0);
     let density = common::density_volume(64, lo, hi, |p| {
@@ -128,10 +111,21 @@ fn ball(name: &str, settings: CloudRenderSettings, empty: bool) -> Vec<u8> {
     });
     let orbit = OrbitCamera { focus: centre, yaw: 0.0, pitch: 0.0, distance: 4_000.0, ..default() };
     let toward_sun = Vec3::new(1.0, 0.3, 0.3).normalize();
-    let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings };
+    Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings }
+}
+
+#[test]
+fn a_cloud_has_a_sun_side_and_a_shadow_side() {
+    let (shadow, sun) = render("headless_lit_clouds_ball.png", ball_setup(smooth(), false));
+    let (ls, lu) = (common::luminance(shadow), common::luminance(sun));
+    assert!(lu > ls + 30.0, "sun side {lu:.1} not clearly brighter than the shadow side {ls:.1}");
+}
+
+/// The ball of [`ball_setup`] rendered: the frame's RGB.
+fn ball(name: &str, settings: CloudRenderSettings, empty: bool) -> Vec<u8> {
     let out = common::out_path(name);
     let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
-    app.insert_resource(setup).add_systems(Startup, scene);
+    app.insert_resource(ball_setup(settings, empty)).add_systems(Startup, scene);
     common::run_and_read(app, &out).2
 }
 

@@ -66,12 +66,25 @@ fn box_hit(o: vec3<f32>, d: vec3<f32>, lo: vec3<f32>, hi: vec3<f32>) -> vec2<f32
 // Extinction (1/m) at a world position: the texel decoded back to g/m³ times the extinction
 // per g/m³; zero outside the volume.
 fn sigma_at(p: vec3<f32>) -> f32 {
-    let uvw = (p - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
-    if any(uvw < vec3(0.0)) || any(uvw > vec3(1.0)) {
+    let uvw = volume_uvw(p);
+    if outside(uvw) {
         return 0.0;
     }
-    let t = min(textureSampleLevel(density_texture, density_sampler, uvw, 0.0).r, 0.996);
-    return -cloud.density_scale * log(1.0 - t) * cloud.extinction;
+    return sigma_of_texel(textureSampleLevel(density_texture, density_sampler, uvw, 0.0).r);
+}
+
+// Position in the volume (0–1 on each axis inside it).
+fn volume_uvw(p: vec3<f32>) -> vec3<f32> {
+    return (p - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
+}
+
+fn outside(uvw: vec3<f32>) -> bool {
+    return any(uvw < vec3(0.0)) || any(uvw > vec3(1.0));
+}
+
+// Extinction (1/m) of a texel: decoded back to g/m³ times the extinction per g/m³.
+fn sigma_of_texel(texel: f32) -> f32 {
+    return -cloud.density_scale * log(1.0 - min(texel, 0.996)) * cloud.extinction;
 }
 
 // Hash of a lattice point to [0, 1] (integer mixing; any such hash would do).
@@ -102,8 +115,7 @@ fn value_noise(p: vec3<f32>) -> f32 {
 // multiplied by 1 + strength · (2n − 1) for a finer noise n in [0, 1] (mean 1: the clouds'
 // amount is kept, a thin deck is textured rather than erased).
 fn sigma_detailed(p: vec3<f32>) -> f32 {
-    let inside = (p - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
-    if cloud.detail.x <= 0.0 || any(inside < vec3(0.0)) || any(inside > vec3(1.0)) {
+    if cloud.detail.x <= 0.0 || outside(volume_uvw(p)) {
         return sigma_at(p);
     }
     let q = p * cloud.detail.y;
@@ -122,15 +134,13 @@ fn sigma_detailed(p: vec3<f32>) -> f32 {
     // Kept inside the volume: a read displaced out of it would carve straight-walled holes
     // into clouds along the box's sides (seen in `skyscape` where the view enters the box).
     let r = clamp(p + 2.0 * cloud.detail.z * warp, cloud.volume_min, cloud.volume_max);
-    let uvw = (r - cloud.volume_min) / (cloud.volume_max - cloud.volume_min);
-    let t = textureSampleLevel(density_texture, density_sampler, uvw, 0.0).r;
+    let t = textureSampleLevel(density_texture, density_sampler, volume_uvw(r), 0.0).r;
     if t <= 0.0 {
         return 0.0;
     }
     let n = 0.6 * value_noise(q * 1.9 + vec3(17.3, 5.1, 9.7)) + 0.4 * value_noise(q * 4.3 + vec3(3.1, 8.2, 1.3));
     // Density times 1 + strength · (2n − 1): mean 1, so a thin deck is textured, not erased.
-    let density = -cloud.density_scale * log(1.0 - min(t, 0.996));
-    return density * max(1.0 + cloud.detail.x * (2.0 * n - 1.0), 0.0) * cloud.extinction;
+    return sigma_of_texel(t) * max(1.0 + cloud.detail.x * (2.0 * n - 1.0), 0.0);
 }
 
 // Optical depth from `p` toward the sun `l`, up to the volume's exit or the march length;
