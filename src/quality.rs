@@ -42,6 +42,9 @@ pub struct QualitySettings {
     pub cloud_voxels_z: u32,
     /// Ray-march steps per pixel through the clouds (`CloudRenderSettings::step_count`).
     pub cloud_steps: u32,
+    /// Strength of the clouds' lumps noise (`CloudRenderSettings::detail`): 0 at `Low` skips
+    /// the noise's two value-noise lookups per sample, leaving smooth clouds.
+    pub cloud_detail: f32,
     /// Plume instances per frame ([`PlumeViewSettings::max_instances`]): the detail spheres per
     /// parent fall evenly when the column has more parents than fit.
     pub max_instances: u32,
@@ -62,12 +65,14 @@ impl VolcanoQuality {
             max_secondary_per_step,
             max_umbrella_spheres,
         };
+        let clouds = cloud_defaults();
         match self {
             VolcanoQuality::Low => QualitySettings {
                 atmosphere_grid_scale: 0.25,
                 cloud_voxels_xy: 96,
                 cloud_voxels_z: 40,
                 cloud_steps: 64,
+                cloud_detail: 0.0,
                 max_instances: 150_000,
                 caps: caps(2_000, 20_000, 16, 20_000),
             },
@@ -76,25 +81,25 @@ impl VolcanoQuality {
                 cloud_voxels_xy: 160,
                 cloud_voxels_z: 64,
                 cloud_steps: 128,
+                cloud_detail: clouds.3,
                 max_instances: 500_000,
                 caps: caps(5_000, 100_000, 64, 50_000),
             },
-            VolcanoQuality::High => {
-                let clouds = cloud_defaults();
-                QualitySettings {
-                    atmosphere_grid_scale: 1.0,
-                    cloud_voxels_xy: clouds.0,
-                    cloud_voxels_z: clouds.1,
-                    cloud_steps: clouds.2,
-                    max_instances: PlumeViewSettings::default().max_instances,
-                    caps: PlumeCaps::default(),
-                }
-            }
+            VolcanoQuality::High => QualitySettings {
+                atmosphere_grid_scale: 1.0,
+                cloud_voxels_xy: clouds.0,
+                cloud_voxels_z: clouds.1,
+                cloud_steps: clouds.2,
+                cloud_detail: clouds.3,
+                max_instances: PlumeViewSettings::default().max_instances,
+                caps: PlumeCaps::default(),
+            },
             VolcanoQuality::Ultra => QualitySettings {
                 atmosphere_grid_scale: 2.0,
                 cloud_voxels_xy: 384,
                 cloud_voxels_z: 128,
                 cloud_steps: 256,
+                cloud_detail: clouds.3,
                 max_instances: 3_000_000,
                 caps: caps(50_000, 1_000_000, 2_000, 200_000),
             },
@@ -108,17 +113,17 @@ impl VolcanoQuality {
     }
 }
 
-/// `CloudRenderSettings`' voxels and steps by default (the `High` column).
+/// `CloudRenderSettings`' voxels, steps and lumps strength by default (the `High` column).
 #[cfg(feature = "render")]
-fn cloud_defaults() -> (u32, u32, u32) {
+fn cloud_defaults() -> (u32, u32, u32, f32) {
     let d = volcano_render::CloudRenderSettings::default();
-    (d.voxels_xy, d.voxels_z, d.step_count)
+    (d.voxels_xy, d.voxels_z, d.step_count, d.detail)
 }
 
 /// Without the renderer the cloud numbers are not used; these are its defaults.
 #[cfg(not(feature = "render"))]
-fn cloud_defaults() -> (u32, u32, u32) {
-    (256, 96, 192)
+fn cloud_defaults() -> (u32, u32, u32, f32) {
+    (256, 96, 192, 0.5)
 }
 
 /// Applies an inserted or changed [`VolcanoQuality`] (part of `VolcanoSimPlugins`).
@@ -150,11 +155,13 @@ fn apply_quality(
     }
     #[cfg(feature = "render")]
     if let Some(c) = clouds.as_mut()
-        && (c.voxels_xy, c.voxels_z, c.step_count) != (s.cloud_voxels_xy, s.cloud_voxels_z, s.cloud_steps)
+        && (c.voxels_xy, c.voxels_z, c.step_count, c.detail)
+            != (s.cloud_voxels_xy, s.cloud_voxels_z, s.cloud_steps, s.cloud_detail)
     {
         c.voxels_xy = s.cloud_voxels_xy;
         c.voxels_z = s.cloud_voxels_z;
         c.step_count = s.cloud_steps;
+        c.detail = s.cloud_detail;
     }
     info!("quality {:?} applied (the atmosphere grid needs a restart)", *quality);
 }
@@ -196,5 +203,22 @@ mod tests {
         *app.world_mut().resource_mut::<VolcanoQuality>() = VolcanoQuality::Ultra;
         app.update();
         assert_eq!(*app.world().resource::<PlumeCaps>(), VolcanoQuality::Ultra.settings().caps);
+    }
+
+    #[cfg(feature = "render")]
+    #[test]
+    fn low_turns_the_cloud_lumps_off_and_high_brings_them_back() {
+        use volcano_render::CloudRenderSettings;
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, VolcanoQualityPlugin)).init_resource::<CloudRenderSettings>();
+        app.insert_resource(VolcanoQuality::Low);
+        app.update();
+        let low = app.world().resource::<CloudRenderSettings>().clone();
+        assert_eq!(low.detail, 0.0);
+        assert_eq!(low.step_count, VolcanoQuality::Low.settings().cloud_steps);
+        low.validate().unwrap();
+        *app.world_mut().resource_mut::<VolcanoQuality>() = VolcanoQuality::High;
+        app.update();
+        assert_eq!(*app.world().resource::<CloudRenderSettings>(), CloudRenderSettings::default());
     }
 }

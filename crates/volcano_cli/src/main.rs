@@ -9,6 +9,7 @@ mod export;
 mod plots;
 mod plume;
 mod pyroclastic;
+mod render;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -18,8 +19,9 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use clap::{Parser, Subcommand};
 use volcano::prelude::*;
-use volcano::render::headless::{HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev};
 use volcano::scenes::CameraSpec;
+
+use render::{Hide, LavaView, PlumeView, Views, parse_camera, parse_sun};
 
 #[derive(Parser, Debug)]
 #[command(name = "volcano", version, about = "Headless runner for the volcano plugin set")]
@@ -73,6 +75,10 @@ enum Command {
         /// `--bloom false` renders LDR like the interactive scenes.
         #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
         bloom: bool,
+        /// Layers left out of the frame (comma-separated), to see what each one draws, e.g.
+        /// `--hide ash-fall` to tell the ash curtain from the clouds behind it.
+        #[arg(long, value_enum, value_delimiter = ',')]
+        hide: Vec<Hide>,
     },
     /// Run a scene's whole simulation headless (no rendering), one base tick per update, and
     /// write DIR/bench.json: main-thread ms per base tick (p50, p99, max), weather ticks beside
@@ -247,46 +253,13 @@ fn main() -> ExitCode {
             sun,
             plume_substeps,
             bloom,
+            hide,
         } => {
             let lava = volcano::render::LavaRenderMode::from(lava_view);
-            let views = Views { plume: plume_view.into(), lava, camera, sun, bloom };
-            render(&scene, ticks, out, (width, height), min_stddev, views, plume_substeps)
+            let views = Views { plume: plume_view.into(), lava, camera, sun, bloom, hide };
+            render::render(&scene, ticks, out, (width, height), min_stddev, views, plume_substeps)
         }
     }
-}
-
-/// What `volcano render` draws and from where, beside the scene's own settings.
-struct Views {
-    plume: volcano::render::PlumeRenderMode,
-    lava: volcano::render::LavaRenderMode,
-    camera: Option<CameraSpec>,
-    /// Azimuth and elevation (degrees) instead of the scene's.
-    sun: Option<(f32, f32)>,
-    bloom: bool,
-}
-
-/// Parses `--camera FX,FY,FZ,YAW,PITCH,DISTANCE`.
-fn parse_camera(text: &str) -> Result<CameraSpec, String> {
-    let v: Vec<f32> = text
-        .split(',')
-        .map(|t| t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}")))
-        .collect::<Result<_, _>>()?;
-    let [fx, fy, fz, yaw_deg, pitch_deg, distance] = v[..] else {
-        return Err(format!("expected 6 comma-separated numbers, got {}", v.len()));
-    };
-    Ok(CameraSpec { focus: (fx, fy, fz), yaw_deg, pitch_deg, distance })
-}
-
-/// Parses `--sun AZIMUTH,ELEVATION` (degrees; the scene validates the ranges).
-fn parse_sun(text: &str) -> Result<(f32, f32), String> {
-    let v: Vec<f32> = text
-        .split(',')
-        .map(|t| t.trim().parse::<f32>().map_err(|e| format!("{t:?}: {e}")))
-        .collect::<Result<_, _>>()?;
-    let [azimuth, elevation] = v[..] else {
-        return Err(format!("expected 2 comma-separated numbers, got {}", v.len()));
-    };
-    Ok((azimuth, elevation))
 }
 
 /// Runs `f` with the command line's plume parameters, or exits 2 with the error.
@@ -303,54 +276,6 @@ fn with_params(
     }
 }
 
-/// `--plume-view` values.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-enum PlumeView {
-    /// Smoke billboards and detail spheres (the main view).
-    Ash,
-    /// The main view with the slices as circles.
-    AshSlices,
-    /// s1 and umbrella spheres as meshes, slices as circles.
-    Spheres,
-    /// Slices as circles only.
-    Slices,
-}
-
-impl From<PlumeView> for volcano::render::PlumeRenderMode {
-    fn from(v: PlumeView) -> Self {
-        use volcano::render::PlumeRenderMode as M;
-        match v {
-            PlumeView::Ash => M::Ash,
-            PlumeView::AshSlices => M::AshWithSlices,
-            PlumeView::Spheres => M::DebugSpheres,
-            PlumeView::Slices => M::DebugSlices,
-        }
-    }
-}
-
-/// `--lava-view` values.
-#[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
-enum LavaView {
-    /// Incandescent surface darkened by the crust, lit folds.
-    Lit,
-    /// Crust thickness in the thesis' debug colours (red < 8 mm, green < 2 cm, blue), folds white.
-    Crust,
-    /// Lava thickness.
-    Thickness,
-}
-
-impl From<LavaView> for volcano::render::LavaRenderMode {
-    fn from(v: LavaView) -> Self {
-        use volcano::render::LavaRenderMode as M;
-        match v {
-            LavaView::Lit => M::Lit,
-            LavaView::Crust => M::DebugCrust,
-            LavaView::Thickness => M::DebugThickness,
-        }
-    }
-}
-
-/// The CLI runs at the thesis' fixed rate (the plugins follow whatever rate a game sets).
 /// `--quality` values.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
 enum Quality {
@@ -371,6 +296,7 @@ impl Quality {
     }
 }
 
+/// The CLI runs at the thesis' fixed rate (the plugins follow whatever rate a game sets).
 pub(crate) const TICK_HZ: f64 = volcano::core::units::THESIS_TICK_HZ;
 
 /// A headless simulation app (no rendering) advancing 5 base ticks (50 Hz) per update, for the
@@ -381,181 +307,4 @@ pub(crate) fn sim_app() -> App {
         .insert_resource(Time::<Fixed>::from_hz(TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
     app
-}
-
-/// One line per air layer: its largest condensed water (g/m³) over the grid and within 3 km
-/// of the grid's centre (the vent in the scenes), and its cells above the cloud threshold.
-fn cloud_report(
-    atmos: &Query<(Entity, &volcano::atmosphere::Atmosphere)>,
-    layers: &Query<&volcano::atmosphere::AirLayer>,
-) -> Vec<String> {
-    let mut out = Vec::new();
-    for (entity, atmo) in atmos {
-        let Ok(shell) = atmo.state_shell() else { continue };
-        let mut mine: Vec<_> = layers.iter().filter(|l| l.atmosphere == entity).collect();
-        mine.sort_by_key(|l| l.index);
-        for l in mine {
-            let w = l.fields.w.data();
-            let (mut all, mut near, mut cloudy, mut sum) = (0.0f64, 0.0f64, 0usize, [0.0f64; 3]);
-            for (k, &v) in w.iter().enumerate() {
-                let (x, y) = shell.grid.centre(k);
-                all = all.max(v);
-                if x.hypot(y) <= 3_000.0 {
-                    near = near.max(v);
-                }
-                if v >= atmo.params.cloud_threshold {
-                    cloudy += 1;
-                    sum = [sum[0] + v * x, sum[1] + v * y, sum[2] + v];
-                }
-            }
-            let (cx, cy) = if sum[2] > 0.0 { (sum[0] / sum[2], sum[1] / sum[2]) } else { (0.0, 0.0) };
-            out.push(format!(
-                "clouds: layer {} at {:.0} m: max condensed water {all:.3} g/m³ ({near:.3} within 3 km of the centre), {cloudy} cells ≥ {} g/m³, their water's centroid at x {cx:.0} m, grid y {cy:.0} m",
-                l.index, l.fields.altitude, atmo.params.cloud_threshold
-            ));
-        }
-    }
-    out
-}
-
-fn render(
-    scene: &str,
-    ticks: u32,
-    out: PathBuf,
-    (width, height): (u32, u32),
-    min_stddev: f64,
-    Views { plume: view, lava: lava_view, camera, sun, bloom }: Views,
-    plume_substeps: Option<u32>,
-) -> ExitCode {
-    if !(16..=8192).contains(&width) || !(16..=8192).contains(&height) {
-        eprintln!("error: --width and --height must be in 16..=8192");
-        return ExitCode::from(2);
-    }
-    // The scene, with the camera and sun overrides (validated with the rest of the scene).
-    let spec = volcano::scenes::by_name(scene).map(|mut s| {
-        if let Some(c) = camera {
-            s.camera = c;
-        }
-        if let Some((azimuth, elevation)) = sun {
-            s.sun.azimuth_deg = azimuth;
-            s.sun.elevation_deg = elevation;
-        }
-        s
-    });
-    let scene = match spec.and_then(VolcanoScenePlugin::new) {
-        Ok(s) => s,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::from(2);
-        }
-    };
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
-        && let Err(e) = std::fs::create_dir_all(dir)
-    {
-        eprintln!("error: cannot create {}: {e}", dir.display());
-        return ExitCode::FAILURE;
-    }
-    let _ = std::fs::remove_file(&out);
-    let started = std::time::Instant::now();
-    // Largest divisor of `ticks` up to 1,500 base ticks (30 s) per update: each update draws a
-    // software frame (seconds each with the column's ~10⁶ instances), so a 5-minute run draws
-    // ten frames, not sixty; the simulation does not depend on the chunk (frame-rate
-    // independence is tested per domain).
-    let chunk = (1..=ticks.clamp(1, 1500)).rev().find(|d| ticks.is_multiple_of(*d)).unwrap_or(1);
-    let mut app = App::new();
-    app.add_plugins(headless_default_plugins())
-        .add_plugins(VolcanoSimPlugins)
-        .add_plugins(volcano::render::VolcanoRenderPlugins)
-        .add_plugins(scene)
-        .insert_resource(Time::<Fixed>::from_hz(TICK_HZ))
-        .insert_resource(view)
-        .insert_resource(lava_view)
-        // A still: the ash lit from the last ticked frame's parents, taken up by the first
-        // settling frame (a light every tick; a game's default is every third).
-        .insert_resource(volcano::plume::AshLightSettings { refresh_ticks: 1, ..default() })
-        // Several base ticks per update so long runs do not render thousands of software
-        // frames: `chunk` divides `ticks`, so exactly `ticks` ticks are simulated; afterwards
-        // time stops while the capture settles.
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * chunk))
-        .add_systems(Last, move |tick: Res<SimTick>, mut strategy: ResMut<TimeUpdateStrategy>| {
-            if tick.0 >= u64::from(ticks) {
-                *strategy = TimeUpdateStrategy::ManualDuration(Duration::ZERO);
-            }
-        })
-        .add_plugins(HeadlessCapturePlugin {
-            width,
-            height,
-            out: out.clone(),
-            // The first update has zero delta; then ticks/chunk updates; then 3 to settle.
-            capture_after_updates: 1 + ticks / chunk + 3,
-        });
-    if bloom {
-        // The scene's camera opts in to HDR and bloom (no egui here to need LDR).
-        app.add_observer(|add: On<Add, volcano::render::VolcanoViewer>, mut commands: Commands| {
-            commands.entity(add.entity).insert(volcano::render::GlowCamera);
-        });
-    }
-    app.world_mut().resource_mut::<Time<Virtual>>().set_max_delta(Duration::from_millis(20) * chunk.max(13));
-    if let Some(n) = plume_substeps
-        && let Err(e) = app
-            .world_mut()
-            .resource_mut::<Time<DomainClock<volcano::plume::PlumeStep>>>()
-            .context_mut()
-            .set_cadence(Cadence::Substeps(n))
-    {
-        eprintln!("error: {e}");
-        return ExitCode::from(2);
-    }
-    // What the rendered clouds are made of: condensed water per layer at the last update.
-    let clouds: std::sync::Arc<std::sync::Mutex<Vec<String>>> = Default::default();
-    let sink = clouds.clone();
-    app.add_systems(
-        Last,
-        move |atmos: Query<(Entity, &volcano::atmosphere::Atmosphere)>,
-              layers: Query<&volcano::atmosphere::AirLayer>| {
-            *sink.lock().unwrap() = cloud_report(&atmos, &layers);
-        },
-    );
-    let exit = app.run();
-    for line in clouds.lock().unwrap().iter() {
-        println!("{line}");
-    }
-    if !exit.is_success() || !out.exists() {
-        eprintln!("error: rendering failed ({exit:?}); is a Vulkan driver installed (mesa-vulkan-drivers)?");
-        return ExitCode::FAILURE;
-    }
-    match png_pixel_stddev(&out) {
-        Ok(sd) => {
-            println!(
-                "wrote {} ({width}×{height}) after {ticks} ticks in {:.1} s; pixel std-dev {sd:.1}",
-                out.display(),
-                started.elapsed().as_secs_f64()
-            );
-            if sd < min_stddev {
-                eprintln!("error: the frame looks blank (std-dev {sd:.2} < {min_stddev})");
-                return ExitCode::FAILURE;
-            }
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: wrote an unreadable PNG: {e}");
-            ExitCode::FAILURE
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sun_override_parses_and_rejects_bad_input() {
-        let cli = Cli::try_parse_from(["volcano", "render", "--out", "x.png", "--sun", "230,-5"]).unwrap();
-        let Command::Render { sun, .. } = cli.command else { panic!("not a render command") };
-        assert_eq!(sun, Some((230.0, -5.0)));
-        for bad in ["230", "230,28,1", "south,28"] {
-            let parsed = Cli::try_parse_from(["volcano", "render", "--out", "x.png", "--sun", bad]);
-            assert!(parsed.is_err(), "--sun {bad} was accepted");
-        }
-    }
 }
