@@ -10,11 +10,15 @@
 //! Ash absorbs far more than cloud droplets: its single-scattering albedo is ≈ 0.6–0.8 in the
 //! visible (cloud water ≈ 1), its colour a brown grey (the pass's `tint`), and it scatters
 //! forward less. Its mass extinction is ≈ 0.5 m²/g for fine ash, so 0.05 g/m³ would be opaque
-//! within 40 m; [`AshFallSettings::extinction_per_gram`] is lower than that so that the
+//! within 40 m; [`AshFallSettings::extinction_per_gram`] is far lower than that so that the
 //! curtain, drawn from voxels of a few hundred metres, shows its shafts and thins at its edges
-//! instead of standing as a wall. Until 2026-11-26 the ash was a Bevy `FogVolume`, whose shader
-//! attenuates the light reaching a sample by the whole volume's bounding radius (tens of km):
-//! any fog dense enough to see turned black, the curtain a dark box.
+//! instead of standing as a wall. At 0.03 (until 2026-11-27) a ray along the `eruption`
+//! scene's curtain, through kilometres of ash, was opaque: seen across the wind it hid the
+//! column behind it as one pale, smooth, straight-sided wall. At 0.005, darker and browner
+//! (albedo 0.6, less sky light under the umbrella), the column shows through it. Until
+//! 2026-11-26 the ash was a Bevy `FogVolume`, whose shader attenuates the light reaching a
+//! sample by the whole volume's bounding radius (tens of km): any fog dense enough to see
+//! turned black, the curtain a dark box.
 //! The ground tint of the fall deposit is [`crate::terrain::deposit`]'s (the coupling writes the fall
 //! into the same `DepositMap` as the pyroclastic flows).
 
@@ -79,6 +83,9 @@ pub struct AshFallSettings {
     pub relief: f32,
     /// Size of the raggedness' features (m).
     pub relief_m: f32,
+    /// How far (m, 0–20,000) each level of the curtain reads the ash to the side, so its sides
+    /// wander with altitude ([`volume::meander_offsets`]); 0 for straight sides.
+    pub meander_m: f32,
     /// Ash (g) below which a layer stack counts as empty (no volume is kept).
     pub min_grams: f64,
 }
@@ -90,22 +97,23 @@ impl Default for AshFallSettings {
             voxels_xy: 128,
             voxels_z: 64,
             density_scale: 0.02,
-            extinction_per_gram: 0.03,
-            albedo: 0.7,
-            colour: Srgba::rgb(0.45, 0.41, 0.37),
-            sun_gain: 2.0,
-            ambient_gain: 1.0,
+            extinction_per_gram: 0.005,
+            albedo: 0.6,
+            colour: Srgba::rgb(0.40, 0.36, 0.31),
+            sun_gain: 1.5,
+            ambient_gain: 0.7,
             forward_g: 0.5,
             step_count: 128,
             sun_steps: 6,
             sun_distance_m: 4_000.0,
             shadow_strength: 0.5,
-            streaks: 0.6,
-            streak_m: 350.0,
+            streaks: 1.0,
+            streak_m: 2_000.0,
             edge_fraction: 0.12,
-            blur_m: 600.0,
+            blur_m: 1_200.0,
             relief: 0.8,
             relief_m: 6_000.0,
+            meander_m: 800.0,
             min_grams: 1.0,
         }
     }
@@ -136,6 +144,7 @@ impl AshFallSettings {
         in_range("blur_m", self.blur_m as f64, 0.0, 20_000.0)?;
         in_range("relief", self.relief as f64, 0.0, 1.0)?;
         in_range("relief_m", self.relief_m as f64, 1.0, 1e6)?;
+        in_range("meander_m", self.meander_m as f64, 0.0, 20_000.0)?;
         in_range("min_grams", self.min_grams, 0.0, 1e30)?;
         Ok(())
     }
@@ -219,6 +228,7 @@ pub fn build_ash_image(
         blur_m: settings.blur_m as f64,
         relief: settings.relief as f64,
         relief_m: settings.relief_m as f64,
+        meander_m: settings.meander_m as f64,
     };
     let density = ash_density_volume(layers, grid, ground, &spec)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
