@@ -52,6 +52,41 @@ fn levels_blend_the_layers_linearly_between_their_centres() {
 }
 
 #[test]
+fn each_voxel_is_the_blend_of_the_layers_at_its_column() {
+    // A field that varies within cells (not a multiple of the voxel size), NaN and negative
+    // cells: the columns sampled once per layer give what `ash_blended` gives per voxel.
+    let grid = GridSpec::new(32, 130.0).unwrap();
+    let mut ls = layers(grid);
+    for (i, l) in ls.iter_mut().enumerate() {
+        for k in 0..grid.cells() {
+            let (x, y) = grid.centre(k);
+            l.ash.data_mut()[k] = 0.01 * (1.0 + i as f64) * (1.0 + (x / 700.0).sin() * (y / 450.0).cos());
+        }
+        l.ash.data_mut()[5] = f64::NAN;
+        l.ash.data_mut()[9] = -1.0;
+    }
+    let refs: Vec<&LayerFields> = ls.iter().collect();
+    let (n, nz) = (20, 12);
+    let s = spec(n, nz, 0.0);
+    let v = ash_density_volume(&refs, grid, None, &s).unwrap();
+    let extent = grid.extent();
+    let column = |i: usize| (-0.5 * extent + (i as f64 + 0.5) * extent / n as f64) as f32;
+    let mut checked = 0;
+    for iz in 0..nz {
+        let z = s.level_altitude(iz);
+        // Below the top layer, where no lid fade applies.
+        let Some(blend) = layer_blend(&refs, z).filter(|_| z < 2_000.0) else { continue };
+        for k in 0..n * n {
+            let want =
+                volcano_atmosphere::view::ash_blended(&refs, blend, Vec2::new(column(k % n), column(k / n)));
+            assert_eq!(v[iz * n * n + k], want as f32, "level {iz}, voxel {k}");
+            checked += 1;
+        }
+    }
+    assert!(checked >= 6 * n * n, "{checked}");
+}
+
+#[test]
 fn denser_field_denser_voxels_and_nothing_under_the_ground() {
     let grid = GridSpec::new(16, 250.0).unwrap();
     let mut ls = layers(grid);
