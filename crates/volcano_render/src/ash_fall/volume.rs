@@ -9,9 +9,10 @@
 //! altitude (one value per layer); streaks — a horizontal noise of kilometre features,
 //! constant along the fall — break the curtain into shafts, with a mean factor of 1 so the
 //! drawn mass follows the field, and each level reads the field a little to the side
-//! ([`meander_offsets`]) so the curtain's sides wander instead of standing straight. Below the terrain nothing is drawn, and over the top layer the ash fades to
-//! nothing at the stack's top ([`lid_fade`]): held at the top layer's value up to its top, the
-//! curtain had a flat, hard lid above the umbrella. That fade and the one along the footprint's
+//! ([`meander_offsets`]) so the curtain's sides wander instead of standing straight. Below the
+//! terrain nothing is drawn, and over the top layer the ash fades to nothing at the stack's
+//! top ([`lid_fade`]): held at the top layer's value up to its top, the curtain had a flat,
+//! hard lid above the umbrella. That fade and the one along the footprint's
 //! sides ([`edge_fade`]) are moved per column by a noise ([`relief_factors`]).
 
 use bevy::math::Vec2;
@@ -305,8 +306,8 @@ pub const MEANDER_NODES: usize = 33;
 /// layers' ash is advected with the same winds over a few layers, so where the curtain ends
 /// sideways it ended in the same cell at every altitude, and a render showed its sides as
 /// straight vertical edges kilometres tall. Reading each level a little to the side makes
-/// them wander; a smooth offset of ±1.5 km over 3 km features changes a level's drawn ash by
-/// up to 12 % (tested). Sampled on a lattice, not per voxel: 2 · 33² · 64 noise calls
+/// them wander; an offset of up to ±1.5 km over 3 km features changes a level's drawn ash by
+/// up to 12 % (tested; the default is ±800 m). Sampled on a lattice, not per voxel: 2 · 33² · 64 noise calls
 /// instead of 2 · 128² · 64 per rebuild (4.4 ms; the whole meander adds 14 ms to a 128² × 64
 /// rebuild, `benches/ash_volume.rs`).
 pub fn meander_offsets(spec: &AshVolumeSpec, extent: f64) -> Vec<Vec2> {
@@ -334,8 +335,8 @@ pub fn meander_offsets(spec: &AshVolumeSpec, extent: f64) -> Vec<Vec2> {
 /// One level's [`meander_offsets`] lattice interpolated bilinearly at the centres of the
 /// `nxy²` voxel columns (x fastest; the footprint centred on the origin, clamped at the
 /// sides), written into `out`: separably, the lattice's rows along x first, then one lerp per
-/// voxel between two of those rows (per voxel, the full bilinear lookup cost 30 ns, a third of
-/// a 128² × 64 rebuild).
+/// voxel between two of those rows (per voxel, the full bilinear lookup cost about 35 ns,
+/// half of a 128² × 64 rebuild). Rows of `out` beyond `nxy` are left as they are.
 pub fn meander_shifts(lattice: &[Vec2], nxy: usize, out: &mut [Vec2]) {
     let cells = (MEANDER_NODES - 1) as f32;
     // Lattice coordinate of voxel centre `i`: lower node and weight.
@@ -351,10 +352,10 @@ pub fn meander_shifts(lattice: &[Vec2], nxy: usize, out: &mut [Vec2]) {
     let rows: Vec<Vec2> = (0..MEANDER_NODES)
         .flat_map(|j| weights.iter().map(move |&(i0, fu)| node(i0, j).lerp(node(i0 + 1, j), fu)))
         .collect();
-    for (jy, &(j0, fv)) in weights.iter().enumerate() {
+    for (row, &(j0, fv)) in out.chunks_mut(nxy.max(1)).zip(&weights) {
         let (lower, upper) = (&rows[j0 * nxy..(j0 + 1) * nxy], &rows[(j0 + 1) * nxy..(j0 + 2) * nxy]);
-        for (ix, o) in out[jy * nxy..(jy + 1) * nxy].iter_mut().enumerate() {
-            *o = lower[ix].lerp(upper[ix], fv);
+        for ((o, a), b) in row.iter_mut().zip(lower).zip(upper) {
+            *o = a.lerp(*b, fv);
         }
     }
 }
