@@ -43,7 +43,8 @@ pub struct QualitySettings {
     /// Ray-march steps per pixel through the clouds (`CloudRenderSettings::step_count`).
     pub cloud_steps: u32,
     /// Strength of the clouds' lumps noise (`CloudRenderSettings::detail`): 0 at `Low` skips
-    /// the noise's two value-noise lookups per sample, leaving smooth clouds.
+    /// the noise (up to eight value-noise lookups per sample inside the box), leaving smooth
+    /// clouds.
     pub cloud_detail: f32,
     /// Plume instances per frame ([`PlumeViewSettings::max_instances`]): the detail spheres per
     /// parent fall evenly when the column has more parents than fit.
