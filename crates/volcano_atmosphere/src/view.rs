@@ -7,7 +7,7 @@
 //! Painting into the fields (the "Atmosphere" window's brush) writes, so it is not a view: it
 //! is [`crate::paint`] at the crate root.
 
-pub use crate::model::ash::{ash_at, ash_blended, layer_blend};
+pub use crate::model::ash::{ash_at, ash_blended, blend_layers, layer_ash, layer_blend};
 pub use crate::model::fields::{AtmosphereState, GridSpec, LayerFields};
 pub use crate::model::maps::{MapField, field_values, png_bytes};
 pub use crate::model::volume::{ClusterMemory, VolumeSpec};

@@ -44,9 +44,21 @@ pub fn layer_blend(layers: &[&LayerFields], z: f64) -> Option<(usize, usize, f64
 /// w)` of [`layer_blend`]: bilinear in each layer's field, linear between the two layers.
 /// Non-finite or negative values count as no ash.
 pub fn ash_blended(layers: &[&LayerFields], (lo, hi, w): (usize, usize, f64), p: Vec2) -> f64 {
-    let finite = |c: f64| if c.is_finite() && c > 0.0 { c } else { 0.0 };
-    let c = finite(layers[lo].ash.sample(p, Boundary::Clamp));
-    if w > 0.0 { c + w * (finite(layers[hi].ash.sample(p, Boundary::Clamp)) - c) } else { c }
+    blend_layers(layer_ash(layers[lo], p), || layer_ash(layers[hi], p), w)
+}
+
+/// One layer's ash concentration (g/m³) at grid position `p` (world x, z), bilinear in its
+/// field; non-finite or negative values count as no ash.
+pub fn layer_ash(layer: &LayerFields, p: Vec2) -> f64 {
+    let c = layer.ash.sample(p, Boundary::Clamp);
+    if c.is_finite() && c > 0.0 { c } else { 0.0 }
+}
+
+/// Linear between a lower layer's value and an upper one's at weight `w` of the upper (the
+/// blend of [`layer_blend`]); `upper` is read only when `w > 0`. [`ash_blended`]'s blend, for
+/// callers that sampled the layers beforehand.
+pub fn blend_layers(lower: f64, upper: impl FnOnce() -> f64, w: f64) -> f64 {
+    if w > 0.0 { lower + w * (upper() - lower) } else { lower }
 }
 
 /// Ash concentration (g/m³) in the air at world `(x, altitude, z)` — "is ash falling on the
