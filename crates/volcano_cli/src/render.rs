@@ -213,6 +213,10 @@ pub(crate) fn render(
             // The first update has zero delta; then ticks/chunk updates; then 3 to settle.
             capture_after_updates: 1 + ticks / chunk + 3,
         });
+    // A still shows the clouds and the ash of the last weather step, whatever the worker's
+    // timing: both volumes are built in the frame the weather moved.
+    app.world_mut().resource_mut::<volcano::render::CloudRenderSettings>().off_thread = false;
+    app.world_mut().resource_mut::<volcano::render::AshFallSettings>().off_thread = false;
     for layer in hide {
         let world = app.world_mut();
         match layer {

@@ -1,15 +1,25 @@
-//! The ash-fall volume a renderer rebuilds on the main thread after each weather step
+//! The ash-fall volume a renderer rebuilds after each weather step
 //! (`volcano_render::ash_fall::volume::ash_density_volume`), at the `eruption` scene's size:
 //! five 2 km layers on a 128² grid of 200 m, 128² × 64 voxels. Three variants beside a
 //! same-run memory sweep over the volume's bytes (one read-modify-write pass over 4 MiB, the
 //! floor of anything that writes every voxel): the default look, without the meander (its
 //! 2 · 33² · 64 noise calls), and without streaks, blur, relief or meander (the sampling alone).
+//!
+//! Then what the main thread pays for it: one `app.update()` of an app holding only that
+//! atmosphere and the ash-fall systems, its weather time moved every update so that every
+//! update is due a rebuild, with the rebuild on the main thread (`off_thread: false`) and on
+//! the task pool (the default; the main thread takes a snapshot and looks for a finished
+//! build).
 
 use std::hint::black_box;
 
+use bevy::asset::AssetPlugin;
+use bevy::prelude::*;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_atmosphere::view::{GridSpec, LayerFields};
+use volcano_atmosphere::{AirLayer, Atmosphere, AtmosphereParams, Scenario, spawn_atmosphere};
 use volcano_render::ash_fall::volume::{AshVolumeSpec, ash_density_volume, meander_offsets};
+use volcano_render::{AshFallRenderPlugin, AshFallSettings, CloudRenderPlugin, CloudRenderSettings};
 
 /// Five layers with a curtain of ash east of the centre, thinning with altitude.
 fn layers(grid: GridSpec) -> Vec<LayerFields> {
@@ -75,5 +85,50 @@ fn bench(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, bench);
+/// An app holding the `eruption` scenario's atmosphere on a 128² grid with a curtain of ash
+/// in every layer, the clouds off, the ash rebuilt on or off the main thread.
+fn app(off_thread: bool) -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, AssetPlugin::default()))
+        .init_asset::<Image>()
+        .init_asset::<Mesh>()
+        .add_plugins((CloudRenderPlugin, AshFallRenderPlugin))
+        .insert_resource(CloudRenderSettings { enabled: false, ..default() })
+        .insert_resource(AshFallSettings { off_thread, ..default() })
+        .add_systems(Startup, |mut commands: Commands| {
+            let mut state = Scenario::builtin("eruption").unwrap().build(Some(128)).unwrap();
+            for layer in &mut state.layers {
+                for k in 0..state.grid.n * state.grid.n {
+                    let (x, y) = state.grid.centre(k);
+                    let r = (x - 4_000.0).hypot(y / 2.0);
+                    layer.ash.data_mut()[k] = if r < 6_000.0 { 0.05 * (1.0 - r / 6_000.0) } else { 0.0 };
+                }
+            }
+            spawn_atmosphere(&mut commands, state, AtmosphereParams::default()).unwrap();
+        });
+    app.update();
+    app
+}
+
+fn frame(c: &mut Criterion) {
+    let mut group = c.benchmark_group("ash_rebuild_frame");
+    group.sample_size(20);
+    for (name, off_thread) in [("update_rebuild_inline", false), ("update_rebuild_off_thread", true)] {
+        let mut app = app(off_thread);
+        group.bench_function(name, |b| {
+            b.iter(|| {
+                let world = app.world_mut();
+                world.query::<&mut Atmosphere>().single_mut(world).unwrap().time_s += 1.0;
+                app.update();
+            })
+        });
+        let world = app.world_mut();
+        let built = world.resource::<volcano_render::AshFallBuildStatus>().applied;
+        let layers = world.query::<&AirLayer>().iter(world).count();
+        assert!(built > 1 && layers > 1, "nothing was built ({built} builds, {layers} layers)");
+    }
+    group.finish();
+}
+
+criterion_group!(benches, bench, frame);
 criterion_main!(benches);

@@ -43,7 +43,7 @@ use bevy::asset::AssetApp;
 use bevy::pbr::{Material, MaterialPlugin};
 use bevy::render::RenderApp;
 
-pub use ash_fall::{AshFallDraw, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
+pub use ash_fall::{AshFallBuildStatus, AshFallDraw, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
 pub use camera::{
     GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
 };

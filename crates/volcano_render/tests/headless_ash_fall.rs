@@ -15,7 +15,8 @@ use std::sync::{Arc, Mutex};
 use bevy::prelude::*;
 use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
 use volcano_render::{
-    AshFallVolume, OrbitCamera, Sun, camera_bundle, headless_default_plugins, rgb_region_mean, sun_bundle,
+    AshFallSettings, AshFallVolume, OrbitCamera, Sun, camera_bundle, headless_default_plugins,
+    rgb_region_mean, sun_bundle,
 };
 
 const W: u32 = 320;
@@ -63,6 +64,8 @@ fn render(with_ash: bool, name: &str) -> ([f64; 3], [f64; 3], Vec<f32>) {
     let seen: Arc<Mutex<Vec<f32>>> = Arc::default();
     let sink = seen.clone();
     let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    // Built in the frame, so the capture cannot precede the worker.
+    app.insert_resource(AshFallSettings { off_thread: false, ..default() });
     app.add_systems(Startup, scene(with_ash)).add_systems(Last, move |volumes: Query<&AshFallVolume>| {
         *sink.lock().unwrap() = volumes.iter().map(|v| v.filled_fraction).collect();
     });

@@ -1,11 +1,11 @@
-//! Ash fall (issue 13 item 4, thesis §4.3: ash carried by the layers): each [`Atmosphere`]
+//! Ash fall (issue 13 item 4, thesis §4.3: ash carried by the layers): each [`Atmosphere`](volcano_atmosphere::Atmosphere)
 //! holding ash gets one box over its footprint drawn by the lit ray-marching pass of the clouds
 //! ([`CloudMaterial`], `clouds.wgsl`: a march toward the sun per sample, ambient sky light,
 //! the shadow on the ground behind) whose 3D density image is the layers' ash concentration
 //! ([`volume`]): curtains falling from the umbrella and the column, bent by the layer winds,
 //! denser where the field is denser, broken into shafts. Rebuilt when the weather steps (that
-//! is when the ash field changes), not every frame; no box exists while the layers hold no
-//! ash, so an atmosphere without an eruption pays nothing.
+//! is when the ash field changes), not every frame, and off the main thread ([`rebuild`]); no
+//! box exists while the layers hold no ash, so an atmosphere without an eruption pays nothing.
 //!
 //! Ash absorbs far more than cloud droplets: its single-scattering albedo is ≈ 0.6–0.8 in the
 //! visible (cloud water ≈ 1), its colour a brown grey (the pass's `tint`), and it scatters
@@ -22,18 +22,18 @@
 //! The ground tint of the fall deposit is [`crate::terrain::deposit`]'s (the coupling writes the fall
 //! into the same `DepositMap` as the pyroclastic flows).
 
+pub mod rebuild;
 pub mod volume;
 
-use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
-use volcano_atmosphere::plugin::AtmosphereGround;
+use volcano_atmosphere::LayerFields;
 use volcano_atmosphere::view::GridSpec;
-use volcano_atmosphere::{AirLayer, Atmosphere, LayerFields};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
 
 use crate::clouds::{CloudMaterial, CloudUniform, volume_bounds};
 use crate::density_volume::{density_image, volume_transform};
+pub use rebuild::{AshFallBuild, AshFallBuildStatus, AshSnapshot, BuiltAsh, build_ash};
 use volume::{AshVolumeSpec, ash_density_volume};
 
 /// How the layers' ash is drawn (a resource; edits rebuild the volumes).
@@ -88,6 +88,10 @@ pub struct AshFallSettings {
     pub meander_m: f32,
     /// Ash (g) below which a layer stack counts as empty (no volume is kept).
     pub min_grams: f64,
+    /// Rebuild the volume on Bevy's `AsyncComputeTaskPool` ([`rebuild`]); off, it is built on
+    /// the main thread in the frame the weather moved (the reference, and for captures that
+    /// must show the ash of a given frame).
+    pub off_thread: bool,
 }
 
 impl Default for AshFallSettings {
@@ -115,6 +119,7 @@ impl Default for AshFallSettings {
             relief_m: 6_000.0,
             meander_m: 800.0,
             min_grams: 1.0,
+            off_thread: true,
         }
     }
 }
@@ -150,7 +155,7 @@ impl AshFallSettings {
     }
 }
 
-/// On an [`Atmosphere`] entity: the box drawing its ash and what it was built from.
+/// On an [`Atmosphere`](volcano_atmosphere::Atmosphere) entity: the box drawing its ash and what it was built from.
 #[derive(Component, Debug, Clone, Reflect)]
 #[reflect(Component, Debug)]
 pub struct AshFallVolume {
@@ -176,7 +181,7 @@ pub struct AshFallDraw {
     pub atmosphere: Entity,
 }
 
-/// Lit ash-fall volumes for every [`Atmosphere`] whose layers hold ash (drawn by the pass of
+/// Lit ash-fall volumes for every [`Atmosphere`](volcano_atmosphere::Atmosphere) whose layers hold ash (drawn by the pass of
 /// [`crate::CloudRenderPlugin`]; without it nothing is drawn and a warning says so).
 #[derive(Debug, Default, Clone)]
 pub struct AshFallRenderPlugin;
@@ -186,8 +191,15 @@ impl Plugin for AshFallRenderPlugin {
         app.register_type::<AshFallSettings>()
             .register_type::<AshFallVolume>()
             .register_type::<AshFallDraw>()
+            .register_type::<AshFallBuildStatus>()
             .init_resource::<AshFallSettings>()
-            .add_systems(PostUpdate, update_ash_volumes.before(crate::clouds::split::split_cloud_draws));
+            .init_resource::<AshFallBuildStatus>()
+            .add_systems(
+                PostUpdate,
+                (rebuild::start_ash_builds, rebuild::apply_ash_builds)
+                    .chain()
+                    .before(crate::clouds::split::split_cloud_draws),
+            );
     }
 }
 
@@ -267,114 +279,6 @@ pub fn ash_material(
         segment: CloudMaterial::BEHIND_ASH,
     };
     CloudMaterial::new(uniform, image)
-}
-
-/// What the ash system creates and replaces.
-/// (`Assets<CloudMaterial>` exists only with [`crate::CloudRenderPlugin`], whose pass draws the ash.)
-type AshAssets<'w> =
-    (ResMut<'w, Assets<Image>>, Option<ResMut<'w, Assets<CloudMaterial>>>, ResMut<'w, Assets<Mesh>>);
-
-#[expect(clippy::too_many_arguments, reason = "one system keeping every atmosphere's ash box in step")]
-fn update_ash_volumes(
-    mut commands: Commands,
-    settings: Res<AshFallSettings>,
-    atmospheres: Query<(Entity, &Atmosphere, Option<&AshFallVolume>)>,
-    grounds: Query<&AtmosphereGround>,
-    layers: Query<&AirLayer>,
-    mut draws: Query<(&mut Transform, &mut Visibility), With<AshFallDraw>>,
-    (mut images, materials, mut meshes): AshAssets,
-    mut removed: RemovedComponents<Atmosphere>,
-    orphans: Query<(Entity, &AshFallDraw)>,
-) {
-    let Some(mut materials) = materials else {
-        if settings.enabled && !atmospheres.is_empty() {
-            warn_once!("ash fall not drawn: it needs CloudRenderPlugin (its lit pass draws the ash)");
-        }
-        return;
-    };
-    for gone in removed.read() {
-        for (draw, owner) in &orphans {
-            if owner.atmosphere == gone {
-                commands.entity(draw).despawn();
-            }
-        }
-    }
-    for (entity, atmo, volume) in &atmospheres {
-        if let Some(v) = volume
-            && v.built_at_s == atmo.time_s
-            && !settings.is_changed()
-        {
-            continue;
-        }
-        let fields = volcano_atmosphere::atmosphere_fields(layers.iter(), entity);
-        let grams = airborne_grams(&fields, atmo.dx);
-        let show = settings.enabled && grams >= settings.min_grams;
-        if let Some(v) = volume
-            && let Ok((_, mut vis)) = draws.get_mut(v.draw)
-        {
-            vis.set_if_neq(if show { Visibility::Inherited } else { Visibility::Hidden });
-        }
-        if !show {
-            continue;
-        }
-        let ground = grounds.get(entity).ok().map(|g| &g.0.height);
-        let built =
-            GridSpec::new(atmo.n, atmo.dx).and_then(|grid| build_ash_image(&fields, grid, ground, &settings));
-        let (image, transform, filled) = match built {
-            Ok(b) => b,
-            Err(e) => {
-                warn_once!("ash fall of {entity} not rendered: {e}");
-                continue;
-            }
-        };
-        match volume {
-            Some(v) => {
-                if images.insert(v.image.id(), image).is_err() {
-                    warn_once!("ash density image of {entity} could not be replaced");
-                }
-                // Replacing the material (not only the image) makes the renderer bind the new
-                // image.
-                if materials
-                    .insert(v.material.id(), ash_material(v.image.clone(), &transform, &settings))
-                    .is_err()
-                {
-                    warn_once!("ash material of {entity} could not be replaced");
-                }
-                if let Ok((mut t, _)) = draws.get_mut(v.draw) {
-                    *t = transform;
-                }
-                commands.entity(entity).insert(AshFallVolume {
-                    built_at_s: atmo.time_s,
-                    airborne_g: grams,
-                    filled_fraction: filled,
-                    ..v.clone()
-                });
-            }
-            None => {
-                let handle = images.add(image);
-                let material = materials.add(ash_material(handle.clone(), &transform, &settings));
-                let draw = commands
-                    .spawn((
-                        Name::new("Ash fall"),
-                        AshFallDraw { atmosphere: entity },
-                        Mesh3d(meshes.add(Cuboid::new(1.0, 1.0, 1.0))),
-                        MeshMaterial3d(material.clone()),
-                        transform,
-                        NotShadowCaster,
-                        NotShadowReceiver,
-                    ))
-                    .id();
-                commands.entity(entity).insert(AshFallVolume {
-                    draw,
-                    image: handle,
-                    material,
-                    built_at_s: atmo.time_s,
-                    airborne_g: grams,
-                    filled_fraction: filled,
-                });
-            }
-        }
-    }
 }
 
 #[cfg(test)]
