@@ -6,10 +6,11 @@
 //! [`LavaRenderSettings::emissive_nits`](super::LavaRenderSettings) in its material, which
 //! lights nothing else. [`glow_light`] sums what that emission gives out, as a Lambertian
 //! emitter (`Φ = π L A` lumens for luminance `L` in nits over area `A`), and
-//! [`update_glow_lights`] puts one point light of that power and mean colour above the
-//! emission's centroid, without shadows. One light per field; an extended flow is not a point,
-//! so the light sits above its centroid by half the radius of the glowing area, which keeps
-//! grazing ground beside the flow from going dark.
+//! [`update_glow_lights`] puts point lights of that power and mean colour, without shadows,
+//! along the flow ([`glow_lights`]: one per stretch about twice as long as the flow is wide, up
+//! to [`LavaRenderSettings::glow_light_count`](super::LavaRenderSettings)). An extended flow
+//! is not a point, so each light sits above its stretch's centroid by half the radius of the
+//! stretch's glowing area, which keeps grazing ground beside the flow from going dark.
 
 use bevy::color::LinearRgba;
 use bevy::math::DVec3;
@@ -43,21 +44,23 @@ fn luminance(c: LinearRgba) -> f32 {
     0.2126 * c.red + 0.7152 * c.green + 0.0722 * c.blue
 }
 
-/// What the lava's surface gives out as light: per sampled wet cell the black-body colour of
-/// its crust-top temperature ([`surface_temperature`], as the emissive texture draws it) at
-/// `emissive_nits`, as a Lambertian emitter. `None` when nothing glows (no lava, all of it
-/// cold: under a lumen in all, or non-finite state).
-pub fn glow_light(
-    flow: &FlowField,
-    crust: &[f64],
-    params: &LavaParams,
-    emissive_nits: f32,
-) -> Option<GlowLight> {
+/// One sampled block of glowing lava: where it is, what it gives out, its colour.
+#[derive(Debug, Clone, Copy)]
+struct Emitter {
+    position: DVec3,
+    lumens: f64,
+    colour: [f64; 3],
+}
+
+/// The glowing blocks of a field: per sampled wet cell the black-body colour of its crust-top
+/// temperature ([`surface_temperature`], as the emissive texture draws it) at `emissive_nits`,
+/// as a Lambertian emitter (`Φ = π L A`), with the area each sample stands for (m²).
+fn emitters(flow: &FlowField, crust: &[f64], params: &LavaParams, emissive_nits: f32) -> (Vec<Emitter>, f64) {
     let (nx, ny) = (flow.nx(), flow.ny());
     let (h, temp, ground) = (flow.thickness(), flow.temperature().data(), flow.ground().data());
     let cell = h.cell() as f32;
     let block = (cell * SAMPLE_STRIDE as f32).powi(2);
-    let (mut power, mut centre, mut colour, mut area) = (0.0f64, DVec3::ZERO, [0.0f64; 3], 0.0f64);
+    let mut out = Vec::new();
     for j in (SAMPLE_STRIDE / 2..ny).step_by(SAMPLE_STRIDE) {
         for i in (SAMPLE_STRIDE / 2..nx).step_by(SAMPLE_STRIDE) {
             let k = j * nx + i;
@@ -68,34 +71,110 @@ pub fn glow_light(
                 continue;
             }
             let c = incandescent(surface_temperature(params, temp[k], crust.get(k).copied().unwrap_or(0.0)));
-            // Lumens of this block: π L A.
-            let phi = (std::f32::consts::PI * emissive_nits * luminance(c) * block) as f64;
-            if !(phi.is_finite() && phi > 0.0) {
+            let lumens = (std::f32::consts::PI * emissive_nits * luminance(c) * block) as f64;
+            if !(lumens.is_finite() && lumens > 0.0) {
                 continue;
             }
             let p = h.position(i, j);
-            power += phi;
-            centre += DVec3::new(p.x as f64, ground[k] + depth, p.y as f64) * phi;
-            for (sum, channel) in colour.iter_mut().zip([c.red, c.green, c.blue]) {
-                *sum += phi * channel as f64;
-            }
-            area += block as f64;
+            let colour = [c.red, c.green, c.blue].map(|v| v as f64);
+            out.push(Emitter {
+                position: DVec3::new(p.x as f64, ground[k] + depth, p.y as f64),
+                lumens,
+                colour,
+            });
         }
     }
-    // Below a lumen (a candle gives 12) the lava is dark: no light.
-    if !(power.is_finite() && power > 1.0) {
-        return None;
+    (out, block as f64)
+}
+
+/// One light for a set of blocks: their power at their luminous centroid, lifted by half the
+/// radius of their area (at least 2 m), in their mean colour.
+fn light_of(blocks: &[Emitter], block_area: f64) -> GlowLight {
+    let power: f64 = blocks.iter().map(|e| e.lumens).sum();
+    let centre = blocks.iter().map(|e| e.position * e.lumens).sum::<DVec3>() / power;
+    let mut colour = [0.0f64; 3];
+    for e in blocks {
+        for (sum, c) in colour.iter_mut().zip(e.colour) {
+            *sum += e.lumens * c;
+        }
     }
     let brightest = colour.iter().copied().fold(0.0, f64::max);
     let [r, g, b] = colour.map(|c| (c / brightest) as f32);
-    let radius = (area / std::f64::consts::PI).sqrt();
-    let lift = (0.5 * radius).max(2.0);
-    Some(GlowLight {
-        position: (centre / power + DVec3::Y * lift).as_vec3(),
+    let area = block_area * blocks.len() as f64;
+    let lift = (0.5 * (area / std::f64::consts::PI).sqrt()).max(2.0);
+    GlowLight {
+        position: (centre + DVec3::Y * lift).as_vec3(),
         lumens: power as f32,
         colour: LinearRgba::rgb(r, g, b),
         area: area as f32,
-    })
+    }
+}
+
+/// What the lava's surface gives out as light, as one point light (see [`glow_lights`] for
+/// several along a long flow). `None` when nothing glows (no lava, all of it cold: under a
+/// lumen in all, or non-finite state).
+pub fn glow_light(
+    flow: &FlowField,
+    crust: &[f64],
+    params: &LavaParams,
+    emissive_nits: f32,
+) -> Option<GlowLight> {
+    glow_lights(flow, crust, params, emissive_nits, 1).pop()
+}
+
+/// What the lava's surface gives out as light, as up to `max_lights` point lights strung
+/// along the flow: the glowing blocks ([`emitters`]) are ordered along the principal axis of
+/// their power-weighted positions and cut into runs of equal power, as many as the glowing
+/// area is about twice as long as wide (a compact lobe gets one light, a 250 × 15 m tongue
+/// eight), each run one light ([`light_of`]). The lights' powers add up to the whole
+/// emission. One light at the centroid of a long tongue left the ground beside its ends
+/// nearly dark: the ground there is lit by the lava next to it, not by the lava 100 m away.
+/// Empty when nothing glows (under a lumen in all) or `max_lights` is 0.
+pub fn glow_lights(
+    flow: &FlowField,
+    crust: &[f64],
+    params: &LavaParams,
+    emissive_nits: f32,
+    max_lights: u32,
+) -> Vec<GlowLight> {
+    let (mut blocks, block_area) = emitters(flow, crust, params, emissive_nits);
+    let power: f64 = blocks.iter().map(|e| e.lumens).sum();
+    // Below a lumen (a candle gives 12) the lava is dark: no light.
+    if !(power.is_finite() && power > 1.0) || max_lights == 0 {
+        return Vec::new();
+    }
+    // Power-weighted covariance of the horizontal positions.
+    let mean = blocks.iter().map(|e| e.position * e.lumens).sum::<DVec3>() / power;
+    let (mut cxx, mut cxz, mut czz) = (0.0, 0.0, 0.0);
+    for e in &blocks {
+        let (dx, dz) = (e.position.x - mean.x, e.position.z - mean.z);
+        cxx += e.lumens * dx * dx;
+        cxz += e.lumens * dx * dz;
+        czz += e.lumens * dz * dz;
+    }
+    let (cxx, cxz, czz) = (cxx / power, cxz / power, czz / power);
+    let angle = 0.5 * (2.0 * cxz).atan2(cxx - czz);
+    let (ax, az) = (angle.cos(), angle.sin());
+    // Variances along and across the axis; a uniform strip of length l has variance l² / 12.
+    let along_var = cxx * ax * ax + 2.0 * cxz * ax * az + czz * az * az;
+    let across_var = (cxx + czz - along_var).max(0.0);
+    let length = (12.0 * along_var.max(0.0)).sqrt();
+    let width = (12.0 * across_var).sqrt().max(block_area.sqrt());
+    let pieces = ((length / (2.0 * width)).ceil() as usize).clamp(1, (max_lights as usize).min(blocks.len()));
+    let key = |e: &Emitter| (e.position.x - mean.x) * ax + (e.position.z - mean.z) * az;
+    blocks.sort_by(|a, b| key(a).total_cmp(&key(b)));
+    // Cut where the running power passes each k / pieces of the total.
+    let mut lights = Vec::with_capacity(pieces);
+    let (mut start, mut running) = (0, 0.0);
+    for (i, e) in blocks.iter().enumerate() {
+        running += e.lumens;
+        let cut = power * (lights.len() + 1) as f64 / pieces as f64;
+        if (running >= cut && lights.len() + 1 < pieces) || i + 1 == blocks.len() {
+            lights.push(light_of(&blocks[start..=i], block_area));
+            start = i + 1;
+        }
+    }
+    lights
 }
 
 /// Distance (m) at which a point of `lumens` gives [`RANGE_LUX`]: `√(Φ / (4π E))`.
@@ -108,10 +187,12 @@ pub fn glow_range(lumens: f32) -> f32 {
 #[reflect(Component)]
 pub struct LavaGlow;
 
-/// Keeps one [`LavaGlow`] point light under every lava field whose surface glows (lit view,
-/// [`LavaRenderSettings::glow_light`] on), moved and re-powered on the frames its surface was
-/// rebuilt ([`LavaSurface::rebuilt_this_frame`]: after the lava or the look changed, at most
-/// every `rebuild_every_frames` frames), so the light follows the drawn surface.
+/// Keeps the [`LavaGlow`] point lights ([`glow_lights`], at most
+/// [`LavaRenderSettings::glow_light_count`]) under every lava field whose surface glows (lit
+/// view, [`LavaRenderSettings::glow_light`] on), moved and re-powered on the frames its
+/// surface was rebuilt ([`LavaSurface::rebuilt_this_frame`]: after the lava or the look
+/// changed, at most every `rebuild_every_frames` frames), so the lights follow the drawn
+/// surface. Lights a field no longer needs are hidden, not despawned.
 pub(super) fn update_glow_lights(
     mut commands: Commands,
     mode: Res<LavaRenderMode>,
@@ -124,40 +205,54 @@ pub(super) fn update_glow_lights(
     for (entity, state, field, children) in &fields {
         let rebuilt =
             children.iter().filter_map(|c| surfaces.get(c).ok()).any(LavaSurface::rebuilt_this_frame);
-        let existing = children.iter().find(|c| lights.contains(*c));
-        let glow = if on && rebuilt {
-            Some(glow_light(&state.flow, &state.surface.crust, &field.params, settings.emissive_nits))
-        } else {
-            None
-        };
-        match (existing, glow) {
-            (None, Some(Some(g))) => {
-                commands.spawn((
-                    Name::new("Lava glow"),
-                    LavaGlow,
-                    point_light(&g),
-                    Transform::from_translation(g.position),
-                    Visibility::Inherited,
-                    ChildOf(entity),
-                ));
-            }
-            (Some(child), glow) => {
-                let Ok((mut light, mut transform, mut visibility)) = lights.get_mut(child) else { continue };
-                let shown = match glow {
-                    Some(Some(g)) => {
-                        *light = point_light(&g);
-                        transform.translation = g.position;
-                        Visibility::Inherited
-                    }
-                    Some(None) => Visibility::Hidden,
-                    None if !on => Visibility::Hidden,
-                    None => *visibility,
-                };
-                if *visibility != shown {
-                    *visibility = shown;
+        let existing: Vec<Entity> = children.iter().filter(|c| lights.contains(*c)).collect();
+        if !on {
+            for &child in &existing {
+                if let Ok((_, _, mut visibility)) = lights.get_mut(child) {
+                    visibility.set_if_neq(Visibility::Hidden);
                 }
             }
-            _ => {}
+            continue;
+        }
+        if !rebuilt {
+            continue;
+        }
+        let glow = glow_lights(
+            &state.flow,
+            &state.surface.crust,
+            &field.params,
+            settings.emissive_nits,
+            settings.glow_light_count,
+        );
+        debug!(
+            "lava glow of {entity}: {} lights, {:.3e} lm in all, first at {:?}",
+            glow.len(),
+            glow.iter().map(|g| g.lumens).sum::<f32>(),
+            glow.first().map(|g| g.position)
+        );
+        for (i, g) in glow.iter().enumerate() {
+            match existing.get(i).and_then(|&c| lights.get_mut(c).ok()) {
+                Some((mut light, mut transform, mut visibility)) => {
+                    *light = point_light(g);
+                    transform.translation = g.position;
+                    visibility.set_if_neq(Visibility::Inherited);
+                }
+                None => {
+                    commands.spawn((
+                        Name::new("Lava glow"),
+                        LavaGlow,
+                        point_light(g),
+                        Transform::from_translation(g.position),
+                        Visibility::Inherited,
+                        ChildOf(entity),
+                    ));
+                }
+            }
+        }
+        for &child in existing.iter().skip(glow.len()) {
+            if let Ok((_, _, mut visibility)) = lights.get_mut(child) {
+                visibility.set_if_neq(Visibility::Hidden);
+            }
         }
     }
 }
@@ -202,6 +297,71 @@ mod tests {
         // Its range reaches where it gives 1 lux.
         let d = glow_range(g.lumens);
         assert!((g.lumens / (4.0 * std::f32::consts::PI * d * d) - 1.0).abs() < 1e-3);
+    }
+
+    /// A tongue of hot lava 120 m long and about 6 m wide along x.
+    fn tongue() -> (FlowField, LavaParams) {
+        let g = Grid2::new(136, 24, 1.0, Vec2::new(100.0, -30.0), 0.0).unwrap();
+        let mut f = FlowField::new(g, Edges::default(), 300.0).unwrap();
+        for k in 0..=30 {
+            f.place_volume(Vec2::new(104.0 + 4.0 * k as f32, -18.0), 3.0, 5.0, 1400.0).unwrap();
+        }
+        (f, LavaParams::isothermal(1000.0).unwrap())
+    }
+
+    /// Fluence rate (lm/m² over a sphere, the light arriving from every direction) at `q` from
+    /// isotropic points.
+    fn fluence(q: DVec3, points: impl Iterator<Item = (DVec3, f64)>) -> f64 {
+        points.map(|(p, lumens)| lumens / (4.0 * std::f64::consts::PI * p.distance_squared(q))).sum()
+    }
+
+    /// Along a long tongue the lights are strung out, carry the whole emission between them,
+    /// and light the ground beside the tongue's ends about as the lava next to it does: each
+    /// sampled block an isotropic emitter where it lies is the reference. One light at the
+    /// centroid (the old rule) left the ends at a few tenths of it.
+    #[test]
+    fn a_long_tongue_gets_lights_along_it_that_light_its_ends() {
+        let (f, p) = tongue();
+        let crust = vec![0.0; f.nx() * f.ny()];
+        let (blocks, _) = emitters(&f, &crust, &p, 40_000.0);
+        let xs = blocks.iter().map(|e| e.position.x);
+        let (x0, x1) = xs.clone().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x), b.max(x)));
+        assert!(x1 - x0 > 100.0, "the tongue is {} m long", x1 - x0);
+        let one = glow_light(&f, &crust, &p, 40_000.0).unwrap();
+        let lights = glow_lights(&f, &crust, &p, 40_000.0, 8);
+        assert_eq!(lights.len(), 8, "{lights:?}");
+        let sum: f32 = lights.iter().map(|l| l.lumens).sum();
+        assert!((sum / one.lumens - 1.0).abs() < 1e-4, "{sum} vs {}", one.lumens);
+        for pair in lights.windows(2) {
+            assert!(pair[1].position.x > pair[0].position.x + 5.0, "not strung along x: {lights:?}");
+        }
+        let at = |l: &GlowLight| (l.position.as_dvec3(), l.lumens as f64);
+        for x in [x0, 0.5 * (x0 + x1), x1] {
+            // 6 m beside the tongue's axis, 1.5 m above the ground.
+            let q = DVec3::new(x, 1.5, -12.0);
+            let reference = fluence(q, blocks.iter().map(|e| (e.position, e.lumens)));
+            let strung = fluence(q, lights.iter().map(at)) / reference;
+            let single = fluence(q, std::iter::once(at(&one))) / reference;
+            eprintln!("x {x:.0}: strung {strung:.2}, one light {single:.2} of the reference");
+            assert!((0.5..2.0).contains(&strung), "x {x:.0}: {strung:.2} of the reference");
+            if x != 0.5 * (x0 + x1) {
+                assert!(single < 0.3, "x {x:.0}: one light gives {single:.2} of the reference");
+            }
+        }
+        // A cap of one is the single light; of none, no light.
+        assert_eq!(glow_lights(&f, &crust, &p, 40_000.0, 1), vec![one]);
+        assert!(glow_lights(&f, &crust, &p, 40_000.0, 0).is_empty());
+    }
+
+    /// A round lobe is one light, whatever the cap.
+    #[test]
+    fn a_compact_lobe_is_one_light() {
+        let (f, p) = field(1400.0);
+        let crust = vec![0.0; 64 * 64];
+        assert_eq!(
+            glow_lights(&f, &crust, &p, 40_000.0, 8),
+            vec![glow_light(&f, &crust, &p, 40_000.0).unwrap()]
+        );
     }
 
     #[test]

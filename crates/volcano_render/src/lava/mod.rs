@@ -39,7 +39,7 @@ use crate::terrain::{MeshSurface, TerrainMesh};
 
 pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
 pub use folds::{FoldInstance, fold_transform};
-pub use light::{GlowLight, LavaGlow, glow_light, glow_range};
+pub use light::{GlowLight, LavaGlow, glow_light, glow_lights, glow_range};
 pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
 
 /// How lava is drawn (a resource; switch it live from a panel).
@@ -82,9 +82,12 @@ pub struct LavaRenderSettings {
     pub show_folds: bool,
     /// Fold ropes cast shadows (one more draw per rope and shadow cascade).
     pub fold_shadows: bool,
-    /// The glowing lava lights its surroundings: one shadowless point light per field
-    /// ([`light::glow_light`]).
+    /// The glowing lava lights its surroundings: shadowless point lights along each field
+    /// ([`light::glow_lights`]).
     pub glow_light: bool,
+    /// At most this many glow lights per field (0: none); a compact lobe gets one, a long
+    /// tongue one per stretch about twice as long as it is wide.
+    pub glow_light_count: u32,
 }
 
 impl Default for LavaRenderSettings {
@@ -95,6 +98,7 @@ impl Default for LavaRenderSettings {
             show_folds: true,
             fold_shadows: true,
             glow_light: true,
+            glow_light_count: 8,
         }
     }
 }
