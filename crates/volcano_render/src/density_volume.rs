@@ -86,21 +86,68 @@ pub fn smooth_density(density: &mut [f32], nxy: usize, nz: usize, passes: u32) -
     Ok(())
 }
 
-/// A 3D `R8Unorm` image (`nxy × nz × nxy`, linear filtering, clamped) from [`density_texels`].
+/// Appends to `texels` (a `w × h × d` level, u fastest, then v, then w) its chain of coarser
+/// levels down to 1 × 1 × 1, each texel the **maximum** of the texels it covers (each axis
+/// halved, rounded down, at least 1; the last texel of an odd axis takes the leftover one):
+/// a texel is 0 exactly where every texel under it is. The cloud pass reads them as an
+/// occupancy test, to skip empty stretches of a ray. Returns the number of levels.
+pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> u32 {
+    let (mut dims, mut start, mut levels) = ([w, h, d], 0usize, 1u32);
+    let span = |i: usize, m: usize, n: usize| 2 * i..=if i + 1 == m { n - 1 } else { 2 * i + 1 };
+    while dims.iter().any(|&n| n > 1) {
+        let [nw, nh, nd] = dims;
+        let [mw, mh, md] = dims.map(|n| (n / 2).max(1));
+        let next = texels.len();
+        for z in 0..md {
+            for y in 0..mh {
+                for x in 0..mw {
+                    let mut m = 0u8;
+                    for sz in span(z, md, nd) {
+                        for sy in span(y, mh, nh) {
+                            for sx in span(x, mw, nw) {
+                                m = m.max(texels[start + (sz * nh + sy) * nw + sx]);
+                            }
+                        }
+                    }
+                    texels.push(m);
+                }
+            }
+        }
+        (dims, start, levels) = ([mw, mh, md], next, levels + 1);
+    }
+    levels
+}
+
+/// A 3D `R8Unorm` image (`nxy × nz × nxy`, linear filtering, clamped) from [`density_texels`],
+/// with its maximum levels ([`append_max_levels`]; read with the nearest level).
 pub fn density_image(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<Image, ConfigError> {
     let data = density_texels(density, nxy, nz, d0)?;
     let size = Extent3d { width: nxy as u32, height: nz as u32, depth_or_array_layers: nxy as u32 };
     let mut image =
         Image::new(size, TextureDimension::D3, data, TextureFormat::R8Unorm, RenderAssetUsages::all());
+    if let Some(data) = image.data.as_mut() {
+        image.texture_descriptor.mip_level_count = append_max_levels(data, nxy, nz, nxy);
+    }
     image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
         address_mode_u: ImageAddressMode::ClampToEdge,
         address_mode_v: ImageAddressMode::ClampToEdge,
         address_mode_w: ImageAddressMode::ClampToEdge,
         mag_filter: ImageFilterMode::Linear,
         min_filter: ImageFilterMode::Linear,
+        mipmap_filter: ImageFilterMode::Nearest,
         ..default()
     });
     Ok(image)
+}
+
+/// Fraction of the texels of an image's finest level that are not empty (diagnostics, tests).
+pub fn filled_fraction(image: &Image) -> f32 {
+    let size = image.texture_descriptor.size;
+    let n = (size.width * size.height * size.depth_or_array_layers) as usize;
+    image.data.as_ref().map_or(0.0, |d| {
+        let level0 = &d[..n.min(d.len())];
+        level0.iter().filter(|&&v| v > 0).count() as f32 / level0.len().max(1) as f32
+    })
 }
 
 /// Transform of the unit fog cube covering an `extent × extent` footprint centred on the
@@ -166,12 +213,39 @@ mod tests {
         assert!(smooth_density(&mut d[1..], nxy, nz, 1).is_err());
     }
 
+    /// Every coarser texel is the maximum of the texels under it, odd axes included: one lit
+    /// texel anywhere leaves exactly one non-zero texel per level, at its place.
+    #[test]
+    fn max_levels_keep_every_occupied_texel_and_nothing_else() {
+        let (w, h, d) = (8, 3, 5);
+        for k in 0..w * h * d {
+            let mut t = vec![0u8; w * h * d];
+            t[k] = 7;
+            let levels = append_max_levels(&mut t, w, h, d);
+            assert_eq!(levels, 4, "8×3×5 → 4×1×2 → 2×1×1 → 1×1×1");
+            assert_eq!(t.len(), 120 + 8 + 2 + 1);
+            let (x, y, z) = (k % w, (k / w) % h, k / (w * h));
+            // Level 1 is 4 × 1 × 2: x/2, y → 0, z 0–1 → 0 and 2–4 → 1.
+            let want1 = usize::from(z >= 2) * 4 + x / 2;
+            let lit: Vec<usize> = (0..8).filter(|&i| t[120 + i] != 0).collect();
+            assert_eq!(lit, vec![want1], "texel {k} ({x}, {y}, {z})");
+            assert_eq!(t[128..].iter().filter(|&&v| v == 7).count(), 2);
+            assert_eq!(t[128 + x / 4], 7);
+        }
+        let mut flat = vec![0u8; 4];
+        assert_eq!(append_max_levels(&mut flat, 4, 1, 1), 3);
+        assert_eq!(flat.len(), 4 + 2 + 1);
+    }
+
     #[test]
     fn image_is_3d_and_sized_for_the_volume() {
         let img = density_image(&vec![0.2; 8 * 8 * 4], 8, 4, 0.1).unwrap();
         assert_eq!(img.texture_descriptor.dimension, TextureDimension::D3);
         assert_eq!(img.texture_descriptor.size, Extent3d { width: 8, height: 4, depth_or_array_layers: 8 });
-        assert_eq!(img.data.as_ref().map(|d| d.len()), Some(256));
+        // 8×4×8, then 4×2×4, 2×1×2, 1×1×1.
+        assert_eq!(img.texture_descriptor.mip_level_count, 4);
+        assert_eq!(img.data.as_ref().map(|d| d.len()), Some(256 + 32 + 4 + 1));
+        assert_eq!(filled_fraction(&img), 1.0);
         let t = volume_transform(51_200.0, 0.0, 10_000.0);
         assert_eq!(t.translation.y, 5_000.0);
         assert_eq!(t.scale, Vec3::new(51_200.0, 10_000.0, 51_200.0));

@@ -16,6 +16,10 @@
 //!    more than doubles) and the inside more textured (the mean luminance step between
 //!    neighbouring pixels rises by 30 %), at about the same size. With `sigma_detailed`
 //!    returning `sigma_at(p)` in `clouds.wgsl` both renders are the same and this fails.
+//! 4. A sheet one voxel thick seen at a grazing angle with steps longer than the rays' path
+//!    through it: with one density sample per view step neighbouring pixels alternate between
+//!    seeing it and missing it (a checker); with eight (`CloudRenderSettings::substeps`) the
+//!    mean step between neighbouring pixels must drop below 0.3 of that.
 
 mod common;
 
@@ -224,9 +228,74 @@ fn a_cloud_slab_shades_the_ground_under_it() {
     assert!((lb - lo_).abs() < 5.0, "the open half changed with the slab: {lb:.1} vs {lo_:.1}");
 }
 
+/// (mean luminance step between horizontal neighbours, mean luminance) over the band of the
+/// frame where a thin sheet is seen at a grazing angle, with `substeps` density samples per
+/// view step. The sheet is 60 m thick (one voxel) at 1.5 km in a 40 km box, the camera 500 m
+/// above it looking 5° down; 32 view steps over the ≈ 20 km to the box's far side are ≈ 600 m
+/// each, and the rays below the horizon cross the sheet over 250–600 m, in under one step: with
+/// one jittered sample per step one pixel sees it and the next one does not.
+fn thin_sheet(substeps: u32) -> (f64, f64) {
+    let (lo, hi) = (Vec3::new(-20_000.0, 0.0, -20_000.0), Vec3::new(20_000.0, 3_840.0, 20_000.0));
+    // Optical depth ≈ 1.3–3 along the rays. No ground under it: the cloud's shadow on
+    // the ground has a checker of its own (the 6-step sun march jitters over steps of up to a
+    // kilometre), which this test is not about.
+    let sheet = |p: Vec3| if (1_470.0..1_530.0).contains(&p.y) { 0.1 } else { 0.0 };
+    let orbit = OrbitCamera {
+        focus: Vec3::new(0.0, 1_500.0, -6_000.0),
+        yaw: 0.0,
+        pitch: 5f32.to_radians(),
+        distance: 5_700.0,
+        ..default()
+    };
+    let toward_sun = Vec3::new(0.3, 0.8, 0.4).normalize();
+    let settings = CloudRenderSettings { substeps, step_count: 32, ..smooth() };
+    let density = common::density_volume(64, lo, hi, sheet);
+    let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings };
+    let out = common::out_path(&format!("headless_lit_clouds_sheet_{substeps}.png"));
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    app.insert_resource(setup).add_systems(Startup, scene);
+    let (_, _, rgb) = common::run_and_read(app, &out);
+    let lum = |x: u32, y: u32| {
+        let i = 3 * (y * W + x) as usize;
+        common::luminance([rgb[i] as f64, rgb[i + 1] as f64, rgb[i + 2] as f64])
+    };
+    // Under the horizon: the sheet seen from above, out to the box's far side.
+    let (mut step, mut sum, mut n) = (0.0, 0.0, 0usize);
+    for y in H / 2 + 4..H / 2 + 40 {
+        for x in 20..W - 21 {
+            step += (lum(x + 1, y) - lum(x, y)).abs();
+            sum += lum(x, y);
+            n += 1;
+        }
+    }
+    let (step, mean) = (step / n as f64, sum / n as f64);
+    eprintln!(
+        "thin sheet, {substeps} samples per step: mean step {step:.2}, mean {mean:.1} ({})",
+        out.display()
+    );
+    (step, mean)
+}
+
+/// A sheet thinner than a view step reads as a sheet, not as a per-pixel checker (as in
+/// `skyscape_island`'s near deck until 2026-11-27): with eight
+/// samples per step the mean step between neighbouring pixels is far below the single
+/// sample's, and the sheet is still there (brighter than the sky behind it with none).
+#[test]
+fn a_thin_sheet_seen_grazing_is_not_a_checker() {
+    let (one, one_mean) = thin_sheet(1);
+    let (eight, eight_mean) = thin_sheet(8);
+    // When written: 2.91 with one sample, 0.46 with eight; means 221.7 and 222.8.
+    assert!(one > 1.5, "no checker with one sample per step ({one:.2}): the scene tests nothing");
+    assert!(eight < 0.3 * one, "still a checker: mean step {eight:.2} with 8 samples, {one:.2} with 1");
+    assert!(
+        (eight_mean - one_mean).abs() < 40.0,
+        "the sheet changed: mean {eight_mean:.1} against {one_mean:.1}"
+    );
+}
+
 /// Wall time per frame (ms) of updates 10–40 of a 960×540 view from inside a 24 km cloud field
 /// (the box covers the whole frame; cumulus-sized blobs), with the pass drawn or hidden.
-fn frame_ms(drawn: bool) -> f64 {
+fn frame_ms(drawn: bool, substeps: u32) -> f64 {
     let (lo, hi) = (Vec3::new(-12_000.0, 0.0, -12_000.0), Vec3::new(12_000.0, 4_000.0, 12_000.0));
     let density = common::density_volume(128, lo, hi, |p| {
         let blob = (p.x / 1_700.0).sin() * (p.z / 1_300.0).cos() - ((p.y - 2_000.0) / 900.0).powi(2);
@@ -240,8 +309,9 @@ fn frame_ms(drawn: bool) -> f64 {
         ..default()
     };
     let toward_sun = Vec3::new(0.5, 0.6, 0.3).normalize();
-    let setup = Setup { lo, hi, density, n: 128, orbit, toward_sun, plane: true, settings: default() };
-    let out = common::out_path(&format!("headless_lit_clouds_cost_{drawn}.png"));
+    let settings = CloudRenderSettings { substeps, ..default() };
+    let setup = Setup { lo, hi, density, n: 128, orbit, toward_sun, plane: true, settings };
+    let out = common::out_path(&format!("headless_lit_clouds_cost_{drawn}_{substeps}.png"));
     let mut app = common::capture_app(headless_default_plugins(), 960, 540, &out, 40);
     app.insert_resource(setup).add_systems(Startup, scene).add_systems(
         Update,
@@ -259,9 +329,9 @@ fn frame_ms(drawn: bool) -> f64 {
 #[test]
 #[ignore]
 fn cloud_pass_frame_cost() {
-    let (with, without) = (frame_ms(true), frame_ms(false));
+    let (with, one, without) = (frame_ms(true, 8), frame_ms(true, 1), frame_ms(false, 8));
     eprintln!(
-        "960×540 frame: {with:.1} ms with the cloud pass, {without:.1} ms without ({:.1} ms for the pass)",
-        with - without
+        "960×540 frame: {with:.1} ms with the cloud pass (8 samples per step), {one:.1} ms with 1, \
+         {without:.1} ms without the pass"
     );
 }

@@ -32,7 +32,7 @@ use volcano_core::ConfigError;
 use volcano_core::error::in_range;
 
 use crate::clouds::{CloudMaterial, CloudUniform, volume_bounds};
-use crate::density_volume::{density_image, volume_transform};
+use crate::density_volume::{density_image, filled_fraction, volume_transform};
 pub use rebuild::{AshFallBuild, AshFallBuildStatus, AshSnapshot, BuiltAsh, build_ash};
 use volume::{AshVolumeSpec, ash_density_volume};
 
@@ -64,6 +64,8 @@ pub struct AshFallSettings {
     pub forward_g: f32,
     /// Ray-march steps per pixel along the view ray (8–1024).
     pub step_count: u32,
+    /// Density samples per view step (1–8; [`crate::CloudRenderSettings::substeps`]).
+    pub substeps: u32,
     /// Steps of the march toward the sun per sample (1–32).
     pub sun_steps: u32,
     /// Length (m) of the march toward the sun.
@@ -108,6 +110,7 @@ impl Default for AshFallSettings {
             ambient_gain: 0.7,
             forward_g: 0.5,
             step_count: 128,
+            substeps: 8,
             sun_steps: 6,
             sun_distance_m: 4_000.0,
             shadow_strength: 0.5,
@@ -140,6 +143,7 @@ impl AshFallSettings {
         in_range("ambient_gain", self.ambient_gain as f64, 0.0, 100.0)?;
         in_range("forward_g", self.forward_g as f64, 0.0, 0.99)?;
         in_range("step_count", self.step_count as f64, 8.0, 1024.0)?;
+        in_range("substeps", self.substeps as f64, 1.0, 8.0)?;
         in_range("sun_steps", self.sun_steps as f64, 1.0, 32.0)?;
         in_range("sun_distance_m", self.sun_distance_m as f64, 10.0, 100_000.0)?;
         in_range("shadow_strength", self.shadow_strength as f64, 0.0, 1.0)?;
@@ -244,10 +248,7 @@ pub fn build_ash_image(
     };
     let density = ash_density_volume(layers, grid, ground, &spec)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
-    let filled = image
-        .data
-        .as_ref()
-        .map_or(0.0, |d| d.iter().filter(|&&v| v > 0).count() as f32 / d.len().max(1) as f32);
+    let filled = filled_fraction(&image);
     let transform = volume_transform(grid.extent() as f32, spec.z_min as f32, spec.z_max as f32);
     Ok((image, transform, filled))
 }
@@ -277,6 +278,7 @@ pub fn ash_material(
         // horizontal luminance step 1.13 → 1.15 in `headless_ash_fall`'s scene).
         detail: Vec4::ZERO,
         segment: CloudMaterial::BEHIND_ASH,
+        substeps: s.substeps,
     };
     CloudMaterial::new(uniform, image)
 }

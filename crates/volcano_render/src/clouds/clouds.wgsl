@@ -42,6 +42,8 @@ struct CloudUniform {
     // 0: the part of each ray behind the ash (all of it where there is none), drawn before the
     // ash; 1: the part in front of the ash, drawn after it (volcano_render::clouds::split).
     segment: u32,
+    // Density samples per view step (1–8).
+    substeps: u32,
 }
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> cloud: CloudUniform;
@@ -254,32 +256,69 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         // the part in front of the ash showed as a per-pixel checker over it.
         let n = min(max(ceil((t1 - t0) / dt_full), 16.0), n_full);
         let dt = (t1 - t0) / n;
+        // At most 8: the size of `sig`.
+        let m = f32(clamp(cloud.substeps, 1u, 8u));
+        let ds = dt / m;
+        // The occupancy level: the coarsest whose texels (maxima, `density_volume::
+        // append_max_levels`) are at least as wide as a step plus the lumps' displacement on
+        // either side, so a step whose level texel reads 0 holds no cloud at all.
+        let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(textureDimensions(density_texture));
+        let voxel_min = max(min(voxel.x, min(voxel.y, voxel.z)), 1e-3);
+        let reach = dt + select(0.0, 2.8 * cloud.detail.z, cloud.detail.x > 0.0);
+        let top_level = f32(textureNumLevels(density_texture)) - 1.0;
+        let occupancy_level = clamp(ceil(log2(max(reach / voxel_min, 1.0))), 0.0, top_level);
         for (var i = 0.0; i < n; i += 1.0) {
-            let t = t0 + (i + jitter) * dt;
-            let p = origin + ray * t;
-            let sigma = sigma_detailed(p);
-            if sigma <= 1e-7 {
+            let mid = clamp(volume_uvw(origin + ray * (t0 + (i + 0.5) * dt)), vec3(0.0), vec3(1.0));
+            if textureSampleLevel(density_texture, density_sampler, mid, occupancy_level).r <= 0.0 {
                 continue;
             }
+            // The step's density at `m` jittered points (a sheet thinner than a step is not
+            // missed by every other pixel); its light once, at the first cloudy one (the
+            // front of the step, which the eye sees through the least cloud).
+            var sig: array<f32, 8>;
+            var t_front = -1.0;
+            for (var j = 0u; j < u32(m); j++) {
+                let tj = t0 + (i + (f32(j) + jitter) / m) * dt;
+                let s = sigma_detailed(origin + ray * tj);
+                sig[j] = s;
+                if s > 1e-7 && t_front < 0.0 {
+                    t_front = tj;
+                }
+            }
+            if t_front < 0.0 {
+                continue;
+            }
+            let p = origin + ray * t_front;
             let tau = sun_depth(p, l, jitter);
             let direct = p0 * exp(-tau) + 0.5 * p1 * exp(-0.5 * tau) + 0.25 * p2 * exp(-0.25 * tau);
-            // Powder: thin edges facing away from the sun have had little light scattered
-            // into them; fades out toward the sun so the silver lining stays.
-            let powder_on = cloud.phase.w * (0.5 - 0.5 * cos_theta);
-            let powder = mix(1.0, 1.0 - exp(-2.0 * sigma * cloud.light.w), powder_on);
             // Sky light from above, dimmed by the cloud over the sample (two samples).
             let up = sigma_at(p + vec3(0.0, 150.0, 0.0)) * 300.0 + sigma_at(p + vec3(0.0, 600.0, 0.0)) * 600.0;
             let sky = ambient * mix(0.35, 1.0, exp(-up));
-            let source = albedo * (sun * direct * powder + sky);
-            let step_t = exp(-sigma * dt);
-            let gain = transmittance * (1.0 - step_t);
-            // Energy-conserving step (the source integrated over the segment).
-            radiance += source * gain;
-            weighted_t += t * gain;
-            weight += gain;
-            transmittance *= step_t;
-            if transmittance < 0.01 {
-                transmittance = 0.0;
+            // Powder: thin edges facing away from the sun have had little light scattered
+            // into them; fades out toward the sun so the silver lining stays.
+            let powder_on = cloud.phase.w * (0.5 - 0.5 * cos_theta);
+            var done = false;
+            for (var j = 0u; j < u32(m); j++) {
+                let sigma = sig[j];
+                if sigma <= 1e-7 {
+                    continue;
+                }
+                let powder = mix(1.0, 1.0 - exp(-2.0 * sigma * cloud.light.w), powder_on);
+                let source = albedo * (sun * direct * powder + sky);
+                let step_t = exp(-sigma * ds);
+                let gain = transmittance * (1.0 - step_t);
+                // Energy-conserving step (the source integrated over the segment).
+                radiance += source * gain;
+                weighted_t += (t0 + (i + (f32(j) + 0.5) / m) * dt) * gain;
+                weight += gain;
+                transmittance *= step_t;
+                if transmittance < 0.01 {
+                    transmittance = 0.0;
+                    done = true;
+                    break;
+                }
+            }
+            if done {
                 break;
             }
         }

@@ -56,6 +56,10 @@ pub struct CloudUniform {
     /// [`CloudMaterial::IN_FRONT_OF_ASH`] (from the eye to the ash; drawn after it). See
     /// [`crate::plume::AshDepthImage`].
     pub segment: u32,
+    /// Density samples per view step (1–8; the shader clamps): a cloud thinner than a step
+    /// is then not missed by every other pixel (the per-pixel checker of a single jittered
+    /// sample); the light is computed once per step.
+    pub substeps: u32,
 }
 
 impl CloudUniform {
@@ -73,6 +77,7 @@ impl CloudUniform {
             tint: Vec4::ONE,
             detail: Vec4::new(s.detail, 1.0 / s.detail_m, s.detail_displacement_m, 0.0),
             segment: CloudMaterial::BEHIND_ASH,
+            substeps: s.substeps,
         }
     }
 }

@@ -16,7 +16,9 @@ pub mod material;
 mod rebuild;
 pub mod split;
 
-pub use crate::density_volume::{density_image, density_texels, smooth_density, texel, volume_transform};
+pub use crate::density_volume::{
+    density_image, density_texels, filled_fraction, smooth_density, texel, volume_transform,
+};
 pub use material::{CloudMaterial, CloudUniform, box_transform, volume_bounds};
 pub use rebuild::{BuiltClouds, CloudBuild, CloudBuildStatus, build_clouds};
 pub use split::{CloudFrontDraw, CloudFrontOf, split_materials};
@@ -80,6 +82,11 @@ pub struct CloudRenderSettings {
     pub detail_displacement_m: f32,
     /// Ray-march steps per pixel along the view ray (8–1024).
     pub step_count: u32,
+    /// Density samples per view step (1–8): the light is computed once per step, the
+    /// density at this many jittered points in it, so that a sheet thinner than a step shows
+    /// as a sheet rather than as a per-pixel checker (1 is the single sample of before
+    /// 2026-11-27). Steps whose stretch of the volume is empty are skipped whole.
+    pub substeps: u32,
     /// Steps of the march toward the sun per sample (1–32).
     pub sun_steps: u32,
     /// Length (m) of the march toward the sun.
@@ -120,6 +127,7 @@ impl Default for CloudRenderSettings {
             detail_m: 450.0,
             detail_displacement_m: 220.0,
             step_count: 192,
+            substeps: 8,
             sun_steps: 6,
             sun_distance_m: 3_000.0,
             shadow_strength: 0.6,
@@ -151,6 +159,7 @@ impl CloudRenderSettings {
         in_range("detail_m", self.detail_m as f64, 10.0, 10_000.0)?;
         in_range("detail_displacement_m", self.detail_displacement_m as f64, 0.0, 5_000.0)?;
         in_range("step_count", self.step_count as f64, 8.0, 1024.0)?;
+        in_range("substeps", self.substeps as f64, 1.0, 8.0)?;
         in_range("sun_steps", self.sun_steps as f64, 1.0, 32.0)?;
         in_range("sun_distance_m", self.sun_distance_m as f64, 10.0, 100_000.0)?;
         in_range("shadow_strength", self.shadow_strength as f64, 0.0, 1.0)?;
@@ -272,10 +281,7 @@ pub fn build_cloud_image(
         cloud_density(state, cloud_threshold, settings.clusters, settings.fragmentation, memory, &spec);
     smooth_density(&mut density, spec.nxy, spec.nz, settings.smoothing_passes)?;
     let image = density_image(&density, spec.nxy, spec.nz, settings.density_scale)?;
-    let filled = image
-        .data
-        .as_ref()
-        .map_or(0.0, |d| d.iter().filter(|&&v| v > 0).count() as f32 / d.len().max(1) as f32);
+    let filled = filled_fraction(&image);
     let transform = volume_transform(state.grid.extent() as f32, spec.z_min as f32, spec.z_max as f32);
     Ok((image, transform, filled))
 }
