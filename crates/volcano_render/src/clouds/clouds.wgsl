@@ -115,39 +115,78 @@ fn value_noise(p: vec3<f32>) -> f32 {
 // neither) give it lumps: the volume is read at a position displaced by a noise vector of up
 // to `detail.z` metres (its outline bulges out and in), and the density read there is
 // multiplied by 1 + strength · (2n − 1) for a finer noise n in [0, 1] (mean 1: the clouds'
-// amount is kept, a thin deck is textured rather than erased).
-fn sigma_detailed(p: vec3<f32>) -> f32 {
-    if cloud.detail.x <= 0.0 || outside(volume_uvw(p)) {
-        return sigma_at(p);
+// amount is kept, a thin deck is textured rather than erased). Each octave fades out as the
+// march's spacing `footprint` (m) grows from half its wavelength to all of it: a march with
+// fewer than two samples per wavelength cannot show it, only alias it into per-pixel noise
+// (as the ground detail fades with the pixel's footprint, `terrain/detail.wgsl`).
+fn sigma_detailed(p: vec3<f32>, footprint: f32) -> f32 {
+    return sigma_lumpy(p, lumps(p, footprint));
+}
+
+// The lumps at `p` (see `sigma_detailed`): xyz how far (m) the volume is read from `p`, w the
+// density's factor (mean 1). None when the noise is off or faded out.
+fn lumps(p: vec3<f32>, footprint: f32) -> vec4<f32> {
+    let size = 1.0 / max(cloud.detail.y, 1e-9);
+    // The coarsest octave fades last: when it is gone, so are the others.
+    let k_warp = octave_keep(size, footprint);
+    if cloud.detail.x <= 0.0 || k_warp <= 0.0 {
+        return vec4(0.0, 0.0, 0.0, 1.0);
     }
     let q = p * cloud.detail.y;
     // Two octaves of displacement: bulges the size of the features, and lumps on them
     // 2.7 times smaller and displaced 0.4 times as far.
-    let q2 = q * 2.7 + vec3(5.3, 1.9, 7.7);
-    let warp = vec3(
+    var warp = k_warp * (vec3(
         value_noise(q + vec3(31.7, 0.0, 0.0)),
         value_noise(q + vec3(0.0, 47.3, 0.0)),
         value_noise(q + vec3(0.0, 0.0, 23.9)),
-    ) - vec3(0.5) + 0.4 * (vec3(
-        value_noise(q2 + vec3(11.1, 0.0, 0.0)),
-        value_noise(q2 + vec3(0.0, 13.7, 0.0)),
-        value_noise(q2 + vec3(0.0, 0.0, 19.3)),
     ) - vec3(0.5));
-    // Kept inside the volume: a read displaced out of it would carve straight-walled holes
-    // into clouds along the box's sides (seen in `skyscape` where the view enters the box).
-    let r = clamp(p + 2.0 * cloud.detail.z * warp, cloud.volume_min, cloud.volume_max);
-    let t = textureSampleLevel(density_texture, density_sampler, volume_uvw(r), 0.0).r;
-    if t <= 0.0 {
+    let k_lumps = octave_keep(size / 2.7, footprint);
+    if k_lumps > 0.0 {
+        let q2 = q * 2.7 + vec3(5.3, 1.9, 7.7);
+        warp += 0.4 * k_lumps * (vec3(
+            value_noise(q2 + vec3(11.1, 0.0, 0.0)),
+            value_noise(q2 + vec3(0.0, 13.7, 0.0)),
+            value_noise(q2 + vec3(0.0, 0.0, 19.3)),
+        ) - vec3(0.5));
+    }
+    // The density noise in [0, 1] with mean ½, its octaves faded toward ½.
+    var n = 0.5;
+    let k_coarse = octave_keep(size / 1.9, footprint);
+    if k_coarse > 0.0 {
+        n += 0.6 * k_coarse * (value_noise(q * 1.9 + vec3(17.3, 5.1, 9.7)) - 0.5);
+    }
+    let k_fine = octave_keep(size / 4.3, footprint);
+    if k_fine > 0.0 {
+        n += 0.4 * k_fine * (value_noise(q * 4.3 + vec3(3.1, 8.2, 1.3)) - 0.5);
+    }
+    // Density times 1 + strength · (2n − 1): mean 1, so a thin deck is textured, not erased.
+    return vec4(2.0 * cloud.detail.z * warp, max(1.0 + cloud.detail.x * (2.0 * n - 1.0), 0.0));
+}
+
+// Extinction (1/m) at `p` read through the lumps `d` (from `lumps`); zero outside the volume.
+fn sigma_lumpy(p: vec3<f32>, d: vec4<f32>) -> f32 {
+    if outside(volume_uvw(p)) {
         return 0.0;
     }
-    let n = 0.6 * value_noise(q * 1.9 + vec3(17.3, 5.1, 9.7)) + 0.4 * value_noise(q * 4.3 + vec3(3.1, 8.2, 1.3));
-    // Density times 1 + strength · (2n − 1): mean 1, so a thin deck is textured, not erased.
-    return sigma_of_texel(t) * max(1.0 + cloud.detail.x * (2.0 * n - 1.0), 0.0);
+    // Kept inside the volume: a read displaced out of it would carve straight-walled holes
+    // into clouds along the box's sides (seen in `skyscape` where the view enters the box).
+    let r = clamp(p + d.xyz, cloud.volume_min, cloud.volume_max);
+    let t = textureSampleLevel(density_texture, density_sampler, volume_uvw(r), 0.0).r;
+    return sigma_of_texel(t) * d.w;
+}
+
+// How much of a noise octave of `wavelength` (m) a march with samples `footprint` m apart
+// keeps: all up to half the wavelength, none from a whole one.
+fn octave_keep(wavelength: f32, footprint: f32) -> f32 {
+    return 1.0 - smoothstep(0.5 * wavelength, wavelength, footprint);
 }
 
 // Optical depth from `p` toward the sun `l`, up to the volume's exit or the march length;
-// steps grow quadratically (fine near the sample, coarse far away).
-fn sun_depth(p: vec3<f32>, l: vec3<f32>, jitter: f32) -> f32 {
+// steps grow quadratically (fine near the sample, coarse far away), each sampled at its
+// middle. (Jittered per pixel until 2026-11-27: over the far steps, up to a kilometre long,
+// that turned the shaded parts of every deck and the clouds' shadows on the ground into a fine
+// per-pixel hatch; `skyscape`'s decks: mean |ΔL| 3.04 → 0.71.)
+fn sun_depth(p: vec3<f32>, l: vec3<f32>) -> f32 {
     let hit = box_hit(p, l, cloud.volume_min, cloud.volume_max);
     let len = min(max(hit.y, 0.0), cloud.march.z);
     if len <= 0.0 || hit.x > hit.y {
@@ -161,11 +200,11 @@ fn sun_depth(p: vec3<f32>, l: vec3<f32>, jitter: f32) -> f32 {
         if t <= prev {
             continue;
         }
-        let mid = mix(prev, t, 0.25 + 0.5 * jitter);
+        let mid = 0.5 * (prev + t);
         let q = p + l * mid;
         var sigma = 0.0;
         if i < 2.0 {
-            sigma = sigma_detailed(q);
+            sigma = sigma_detailed(q, t - prev);
         } else {
             sigma = sigma_at(q);
         }
@@ -277,9 +316,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
             // front of the step, which the eye sees through the least cloud).
             var sig: array<f32, 8>;
             var t_front = -1.0;
+            // The lumps once per step, at its middle (the noise is the costly part of a
+            // sample; its features are larger than a sub-step).
+            let d = lumps(origin + ray * (t0 + (i + 0.5) * dt), ds);
             for (var j = 0u; j < u32(m); j++) {
                 let tj = t0 + (i + (f32(j) + jitter) / m) * dt;
-                let s = sigma_detailed(origin + ray * tj);
+                let s = sigma_lumpy(origin + ray * tj, d);
                 sig[j] = s;
                 if s > 1e-7 && t_front < 0.0 {
                     t_front = tj;
@@ -289,7 +331,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
                 continue;
             }
             let p = origin + ray * t_front;
-            let tau = sun_depth(p, l, jitter);
+            let tau = sun_depth(p, l);
             let direct = p0 * exp(-tau) + 0.5 * p1 * exp(-0.5 * tau) + 0.25 * p2 * exp(-0.25 * tau);
             // Sky light from above, dimmed by the cloud over the sample (two samples).
             let up = sigma_at(p + vec3(0.0, 150.0, 0.0)) * 300.0 + sigma_at(p + vec3(0.0, 600.0, 0.0)) * 600.0;
@@ -327,7 +369,7 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     // Cloud shadow on the opaque scene behind the clouds (once: by the part behind the ash).
     var shade = 1.0;
     if surface && !front && l.y > 0.0 && transmittance > 0.0 {
-        let tau = sun_depth(surface_pos + l * 2.0, l, jitter);
+        let tau = sun_depth(surface_pos + l * 2.0, l);
         shade = 1.0 - cloud.march.w * (1.0 - exp(-tau));
     }
 
