@@ -46,6 +46,9 @@ pub struct QualitySettings {
     /// the noise (up to eight value-noise lookups per sample inside the box), leaving smooth
     /// clouds.
     pub cloud_detail: f32,
+    /// Density samples per ray-march step (`CloudRenderSettings::substeps`): fewer are cheaper
+    /// and let thin decks seen edge-on break into a per-pixel checker again.
+    pub cloud_substeps: u32,
     /// Plume instances per frame ([`PlumeViewSettings::max_instances`]): the detail spheres per
     /// parent fall evenly when the column has more parents than fit.
     pub max_instances: u32,
@@ -74,6 +77,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: 40,
                 cloud_steps: 64,
                 cloud_detail: 0.0,
+                cloud_substeps: 2,
                 max_instances: 150_000,
                 caps: caps(2_000, 20_000, 16, 20_000),
             },
@@ -83,6 +87,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: 64,
                 cloud_steps: 128,
                 cloud_detail: clouds.3,
+                cloud_substeps: 4,
                 max_instances: 500_000,
                 caps: caps(5_000, 100_000, 64, 50_000),
             },
@@ -92,6 +97,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: clouds.1,
                 cloud_steps: clouds.2,
                 cloud_detail: clouds.3,
+                cloud_substeps: clouds.4,
                 max_instances: PlumeViewSettings::default().max_instances,
                 caps: PlumeCaps::default(),
             },
@@ -101,6 +107,7 @@ impl VolcanoQuality {
                 cloud_voxels_z: 128,
                 cloud_steps: 256,
                 cloud_detail: clouds.3,
+                cloud_substeps: clouds.4,
                 max_instances: 3_000_000,
                 caps: caps(50_000, 1_000_000, 2_000, 200_000),
             },
@@ -114,17 +121,18 @@ impl VolcanoQuality {
     }
 }
 
-/// `CloudRenderSettings`' voxels, steps and lumps strength by default (the `High` column).
+/// `CloudRenderSettings`' voxels, steps, lumps strength and samples per step by default (the
+/// `High` column).
 #[cfg(feature = "render")]
-fn cloud_defaults() -> (u32, u32, u32, f32) {
+fn cloud_defaults() -> (u32, u32, u32, f32, u32) {
     let d = volcano_render::CloudRenderSettings::default();
-    (d.voxels_xy, d.voxels_z, d.step_count, d.detail)
+    (d.voxels_xy, d.voxels_z, d.step_count, d.detail, d.substeps)
 }
 
 /// Without the renderer the cloud numbers are not used; these are its defaults.
 #[cfg(not(feature = "render"))]
-fn cloud_defaults() -> (u32, u32, u32, f32) {
-    (256, 96, 192, 0.5)
+fn cloud_defaults() -> (u32, u32, u32, f32, u32) {
+    (256, 96, 192, 0.5, 8)
 }
 
 /// Applies an inserted or changed [`VolcanoQuality`] (part of `VolcanoSimPlugins`).
@@ -156,13 +164,14 @@ fn apply_quality(
     }
     #[cfg(feature = "render")]
     if let Some(c) = clouds.as_mut()
-        && (c.voxels_xy, c.voxels_z, c.step_count, c.detail)
-            != (s.cloud_voxels_xy, s.cloud_voxels_z, s.cloud_steps, s.cloud_detail)
+        && (c.voxels_xy, c.voxels_z, c.step_count, c.detail, c.substeps)
+            != (s.cloud_voxels_xy, s.cloud_voxels_z, s.cloud_steps, s.cloud_detail, s.cloud_substeps)
     {
         c.voxels_xy = s.cloud_voxels_xy;
         c.voxels_z = s.cloud_voxels_z;
         c.step_count = s.cloud_steps;
         c.detail = s.cloud_detail;
+        c.substeps = s.cloud_substeps;
     }
     info!("quality {:?} applied (the atmosphere grid needs a restart)", *quality);
 }
@@ -217,6 +226,7 @@ mod tests {
         let low = app.world().resource::<CloudRenderSettings>().clone();
         assert_eq!(low.detail, 0.0);
         assert_eq!(low.step_count, VolcanoQuality::Low.settings().cloud_steps);
+        assert_eq!(low.substeps, 2);
         low.validate().unwrap();
         *app.world_mut().resource_mut::<VolcanoQuality>() = VolcanoQuality::High;
         app.update();
