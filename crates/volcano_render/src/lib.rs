@@ -27,6 +27,7 @@
 //! ```
 
 pub mod ash_fall;
+mod build_job;
 pub mod camera;
 pub mod clouds;
 pub mod density_volume;

@@ -17,14 +17,13 @@ use std::sync::Arc;
 
 use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
-use bevy::tasks::futures::check_ready;
-use bevy::tasks::{AsyncComputeTaskPool, Task};
 use volcano_atmosphere::plugin::AtmosphereGround;
 use volcano_atmosphere::view::GridSpec;
 use volcano_atmosphere::{AirLayer, Atmosphere, LayerFields};
 use volcano_core::{ConfigError, Grid2};
 
 use super::{AshFallDraw, AshFallSettings, AshFallVolume, airborne_grams, ash_material, build_ash_image};
+use crate::build_job::{BuildJob, is_running, take_finished};
 use crate::clouds::CloudMaterial;
 
 /// What a rebuild reads: an atmosphere's layers (sorted by index, shared copy-on-write) and
@@ -87,16 +86,11 @@ pub fn build_ash(snapshot: AshSnapshot, settings: AshFallSettings) -> BuiltAsh {
     BuiltAsh { result, airborne_g, time_s, settings }
 }
 
-enum Job {
-    Running(Task<BuiltAsh>),
-    Done(Box<BuiltAsh>),
-}
-
 /// On an [`Atmosphere`] entity once its ash has been looked at (not reflected: it holds a
 /// task): the build in flight, and what the last one was started from.
 #[derive(Component)]
 pub struct AshFallBuild {
-    job: Option<Job>,
+    job: Option<BuildJob<BuiltAsh>>,
     /// Weather time (s) of the last snapshot.
     snapshot_s: f64,
     /// The settings of the last snapshot.
@@ -106,7 +100,7 @@ pub struct AshFallBuild {
 impl AshFallBuild {
     /// Whether a build runs on a worker (false once finished or when built inline).
     pub fn running(&self) -> bool {
-        matches!(self.job, Some(Job::Running(_)))
+        is_running(&self.job)
     }
 }
 
@@ -160,15 +154,9 @@ pub(super) fn start_ash_builds(
         let ground = grounds.get(entity).ok().map(|g| &g.0.height);
         let snapshot = AshSnapshot::new(atmo, &mine, ground);
         let s = settings.clone();
-        let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
+        let (job, inline) = BuildJob::start(settings.off_thread, move || build_ash(snapshot, s));
         status.started += 1;
-        let job = match pool {
-            Some(pool) => Job::Running(pool.spawn(async move { build_ash(snapshot, s) })),
-            None => {
-                status.on_main_thread += 1;
-                Job::Done(Box::new(build_ash(snapshot, s)))
-            }
-        };
+        status.on_main_thread += u64::from(inline);
         match build {
             Some(mut b) => {
                 b.job = Some(job);
@@ -212,17 +200,7 @@ pub(super) fn apply_ash_builds(
     }
     let Some(mut materials) = materials else { return };
     for (entity, mut build, volume) in &mut atmospheres {
-        let built = match build.job.take() {
-            Some(Job::Done(b)) => *b,
-            Some(Job::Running(mut task)) => match check_ready(&mut task) {
-                Some(b) => b,
-                None => {
-                    build.job = Some(Job::Running(task));
-                    continue;
-                }
-            },
-            None => continue,
-        };
+        let Some(built) = take_finished(&mut build.job) else { continue };
         status.applied += 1;
         let BuiltAsh { result, airborne_g, time_s, settings } = built;
         let shown = match result {

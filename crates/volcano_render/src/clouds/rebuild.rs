@@ -15,8 +15,6 @@
 
 use bevy::light::{NotShadowCaster, NotShadowReceiver};
 use bevy::prelude::*;
-use bevy::tasks::futures::check_ready;
-use bevy::tasks::{AsyncComputeTaskPool, Task};
 use volcano_atmosphere::view::ClusterMemory;
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
@@ -26,6 +24,7 @@ use super::{
     CloudDraw, CloudMaterial, CloudRenderSettings, CloudSnapshot, CloudVolume, build_cloud_image,
     cloud_material, cloud_state,
 };
+use crate::build_job::{BuildJob, is_running, take_finished};
 
 /// What a rebuild produces, with the memory and inputs it was made from.
 pub struct BuiltClouds {
@@ -52,15 +51,10 @@ pub fn build_clouds(
     BuiltClouds { result, memory, time_s, settings }
 }
 
-enum Job {
-    Running(Task<BuiltClouds>),
-    Done(Box<BuiltClouds>),
-}
-
 /// On an [`Atmosphere`] entity while its cloud rebuild runs (not reflected: it holds a task).
 #[derive(Component)]
 pub struct CloudBuild {
-    job: Option<Job>,
+    job: Option<BuildJob<BuiltClouds>>,
     /// A layer was edited after the snapshot: build again when this one is applied.
     restart: bool,
 }
@@ -68,7 +62,7 @@ pub struct CloudBuild {
 impl CloudBuild {
     /// Whether the build runs on a worker (false once finished or when built inline).
     pub fn running(&self) -> bool {
-        matches!(self.job, Some(Job::Running(_)))
+        is_running(&self.job)
     }
 }
 
@@ -143,17 +137,10 @@ pub(super) fn start_cloud_builds(
         };
         let memory = volume.as_mut().map(|v| std::mem::take(&mut v.memory)).unwrap_or_default();
         let (s, threshold, time) = (settings.clone(), atmo.params.cloud_threshold, atmo.time_s);
-        let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
+        let (job, inline) =
+            BuildJob::start(settings.off_thread, move || build_clouds(state, s, threshold, memory, time));
         status.started += 1;
-        let job = match pool {
-            Some(pool) => {
-                Job::Running(pool.spawn(async move { build_clouds(state, s, threshold, memory, time) }))
-            }
-            None => {
-                status.on_main_thread += 1;
-                Job::Done(Box::new(build_clouds(state, s, threshold, memory, time)))
-            }
-        };
+        status.on_main_thread += u64::from(inline);
         commands.entity(entity).remove::<CloudStale>().insert(CloudBuild { job: Some(job), restart: false });
     }
 }
@@ -181,17 +168,7 @@ pub(super) fn apply_cloud_builds(
         }
     }
     for (entity, mut build, volume) in &mut atmospheres {
-        let built = match build.job.take() {
-            Some(Job::Done(b)) => *b,
-            Some(Job::Running(mut task)) => match check_ready(&mut task) {
-                Some(b) => b,
-                None => {
-                    build.job = Some(Job::Running(task));
-                    continue;
-                }
-            },
-            None => continue,
-        };
+        let Some(built) = take_finished(&mut build.job) else { continue };
         let mut e = commands.entity(entity);
         e.remove::<CloudBuild>();
         if build.restart {
