@@ -301,13 +301,17 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         let m = f32(clamp(cloud.substeps, 1u, 8u));
         let ds = dt / m;
         // The occupancy level: the coarsest whose texels (maxima, `density_volume::
-        // append_max_levels`) are at least as wide as a step plus the lumps' displacement on
-        // either side, so a step whose level texel reads 0 holds no cloud at all.
+        // append_max_levels`) are wider than a step plus the lumps' displacement on either
+        // side plus two voxels (a filtered read at the step's middle weighs the texels whose
+        // centres lie within one texel of it; a density shows up to a voxel from its voxel),
+        // so a step whose level reads 0 holds no cloud at all. (Without the two voxels a
+        // level's reach fell short where the level changed: a ruled horizontal cut through the
+        // ash fall curtain in the `eruption` frame, 2026-11-27.)
         let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(textureDimensions(density_texture));
         let voxel_min = max(min(voxel.x, min(voxel.y, voxel.z)), 1e-3);
         let reach = dt + select(0.0, 2.8 * cloud.detail.z, cloud.detail.x > 0.0);
         let top_level = f32(textureNumLevels(density_texture)) - 1.0;
-        let occupancy_level = clamp(ceil(log2(max(reach / voxel_min, 1.0))), 0.0, top_level);
+        let occupancy_level = clamp(ceil(log2(reach / voxel_min + 2.01)), 0.0, top_level);
         for (var i = 0.0; i < n; i += 1.0) {
             let mid = clamp(volume_uvw(origin + ray * (t0 + (i + 0.5) * dt)), vec3(0.0), vec3(1.0));
             if textureSampleLevel(density_texture, density_sampler, mid, occupancy_level).r <= 0.0 {
