@@ -56,9 +56,10 @@ pub fn buoyancy_frequency(air: &dyn AtmosphereProfile, z: f64) -> (f64, bool) {
 /// A detached sphere of the umbrella.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect)]
 pub struct UmbrellaSphere {
-    /// Column axis (horizontal position of the apex), m.
+    /// The point it spreads from (m): the column's axis at the apex for an untilted ring, within
+    /// one ring radius of it for a tilted one ([`UmbrellaSphere::detach`]); carried by the wind.
     pub axis: DVec2,
-    /// Unit radial direction away from the axis.
+    /// Unit radial direction away from the axis (the sphere's ring azimuth).
     pub direction: DVec2,
     /// Radial distance from the axis (m), ≥ `r`.
     pub d: f64,
@@ -88,19 +89,30 @@ pub fn altitude(z_neutral: f64, z_apex: f64, r: f64, d: f64) -> f64 {
 impl UmbrellaSphere {
     /// The umbrella sphere of an s1 sphere leaving `slice` at its apex, `local` its offset on
     /// the vortex ring in the slice frame: it starts where it is, the slice centre plus
-    /// `slice.rotation() * local` (a slice bent by the wind has a tilted ring), spreads from the
-    /// column axis (the vertical through the slice centre) along the horizontal direction of
-    /// that offset, and relaxes from its own altitude toward `z_neutral`. Under either law: a
-    /// gravity current's spheres too start where they sit and move on at the speed the front
-    /// would have there (they once started on the axis, a jump of half a slice — up to a
-    /// kilometre for the physical column — at detachment).
+    /// `slice.rotation() * local` (a slice bent by the wind has a tilted ring), spreads
+    /// horizontally along its ring azimuth (the direction of `local` in the slice plane), at
+    /// the distance from the axis of its offset's horizontal part, and relaxes from its own
+    /// altitude toward `z_neutral`.
+    ///
+    /// Our reading of §3.5.2 (docs/ARCHITECTURE.md §4.3, "Umbrella"): the thesis spreads the
+    /// spheres radially from a vertical column's axis, where the ring is horizontal and the
+    /// ring azimuth *is* the radial direction, so an untilted slice spreads as before. A column
+    /// bent over by the wind arrives with a near-vertical ring, whose offsets all point across
+    /// the wind horizontally: spread along them, every slice's spheres piled up in two clumps.
+    /// The point the sphere spreads from (`axis`) is set so that it starts where it sat, within
+    /// one ring radius of the slice centre. Under either law: a gravity current's spheres too
+    /// start where they sit and move on at the speed the front would have there (they once
+    /// started on the axis, a jump of half a slice — up to a kilometre for the physical column
+    /// — at detachment).
     pub fn detach(slice: &Slice, local: DVec3, spread: Spread) -> Self {
         let offset = slice.rotation() * local;
         let h = offset.truncate();
+        let direction = local.truncate().try_normalize().unwrap_or(DVec2::X);
+        let d = h.length();
         Self {
-            axis: slice.position.truncate(),
-            direction: h.try_normalize().unwrap_or(DVec2::X),
-            d: h.length(),
+            axis: slice.position.truncate() + h - direction * d,
+            direction,
+            d,
             r: slice.r,
             v_neutral: slice.neutral_speed.unwrap_or(0.0),
             z_apex: slice.position.z + offset.z,
@@ -247,6 +259,50 @@ mod tests {
         // A standard troposphere holds it up (N ≈ 0.011 /s); an isothermal-free adiabat does not.
         let (n, floored) = buoyancy_frequency(&volcano_core::UsStandard1976, 5_000.0);
         assert!((n - 0.0114).abs() < 0.001 && !floored, "N = {n}");
+    }
+
+    /// A column bent over by the wind reaches its apex with its ring nearly vertical: the
+    /// horizontal parts of the ring offsets all lie along one line across the wind. Spread
+    /// along them, the umbrella was two clumps on that line, every slice's spheres piled on
+    /// the same two spots (issue 18: the "disc face" of the `eruption` frame was one of them,
+    /// seen end-on). Each sphere now spreads along its own ring azimuth: a ring of six covers
+    /// every direction, 60° apart, however the slice is tilted.
+    #[test]
+    fn a_bent_columns_ring_spreads_in_every_direction() {
+        use super::super::params::Preset;
+        let p = Preset::PlinianShowcase.params();
+        for velocity in [DVec3::new(8.0, 3.0, 0.5), DVec3::new(-2.0, 9.0, 1.0), DVec3::new(0.1, 0.0, 12.0)] {
+            let mut slice = Slice::at_vent(&p);
+            slice.r = 1_500.0;
+            slice.position = DVec3::new(1_000.0, -1_200.0, 12_000.0);
+            slice.velocity = velocity;
+            slice.apex = 12_000.0;
+            slice.neutral_altitude = Some(11_000.0);
+            slice.neutral_speed = Some(20.0);
+            let mut azimuths: Vec<f64> = (0..6)
+                .map(|k| {
+                    let a = 0.3 + k as f64 * std::f64::consts::TAU / 6.0;
+                    let local = DVec3::new(a.cos(), a.sin(), 0.0) * 0.5 * slice.r;
+                    let mut u = UmbrellaSphere::detach(&slice, local, Spread::Thesis);
+                    let start = u.horizontal();
+                    u.step(120.0);
+                    let moved = u.horizontal() - start;
+                    assert!(moved.length() > 500.0, "{velocity}: moved {moved}");
+                    moved.y.atan2(moved.x)
+                })
+                .collect();
+            azimuths.sort_by(f64::total_cmp);
+            let gap = azimuths
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .chain([azimuths[0] + std::f64::consts::TAU - azimuths[5]])
+                .fold(0.0, f64::max);
+            assert!(
+                gap.to_degrees() < 61.0,
+                "{velocity}: largest gap between directions {:.0}°",
+                gap.to_degrees()
+            );
+        }
     }
 
     /// A sphere leaving a wind-tilted slice starts where it sits on the ring, under either
