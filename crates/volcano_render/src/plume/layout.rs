@@ -15,9 +15,9 @@ use std::sync::Arc;
 use bevy::prelude::*;
 use volcano_core::SimTick;
 use volcano_plume::view::{
-    AshInstance, AshLightSettings, ColumnEndSettings, CurrentCloudSettings, EruptionView, ParentLight,
-    ParentSphere, PlumeViewSettings, PlumeViewpoint, SphereParams, direction_index, gather_parents,
-    lattice_direction, plan_parents, s2_key, s3_key, vent_light,
+    AshInstance, AshLightSettings, CurrentCloudSettings, EruptionView, ParentLight, ParentSphere,
+    PlumeViewSettings, PlumeViewpoint, SphereParams, direction_index, gather_parents, lattice_direction,
+    plan_parents, s2_key, s3_key, vent_light,
 };
 
 use super::light_task::AshLightTask;
@@ -166,10 +166,8 @@ pub(super) fn build(app: &mut App) {
         .init_resource::<AshLightTask>()
         .init_resource::<AshLightSettings>()
         .init_resource::<CurrentCloudSettings>()
-        .init_resource::<ColumnEndSettings>()
         .register_type::<AshLightSettings>()
         .register_type::<CurrentCloudSettings>()
-        .register_type::<ColumnEndSettings>()
         .register_type::<PlumeViewSettings>()
         .register_type::<PlumeViewpoint>()
         .add_systems(PostUpdate, update_parents);
