@@ -57,7 +57,7 @@ pub fn buoyancy_frequency(air: &dyn AtmosphereProfile, z: f64) -> (f64, bool) {
 #[derive(Debug, Clone, Copy, PartialEq, Reflect)]
 pub struct UmbrellaSphere {
     /// The point it spreads from (m): the column's axis at the apex for an untilted ring, within
-    /// one ring radius of it for a tilted one ([`UmbrellaSphere::detach`]); carried by the wind.
+    /// a ring diameter of it for a tilted one ([`UmbrellaSphere::detach`]); carried by the wind.
     pub axis: DVec2,
     /// Unit radial direction away from the axis (the sphere's ring azimuth).
     pub direction: DVec2,
@@ -100,7 +100,7 @@ impl UmbrellaSphere {
     /// bent over by the wind arrives with a near-vertical ring, whose offsets all point across
     /// the wind horizontally: spread along them, every slice's spheres piled up in two clumps.
     /// The point the sphere spreads from (`axis`) is set so that it starts where it sat, within
-    /// one ring radius of the slice centre. Under either law: a gravity current's spheres too
+    /// a ring diameter of the slice centre. Under either law: a gravity current's spheres too
     /// start where they sit and move on at the speed the front would have there (they once
     /// started on the axis, a jump of half a slice — up to a kilometre for the physical column
     /// — at detachment).
