@@ -1,8 +1,8 @@
 //! [`VolcanoQuality`]: one resource that picks grid sizes, instance caps, cloud-volume
 //! resolution and the plume's caps for a machine. It lives in the umbrella crate because it
 //! sets the settings of several crates at once (`volcano_plume`'s [`PlumeCaps`] and
-//! [`PlumeViewSettings`], `volcano_render`'s `CloudRenderSettings`, the scene's atmosphere
-//! grid); the crates themselves keep their own settings resources and know nothing of it.
+//! [`PlumeViewSettings`], `volcano_render`'s `CloudRenderSettings` and `AshFallSettings`, the
+//! scene's atmosphere grid); the crates themselves keep their own settings resources and know nothing of it.
 //!
 //! Nothing happens unless a game inserts the resource: without it every crate keeps its own
 //! defaults, which are the `High` column ([`VolcanoQuality::High`] is today's values). When it
@@ -49,6 +49,11 @@ pub struct QualitySettings {
     /// Density samples per ray-march step (`CloudRenderSettings::substeps`): fewer are cheaper
     /// and let thin decks seen edge-on break into a per-pixel checker again.
     pub cloud_substeps: u32,
+    /// Ray-march steps per pixel through the ash-fall curtain (`AshFallSettings::step_count`).
+    pub ash_fall_steps: u32,
+    /// Density samples per ash-fall march step (`AshFallSettings::substeps`; as for the
+    /// clouds, fewer are cheaper and let a thin sheet of ash break into a checker).
+    pub ash_fall_substeps: u32,
     /// Plume instances per frame ([`PlumeViewSettings::max_instances`]): the detail spheres per
     /// parent fall evenly when the column has more parents than fit.
     pub max_instances: u32,
@@ -70,6 +75,7 @@ impl VolcanoQuality {
             max_umbrella_spheres,
         };
         let clouds = cloud_defaults();
+        let ash = ash_fall_defaults();
         match self {
             VolcanoQuality::Low => QualitySettings {
                 atmosphere_grid_scale: 0.25,
@@ -78,6 +84,8 @@ impl VolcanoQuality {
                 cloud_steps: 64,
                 cloud_detail: 0.0,
                 cloud_substeps: 2,
+                ash_fall_steps: 64,
+                ash_fall_substeps: 2,
                 max_instances: 150_000,
                 caps: caps(2_000, 20_000, 16, 20_000),
             },
@@ -88,6 +96,8 @@ impl VolcanoQuality {
                 cloud_steps: 128,
                 cloud_detail: clouds.3,
                 cloud_substeps: 4,
+                ash_fall_steps: ash.0,
+                ash_fall_substeps: 4,
                 max_instances: 500_000,
                 caps: caps(5_000, 100_000, 64, 50_000),
             },
@@ -98,6 +108,8 @@ impl VolcanoQuality {
                 cloud_steps: clouds.2,
                 cloud_detail: clouds.3,
                 cloud_substeps: clouds.4,
+                ash_fall_steps: ash.0,
+                ash_fall_substeps: ash.1,
                 max_instances: PlumeViewSettings::default().max_instances,
                 caps: PlumeCaps::default(),
             },
@@ -108,6 +120,8 @@ impl VolcanoQuality {
                 cloud_steps: 256,
                 cloud_detail: clouds.3,
                 cloud_substeps: clouds.4,
+                ash_fall_steps: 192,
+                ash_fall_substeps: ash.1,
                 max_instances: 3_000_000,
                 caps: caps(50_000, 1_000_000, 2_000, 200_000),
             },
@@ -135,6 +149,19 @@ fn cloud_defaults() -> (u32, u32, u32, f32, u32) {
     (256, 96, 192, 0.5, 8)
 }
 
+/// `AshFallSettings`' view steps and samples per step by default (the `High` column).
+#[cfg(feature = "render")]
+fn ash_fall_defaults() -> (u32, u32) {
+    let d = volcano_render::AshFallSettings::default();
+    (d.step_count, d.substeps)
+}
+
+/// Without the renderer the ash-fall numbers are not used; these are its defaults.
+#[cfg(not(feature = "render"))]
+fn ash_fall_defaults() -> (u32, u32) {
+    (128, 8)
+}
+
 /// Applies an inserted or changed [`VolcanoQuality`] (part of `VolcanoSimPlugins`).
 #[derive(Debug, Default, Clone, Copy)]
 pub struct VolcanoQualityPlugin;
@@ -151,6 +178,7 @@ fn apply_quality(
     mut caps: Option<ResMut<PlumeCaps>>,
     mut view: Option<ResMut<PlumeViewSettings>>,
     #[cfg(feature = "render")] mut clouds: Option<ResMut<volcano_render::CloudRenderSettings>>,
+    #[cfg(feature = "render")] mut ash_fall: Option<ResMut<volcano_render::AshFallSettings>>,
 ) {
     let Some(quality) = quality.filter(|q| q.is_changed()) else { return };
     let s = quality.settings();
@@ -172,6 +200,13 @@ fn apply_quality(
         c.step_count = s.cloud_steps;
         c.detail = s.cloud_detail;
         c.substeps = s.cloud_substeps;
+    }
+    #[cfg(feature = "render")]
+    if let Some(a) = ash_fall.as_mut()
+        && (a.step_count, a.substeps) != (s.ash_fall_steps, s.ash_fall_substeps)
+    {
+        a.step_count = s.ash_fall_steps;
+        a.substeps = s.ash_fall_substeps;
     }
     info!("quality {:?} applied (the atmosphere grid needs a restart)", *quality);
 }
@@ -218,9 +253,11 @@ mod tests {
     #[cfg(feature = "render")]
     #[test]
     fn low_turns_the_cloud_lumps_off_and_high_brings_them_back() {
-        use volcano_render::CloudRenderSettings;
+        use volcano_render::{AshFallSettings, CloudRenderSettings};
         let mut app = App::new();
-        app.add_plugins((MinimalPlugins, VolcanoQualityPlugin)).init_resource::<CloudRenderSettings>();
+        app.add_plugins((MinimalPlugins, VolcanoQualityPlugin))
+            .init_resource::<CloudRenderSettings>()
+            .init_resource::<AshFallSettings>();
         app.insert_resource(VolcanoQuality::Low);
         app.update();
         let low = app.world().resource::<CloudRenderSettings>().clone();
@@ -228,8 +265,20 @@ mod tests {
         assert_eq!(low.step_count, VolcanoQuality::Low.settings().cloud_steps);
         assert_eq!(low.substeps, 2);
         low.validate().unwrap();
+        // The ash-fall curtain's march is set too (it was left at High's 128 × 8 until
+        // 2026-11-27).
+        let ash = app.world().resource::<AshFallSettings>().clone();
+        assert_eq!((ash.step_count, ash.substeps), (64, 2));
+        ash.validate().unwrap();
+        for q in VolcanoQuality::ALL {
+            let s = q.settings();
+            AshFallSettings { step_count: s.ash_fall_steps, substeps: s.ash_fall_substeps, ..default() }
+                .validate()
+                .unwrap();
+        }
         *app.world_mut().resource_mut::<VolcanoQuality>() = VolcanoQuality::High;
         app.update();
         assert_eq!(*app.world().resource::<CloudRenderSettings>(), CloudRenderSettings::default());
+        assert_eq!(*app.world().resource::<AshFallSettings>(), AshFallSettings::default());
     }
 }
