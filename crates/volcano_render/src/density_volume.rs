@@ -6,7 +6,7 @@
 use bevy::asset::RenderAssetUsages;
 use bevy::image::{ImageAddressMode, ImageFilterMode, ImageSampler, ImageSamplerDescriptor};
 use bevy::prelude::*;
-use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat};
+use bevy::render::render_resource::{Extent3d, TextureDimension, TextureFormat, TextureUsages};
 use volcano_core::ConfigError;
 use volcano_core::error::positive;
 
@@ -87,17 +87,25 @@ pub fn smooth_density(density: &mut [f32], nxy: usize, nz: usize, passes: u32) -
 }
 
 /// Appends to `texels` (a `w × h × d` level, u fastest, then v, then w) its chain of coarser
-/// levels down to 1 × 1 × 1, each texel the **maximum** of the texels it covers (each axis
-/// halved, rounded down, at least 1; the last texel of an odd axis takes the leftover one):
-/// a texel is 0 exactly where every texel under it is. The cloud pass reads them as an
-/// occupancy test, to skip empty stretches of a ray. Returns the number of levels.
+/// levels down to 1 × 1 × 1 for the cloud pass's occupancy test, which skips the empty
+/// stretches of a ray. Each coarser level halves every axis (rounded down, at least 1; the
+/// last texel of an odd axis takes the leftover one); a texel of it holds the **maximum** of
+/// the finer texels under it *and under its neighbours* (one texel of its level on every side,
+/// 27 in all). So a texel is 0 only where no texel within one coarse texel of it is lit, and
+/// the pass can read the one texel around a point, unfiltered, to learn whether anything lies
+/// within a coarse texel of the point in any direction. (Until 2026-11-27 a texel held the
+/// maximum under itself alone and the pass read it through the linear filter, whose 8-bit
+/// result rounds a faint texel's small share to 0: faint ash and cloud were skipped in blocks.)
+/// Returns the number of levels.
 pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> u32 {
-    let (mut dims, mut start, mut levels) = ([w, h, d], 0usize, 1u32);
+    let (mut dims, mut levels) = ([w, h, d], 1u32);
+    // The previous level's plain maxima (not dilated), from which the next is reduced.
+    let mut plain = texels.clone();
     let span = |i: usize, m: usize, n: usize| 2 * i..=if i + 1 == m { n - 1 } else { 2 * i + 1 };
     while dims.iter().any(|&n| n > 1) {
         let [nw, nh, nd] = dims;
         let [mw, mh, md] = dims.map(|n| (n / 2).max(1));
-        let next = texels.len();
+        let mut reduced = Vec::with_capacity(mw * mh * md);
         for z in 0..md {
             for y in 0..mh {
                 for x in 0..mw {
@@ -105,17 +113,40 @@ pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> 
                     for sz in span(z, md, nd) {
                         for sy in span(y, mh, nh) {
                             for sx in span(x, mw, nw) {
-                                m = m.max(texels[start + (sz * nh + sy) * nw + sx]);
+                                m = m.max(plain[(sz * nh + sy) * nw + sx]);
                             }
                         }
                     }
-                    texels.push(m);
+                    reduced.push(m);
                 }
             }
         }
-        (dims, start, levels) = ([mw, mh, md], next, levels + 1);
+        texels.extend(dilate(&reduced, [mw, mh, md]));
+        (dims, plain, levels) = ([mw, mh, md], reduced, levels + 1);
     }
     levels
+}
+
+/// Each texel of a `w × h × d` grid replaced by the maximum of itself and its 26 neighbours.
+fn dilate(level: &[u8], [w, h, d]: [usize; 3]) -> Vec<u8> {
+    let near = |i: usize, n: usize| i.saturating_sub(1)..=(i + 1).min(n - 1);
+    let mut out = Vec::with_capacity(level.len());
+    for z in 0..d {
+        for y in 0..h {
+            for x in 0..w {
+                let mut m = 0u8;
+                for sz in near(z, d) {
+                    for sy in near(y, h) {
+                        for sx in near(x, w) {
+                            m = m.max(level[(sz * h + sy) * w + sx]);
+                        }
+                    }
+                }
+                out.push(m);
+            }
+        }
+    }
+    out
 }
 
 /// A 3D `R8Unorm` image (`nxy × nz × nxy`, linear filtering, clamped) from [`density_texels`],
@@ -128,6 +159,12 @@ pub fn density_image(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<
     if let Some(data) = image.data.as_mut() {
         image.texture_descriptor.mip_level_count = append_max_levels(data, nxy, nz, nxy);
     }
+    // Sampled only, never copied into: without `COPY_DST`, an image replaced in place under its
+    // handle (as the cloud and ash-fall rebuilds do) gets a new texture with every level. With
+    // it, Bevy reuses the texture and writes the new data into level 0 alone
+    // (`GpuImage::prepare_asset`), so the maximum levels kept the first volume's occupancy and
+    // the pass skipped today's cloud where yesterday's air was clear (until 2026-11-27).
+    image.texture_descriptor.usage = TextureUsages::TEXTURE_BINDING;
     image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
         address_mode_u: ImageAddressMode::ClampToEdge,
         address_mode_v: ImageAddressMode::ClampToEdge,
@@ -213,10 +250,11 @@ mod tests {
         assert!(smooth_density(&mut d[1..], nxy, nz, 1).is_err());
     }
 
-    /// Every coarser texel is the maximum of the texels under it, odd axes included: one lit
-    /// texel anywhere leaves exactly one non-zero texel per level, at its place.
+    /// Every coarser texel is the maximum of the texels under it and under its neighbours, odd
+    /// axes included: one lit texel anywhere lights, on each level, the texel over it and
+    /// those next to that one, and nothing else.
     #[test]
-    fn max_levels_keep_every_occupied_texel_and_nothing_else() {
+    fn max_levels_keep_every_occupied_texel_and_its_neighbours() {
         let (w, h, d) = (8, 3, 5);
         for k in 0..w * h * d {
             let mut t = vec![0u8; w * h * d];
@@ -225,13 +263,24 @@ mod tests {
             assert_eq!(levels, 4, "8×3×5 → 4×1×2 → 2×1×1 → 1×1×1");
             assert_eq!(t.len(), 120 + 8 + 2 + 1);
             let (x, y, z) = (k % w, (k / w) % h, k / (w * h));
-            // Level 1 is 4 × 1 × 2: x/2, y → 0, z 0–1 → 0 and 2–4 → 1.
-            let want1 = usize::from(z >= 2) * 4 + x / 2;
+            // Level 1 is 4 × 1 × 2: x/2, y → 0, z 0–1 → 0 and 2–4 → 1; the texel over the lit
+            // one is (x/2, 0, z ≥ 2), lit with its neighbours along x and both z rows.
+            let (cx, cz) = (x / 2, usize::from(z >= 2));
+            let want1: Vec<usize> = (0..2)
+                .flat_map(|iz| (cx.saturating_sub(1)..=(cx + 1).min(3)).map(move |ix| iz * 4 + ix))
+                .collect();
             let lit: Vec<usize> = (0..8).filter(|&i| t[120 + i] != 0).collect();
-            assert_eq!(lit, vec![want1], "texel {k} ({x}, {y}, {z})");
-            assert_eq!(t[128..].iter().filter(|&&v| v == 7).count(), 2);
-            assert_eq!(t[128 + x / 4], 7);
+            assert_eq!(lit, want1, "texel {k} ({x}, {y}, {z}), level 1 texel ({cx}, 0, {cz})");
+            // Level 2 (2 × 1 × 1) and level 3: both lit, every neighbour counts.
+            assert_eq!(&t[128..], &[7, 7, 7]);
         }
+        // The dilation reaches one texel of the coarse level, not more: in a 16-long row, a
+        // lit texel at 0 lights level-1 texels 0 and 1 (of 8), level-2 texels 0 and 1 (of 4).
+        let mut row = vec![0u8; 16];
+        row[0] = 3;
+        append_max_levels(&mut row, 16, 1, 1);
+        assert_eq!(&row[16..24], &[3, 3, 0, 0, 0, 0, 0, 0]);
+        assert_eq!(&row[24..28], &[3, 3, 0, 0]);
         let mut flat = vec![0u8; 4];
         assert_eq!(append_max_levels(&mut flat, 4, 1, 1), 3);
         assert_eq!(flat.len(), 4 + 2 + 1);

@@ -279,6 +279,7 @@ pub fn ash_material(
         detail: Vec4::ZERO,
         segment: CloudMaterial::BEHIND_ASH,
         substeps: s.substeps,
+        skip_empty: 1,
     };
     CloudMaterial::new(uniform, image)
 }

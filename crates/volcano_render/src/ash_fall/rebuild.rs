@@ -220,13 +220,11 @@ pub(super) fn apply_ash_builds(
         let Some((image, transform, filled)) = shown else { continue };
         match volume {
             Some(v) => {
-                if images.insert(v.image.id(), image).is_err() {
-                    warn_once!("ash density image of {entity} could not be replaced");
-                }
-                // Replacing the material (not only the image) makes the renderer bind the new
-                // image.
+                // A new image under a new handle, as for the clouds (`clouds::rebuild`): the
+                // twin drawn in front of the ash follows the material's new handle.
+                let image = images.add(image);
                 if materials
-                    .insert(v.material.id(), ash_material(v.image.clone(), &transform, &settings))
+                    .insert(v.material.id(), ash_material(image.clone(), &transform, &settings))
                     .is_err()
                 {
                     warn_once!("ash material of {entity} could not be replaced");
@@ -235,6 +233,7 @@ pub(super) fn apply_ash_builds(
                     *t = transform;
                 }
                 commands.entity(entity).insert(AshFallVolume {
+                    image,
                     built_at_s: time_s,
                     airborne_g,
                     filled_fraction: filled,

@@ -44,6 +44,8 @@ struct CloudUniform {
     segment: u32,
     // Density samples per view step (1–8).
     substeps: u32,
+    // 1: skip steps whose stretch of the volume is empty (the maximum levels); 0: march all.
+    skip_empty: u32,
 }
 
 @group(#{MATERIAL_BIND_GROUP}) @binding(0) var<uniform> cloud: CloudUniform;
@@ -300,21 +302,29 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         // checker back (its band's |ΔL| 29.7 against 6.9 with 8; tried 2026-11-27).
         let m = f32(clamp(cloud.substeps, 1u, 8u));
         let ds = dt / m;
-        // The occupancy level: the coarsest whose texels (maxima, `density_volume::
-        // append_max_levels`) are wider than a step plus the lumps' displacement on either
-        // side plus two voxels (a filtered read at the step's middle weighs the texels whose
-        // centres lie within one texel of it; a density shows up to a voxel from its voxel),
-        // so a step whose level reads 0 holds no cloud at all. (Without the two voxels a
-        // level's reach fell short where the level changed: a ruled horizontal cut through the
-        // ash fall curtain in the `eruption` frame, 2026-11-27.)
+        // The occupancy level: the coarsest whose texels (maxima over themselves and their
+        // neighbours, `density_volume::append_max_levels`) are wider than half a step plus the
+        // lumps' displacement plus one voxel (a filtered read of the finest level weighs the
+        // voxels whose centres lie within one voxel of it). The texel around the step's
+        // middle, read unfiltered, then covers everything the step's samples can read: where
+        // it is 0 the step holds no cloud. (Until 2026-11-27 the level was read through the
+        // linear filter, whose 8-bit result rounds a faint texel's small share to 0: faint ash
+        // and cloud were skipped in blocks of the coarse texels, e.g. a thin cloud beside the
+        // `eruption` frame's column vanished and the ash fall's edge turned blocky.)
         let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(textureDimensions(density_texture));
         let voxel_min = max(min(voxel.x, min(voxel.y, voxel.z)), 1e-3);
-        let reach = dt + select(0.0, 2.8 * cloud.detail.z, cloud.detail.x > 0.0);
-        let top_level = f32(textureNumLevels(density_texture)) - 1.0;
-        let occupancy_level = clamp(ceil(log2(reach / voxel_min + 2.01)), 0.0, top_level);
+        let reach = 0.5 * dt + select(0.0, 1.4 * cloud.detail.z, cloud.detail.x > 0.0);
+        let top_level = i32(textureNumLevels(density_texture)) - 1;
+        let level = clamp(i32(ceil(log2(reach / voxel_min + 1.01))), 0, top_level);
+        let fine_dims = vec3<i32>(textureDimensions(density_texture));
+        let level_dims = vec3<i32>(textureDimensions(density_texture, level));
         for (var i = 0.0; i < n; i += 1.0) {
-            let mid = clamp(volume_uvw(origin + ray * (t0 + (i + 0.5) * dt)), vec3(0.0), vec3(1.0));
-            if textureSampleLevel(density_texture, density_sampler, mid, occupancy_level).r <= 0.0 {
+            // The level's texel over the finest voxel at the step's middle (an odd axis's
+            // leftover voxel belongs to its last texel, as `append_max_levels` groups them).
+            let mid = volume_uvw(origin + ray * (t0 + (i + 0.5) * dt));
+            let fine = clamp(vec3<i32>(floor(mid * vec3<f32>(fine_dims))), vec3(0), fine_dims - vec3(1));
+            let texel = min(fine >> vec3<u32>(u32(level)), level_dims - vec3(1));
+            if cloud.skip_empty != 0u && textureLoad(density_texture, texel, level).r <= 0.0 {
                 continue;
             }
             // The step's density at `m` jittered points (a sheet thinner than a step is not

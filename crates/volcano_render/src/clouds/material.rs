@@ -60,6 +60,11 @@ pub struct CloudUniform {
     /// is then not missed by every other pixel (the per-pixel checker of a single jittered
     /// sample); the light is computed once per step.
     pub substeps: u32,
+    /// 1 (the default): skip view steps whose stretch of the volume holds no density, read
+    /// from the image's maximum levels ([`crate::density_volume::append_max_levels`]); 0: march
+    /// every step. The frame is the same either way (`headless_lit_clouds` checks it); 0 is
+    /// for that check and for measuring what the skip saves.
+    pub skip_empty: u32,
 }
 
 impl CloudUniform {
@@ -78,6 +83,7 @@ impl CloudUniform {
             detail: Vec4::new(s.detail, 1.0 / s.detail_m, s.detail_displacement_m, 0.0),
             segment: CloudMaterial::BEHIND_ASH,
             substeps: s.substeps,
+            skip_empty: 1,
         }
     }
 }

@@ -191,11 +191,13 @@ pub(super) fn apply_cloud_builds(
         debug!("clouds of {entity} rebuilt: {:.1} % of voxels filled", 100.0 * filled);
         match volume {
             Some(mut v) => {
-                if images.insert(v.image.id(), image).is_err() {
-                    warn_once!("cloud density image of {entity} could not be replaced");
-                }
-                // Replacing the material (not only the image) makes the renderer bind the new
-                // image.
+                // A new image under a new handle: the material then differs from its twin in
+                // front of the ash (`split`), which is updated in the same frame. Replaced in
+                // place under the old handle, the image got a new texture that the twin's bind
+                // group never saw: it kept drawing the first volume (`density_image` makes
+                // images Bevy cannot update in place). The old image is freed when the last
+                // material holding it lets go.
+                v.image = images.add(image);
                 if materials
                     .insert(v.material.id(), cloud_material(v.image.clone(), &transform, &settings))
                     .is_err()
@@ -315,6 +317,40 @@ mod tests {
         assert_eq!(v.memory, expected.memory, "the clustering memory did not come back");
         let status = *app.world().resource::<CloudBuildStatus>();
         assert_eq!((status.started, status.on_main_thread, status.applied), (1, 0, 1), "{status:?}");
+    }
+
+    /// A rebuilt volume reaches the box drawn in front of the ash too (`split`'s twin): its
+    /// material is modified, so the renderer builds its bind group again with the new image.
+    /// (Until 2026-11-27 the image was replaced in place and the twin's material, equal to
+    /// before, was left alone: the part of the clouds and the ash fall in front of the column
+    /// kept drawing the first volume.)
+    #[test]
+    fn a_rebuild_reaches_the_twin_in_front_of_the_ash() {
+        use crate::clouds::split::CloudFrontDraw;
+        let mut app = app(false);
+        let depth =
+            app.world_mut().resource_mut::<Assets<Image>>().add(crate::plume::ash_depth_image(UVec2::ONE));
+        app.insert_resource(crate::plume::AshDepthImage { image: depth, in_use: false });
+        for _ in 0..3 {
+            app.update();
+        }
+        let world = app.world_mut();
+        let draw = world.query::<&CloudVolume>().single(world).unwrap().draw;
+        let twin = world.get::<CloudFrontDraw>(draw).expect("the box has no twin").0;
+        let twin_material = world.get::<MeshMaterial3d<CloudMaterial>>(twin).unwrap().0.clone();
+        let mut cursor = world.resource::<Messages<AssetEvent<CloudMaterial>>>().get_cursor_current();
+        // The weather moves: a rebuild in the frame (off the worker).
+        world.query::<&mut Atmosphere>().single_mut(world).unwrap().time_s += 60.0;
+        app.update();
+        app.update();
+        assert_eq!(app.world().resource::<CloudBuildStatus>().applied, 2);
+        let events = app.world().resource::<Messages<AssetEvent<CloudMaterial>>>();
+        let touched = cursor.read(events).filter(|e| e.is_modified(&twin_material)).count();
+        assert!(touched > 0, "the twin's material was not modified by the rebuild");
+        let world = app.world();
+        let materials = world.resource::<Assets<CloudMaterial>>();
+        let original = &world.get::<MeshMaterial3d<CloudMaterial>>(draw).unwrap().0;
+        assert_eq!(materials.get(&twin_material).unwrap().density, materials.get(original).unwrap().density);
     }
 
     #[test]
