@@ -95,16 +95,19 @@ pub fn smooth_density(density: &mut [f32], nxy: usize, nz: usize, passes: u32) -
 /// the pass can read the one texel around a point, unfiltered, to learn whether anything lies
 /// within a coarse texel of the point in any direction. (Until 2026-11-27 a texel held the
 /// maximum under itself alone and the pass read it through the linear filter, whose 8-bit
-/// result rounds a faint texel's small share to 0: faint ash and cloud were skipped in blocks.)
-/// Returns the number of levels.
+/// result rounds a faint texel's small share to 0: faint puffs near the edges of the coarse
+/// texels were skipped.) Cost: the levels add 1/7 of the texels; the widening is three passes
+/// of three comparisons per texel. Returns the number of levels.
 pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> u32 {
     let (mut dims, mut levels) = ([w, h, d], 1u32);
-    // The previous level's plain maxima (not dilated), from which the next is reduced.
-    let mut plain = texels.clone();
+    // The previous level's plain maxima (not widened), from which the next is reduced; none
+    // for the first step, which reduces level 0 itself.
+    let mut plain: Option<Vec<u8>> = None;
     let span = |i: usize, m: usize, n: usize| 2 * i..=if i + 1 == m { n - 1 } else { 2 * i + 1 };
     while dims.iter().any(|&n| n > 1) {
         let [nw, nh, nd] = dims;
         let [mw, mh, md] = dims.map(|n| (n / 2).max(1));
+        let src: &[u8] = plain.as_deref().unwrap_or(&texels[..w * h * d]);
         let mut reduced = Vec::with_capacity(mw * mh * md);
         for z in 0..md {
             for y in 0..mh {
@@ -113,7 +116,7 @@ pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> 
                     for sz in span(z, md, nd) {
                         for sy in span(y, mh, nh) {
                             for sx in span(x, mw, nw) {
-                                m = m.max(plain[(sz * nh + sy) * nw + sx]);
+                                m = m.max(src[(sz * nh + sy) * nw + sx]);
                             }
                         }
                     }
@@ -121,28 +124,30 @@ pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> 
                 }
             }
         }
-        texels.extend(dilate(&reduced, [mw, mh, md]));
-        (dims, plain, levels) = ([mw, mh, md], reduced, levels + 1);
+        texels.extend(widen(&reduced, [mw, mh, md]));
+        (dims, plain, levels) = ([mw, mh, md], Some(reduced), levels + 1);
     }
     levels
 }
 
-/// Each texel of a `w × h × d` grid replaced by the maximum of itself and its 26 neighbours.
-fn dilate(level: &[u8], [w, h, d]: [usize; 3]) -> Vec<u8> {
-    let near = |i: usize, n: usize| i.saturating_sub(1)..=(i + 1).min(n - 1);
-    let mut out = Vec::with_capacity(level.len());
-    for z in 0..d {
-        for y in 0..h {
-            for x in 0..w {
-                let mut m = 0u8;
-                for sz in near(z, d) {
-                    for sy in near(y, h) {
-                        for sx in near(x, w) {
-                            m = m.max(level[(sz * h + sy) * w + sx]);
-                        }
-                    }
-                }
-                out.push(m);
+/// Each texel of a `w × h × d` grid replaced by the maximum of itself and its 26 neighbours:
+/// the maximum over the 3 × 3 × 3 block, taken one axis after the other.
+fn widen(level: &[u8], dims: [usize; 3]) -> Vec<u8> {
+    let mut out = level.to_vec();
+    let strides = [1, dims[0], dims[0] * dims[1]];
+    for axis in 0..3 {
+        let (n, stride) = (dims[axis], strides[axis]);
+        if n < 2 {
+            continue;
+        }
+        let prev = out.clone();
+        for (k, v) in out.iter_mut().enumerate() {
+            let i = (k / stride) % n;
+            if i > 0 {
+                *v = (*v).max(prev[k - stride]);
+            }
+            if i + 1 < n {
+                *v = (*v).max(prev[k + stride]);
             }
         }
     }
@@ -160,7 +165,8 @@ pub fn density_image(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<
         image.texture_descriptor.mip_level_count = append_max_levels(data, nxy, nz, nxy);
     }
     // Sampled only, never copied into: without `COPY_DST`, an image replaced in place under its
-    // handle (as the cloud and ash-fall rebuilds do) gets a new texture with every level. With
+    // handle (as the rebuilds did until 2026-11-27, or a game may) gets a new texture with every
+    // level; a material's bind group then needs the material touched too. With
     // it, Bevy reuses the texture and writes the new data into level 0 alone
     // (`GpuImage::prepare_asset`), so the maximum levels kept the first volume's occupancy and
     // the pass skipped today's cloud where yesterday's air was clear (until 2026-11-27).
@@ -274,7 +280,7 @@ mod tests {
             // Level 2 (2 × 1 × 1) and level 3: both lit, every neighbour counts.
             assert_eq!(&t[128..], &[7, 7, 7]);
         }
-        // The dilation reaches one texel of the coarse level, not more: in a 16-long row, a
+        // The widening reaches one texel of the coarse level, not more: in a 16-long row, a
         // lit texel at 0 lights level-1 texels 0 and 1 (of 8), level-2 texels 0 and 1 (of 4).
         let mut row = vec![0u8; 16];
         row[0] = 3;

@@ -308,9 +308,9 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         // voxels whose centres lie within one voxel of it). The texel around the step's
         // middle, read unfiltered, then covers everything the step's samples can read: where
         // it is 0 the step holds no cloud. (Until 2026-11-27 the level was read through the
-        // linear filter, whose 8-bit result rounds a faint texel's small share to 0: faint ash
-        // and cloud were skipped in blocks of the coarse texels, e.g. a thin cloud beside the
-        // `eruption` frame's column vanished and the ash fall's edge turned blocky.)
+        // linear filter, whose 8-bit result rounds a faint texel's small share to 0: faint
+        // puffs near the edges of the coarse texels were skipped. The blocks and the missing
+        // cloud of the `eruption` frame then were stale levels: `density_volume::density_image`.)
         let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(textureDimensions(density_texture));
         let voxel_min = max(min(voxel.x, min(voxel.y, voxel.z)), 1e-3);
         let reach = 0.5 * dt + select(0.0, 1.4 * cloud.detail.z, cloud.detail.x > 0.0);
