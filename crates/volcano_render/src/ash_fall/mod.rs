@@ -165,7 +165,8 @@ impl AshFallSettings {
 pub struct AshFallVolume {
     /// The drawn box ([`AshFallDraw`]).
     pub draw: Entity,
-    /// The 3D density image.
+    /// The 3D density image: a new handle at every rebuild (since 2026-11-27; see
+    /// `density_volume::density_image` for why it is not replaced in place).
     pub image: Handle<Image>,
     /// The box's material.
     pub material: Handle<CloudMaterial>,
