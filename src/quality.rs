@@ -2,7 +2,8 @@
 //! resolution and the plume's caps for a machine. It lives in the umbrella crate because it
 //! sets the settings of several crates at once (`volcano_plume`'s [`PlumeCaps`] and
 //! [`PlumeViewSettings`], `volcano_render`'s `CloudRenderSettings` and `AshFallSettings`, the
-//! scene's atmosphere grid); the crates themselves keep their own settings resources and know nothing of it.
+//! scene's atmosphere grid); the crates themselves keep their own settings resources and know
+//! nothing of it.
 //!
 //! Nothing happens unless a game inserts the resource: without it every crate keeps its own
 //! defaults, which are the `High` column ([`VolcanoQuality::High`] is today's values). When it
@@ -74,8 +75,7 @@ impl VolcanoQuality {
             max_secondary_per_step,
             max_umbrella_spheres,
         };
-        let clouds = cloud_defaults();
-        let ash = ash_fall_defaults();
+        let (clouds, ash) = render_defaults();
         match self {
             VolcanoQuality::Low => QualitySettings {
                 atmosphere_grid_scale: 0.25,
@@ -135,31 +135,22 @@ impl VolcanoQuality {
     }
 }
 
-/// `CloudRenderSettings`' voxels, steps, lumps strength and samples per step by default (the
-/// `High` column).
+/// The renderer's defaults a level keeps (the `High` column): `CloudRenderSettings`' voxels,
+/// steps, lumps strength and samples per step, and `AshFallSettings`' steps and samples per
+/// step.
+type RenderDefaults = ((u32, u32, u32, f32, u32), (u32, u32));
+
 #[cfg(feature = "render")]
-fn cloud_defaults() -> (u32, u32, u32, f32, u32) {
-    let d = volcano_render::CloudRenderSettings::default();
-    (d.voxels_xy, d.voxels_z, d.step_count, d.detail, d.substeps)
+fn render_defaults() -> RenderDefaults {
+    let c = volcano_render::CloudRenderSettings::default();
+    let a = volcano_render::AshFallSettings::default();
+    ((c.voxels_xy, c.voxels_z, c.step_count, c.detail, c.substeps), (a.step_count, a.substeps))
 }
 
-/// Without the renderer the cloud numbers are not used; these are its defaults.
+/// Without the renderer these numbers are not used; they are its defaults.
 #[cfg(not(feature = "render"))]
-fn cloud_defaults() -> (u32, u32, u32, f32, u32) {
-    (256, 96, 192, 0.5, 8)
-}
-
-/// `AshFallSettings`' view steps and samples per step by default (the `High` column).
-#[cfg(feature = "render")]
-fn ash_fall_defaults() -> (u32, u32) {
-    let d = volcano_render::AshFallSettings::default();
-    (d.step_count, d.substeps)
-}
-
-/// Without the renderer the ash-fall numbers are not used; these are its defaults.
-#[cfg(not(feature = "render"))]
-fn ash_fall_defaults() -> (u32, u32) {
-    (128, 8)
+fn render_defaults() -> RenderDefaults {
+    ((256, 96, 192, 0.5, 8), (128, 8))
 }
 
 /// Applies an inserted or changed [`VolcanoQuality`] (part of `VolcanoSimPlugins`).

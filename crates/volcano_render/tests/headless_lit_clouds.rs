@@ -51,7 +51,8 @@ struct Setup {
     settings: CloudRenderSettings,
 }
 
-/// The box's density image and material (to replace them in place, as the rebuilds do).
+/// The box's density image and material (to replace them in place, as the rebuilds did until
+/// 2026-11-27 and a game may).
 #[derive(Resource)]
 struct BoxHandles {
     image: Handle<Image>,
@@ -315,9 +316,14 @@ fn a_thin_sheet_seen_grazing_is_not_a_checker() {
     );
 }
 
+/// How many channel values of two frames differ by more than 2 (of 255).
+fn values_differing(a: &[u8], b: &[u8]) -> usize {
+    a.iter().zip(b).filter(|(x, y)| x.abs_diff(**y) > 2).count()
+}
+
 /// At the third update, the box's density image and material are replaced in place, under
-/// their handles, by [`ball_setup`]'s ball: what the cloud and ash-fall rebuilds do every
-/// time the weather moves.
+/// their handles, by [`ball_setup`]'s ball: what the cloud and ash-fall rebuilds did every
+/// time the weather moved until 2026-11-27 (they now add a new image), and what a game may do.
 fn replace_by_the_ball(
     mut updates: Local<u32>,
     handles: Option<Res<BoxHandles>>,
@@ -348,8 +354,7 @@ fn a_density_image_replaced_in_place_is_drawn_whole() {
         .add_systems(Startup, scene)
         .add_systems(Update, replace_by_the_ball);
     let replaced = common::run_and_read(app, &out).2;
-    let differing = |a: &[u8], b: &[u8]| a.iter().zip(b).filter(|(x, y)| x.abs_diff(**y) > 2).count();
-    let (ball_values, off) = (differing(&direct, &empty), differing(&replaced, &direct));
+    let (ball_values, off) = (values_differing(&direct, &empty), values_differing(&replaced, &direct));
     eprintln!(
         "replaced in place: {off} channel values differ from the ball drawn from the start (it draws {ball_values})"
     );
@@ -406,8 +411,7 @@ fn the_empty_step_skip_drops_no_faint_cloud() {
         let with = faint_puffs(half, distance, steps, true, false);
         let without = faint_puffs(half, distance, steps, false, false);
         let none = faint_puffs(half, distance, steps, false, true);
-        let differing = with.iter().zip(&without).filter(|(a, b)| a.abs_diff(**b) > 2).count();
-        let drawn = without.iter().zip(&none).filter(|(a, b)| a.abs_diff(**b) > 2).count();
+        let (differing, drawn) = (values_differing(&with, &without), values_differing(&without, &none));
         eprintln!(
             "faint puffs {half} {steps}: {drawn} channel values show the puffs, {differing} differ with the skip"
         );

@@ -311,12 +311,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         // linear filter, whose 8-bit result rounds a faint texel's small share to 0: faint
         // puffs near the edges of the coarse texels were skipped. The blocks and the missing
         // cloud of the `eruption` frame then were stale levels: `density_volume::density_image`.)
-        let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(textureDimensions(density_texture));
+        let fine_dims = vec3<i32>(textureDimensions(density_texture));
+        let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(fine_dims);
         let voxel_min = max(min(voxel.x, min(voxel.y, voxel.z)), 1e-3);
         let reach = 0.5 * dt + select(0.0, 1.4 * cloud.detail.z, cloud.detail.x > 0.0);
         let top_level = i32(textureNumLevels(density_texture)) - 1;
         let level = clamp(i32(ceil(log2(reach / voxel_min + 1.01))), 0, top_level);
-        let fine_dims = vec3<i32>(textureDimensions(density_texture));
         let level_dims = vec3<i32>(textureDimensions(density_texture, level));
         for (var i = 0.0; i < n; i += 1.0) {
             // The level's texel over the finest voxel at the step's middle (an odd axis's
