@@ -9,11 +9,17 @@
 //! per pixel, so a slope seen from kilometres away is not a blur either) into a small height field, and uses it twice: its
 //! gradient tilts the interpolated mesh normal (bumps and runnels that catch the sun), and the
 //! octaves' values, equally weighted, vary the brightness of the vertex colour (patches from
-//! tens of metres down to stones). Each octave fades out as the pixel's footprint — the
-//! longer of the world-space steps to the next pixel across and down (`dpdx`, `dpdy` of the
-//! world position), which also grows on grazing views — rises from a quarter to half its
-//! wavelength, so no octave is drawn with fewer than two pixels per wavelength: distant ground
-//! keeps the vertex colour and normal, without aliasing or shimmer.
+//! tens of metres down to stones). Each octave fades out as the pixel's footprint rises from a
+//! quarter to half its wavelength, so no octave is sampled fewer than two times per
+//! wavelength: distant ground keeps the vertex colour and normal, without aliasing or shimmer.
+//! The footprint is anisotropic, as a GPU's anisotropic texture filtering is: the ground-plane
+//! steps to the next pixel across and down (`dpdx`, `dpdy` of the world `x, z`) are short
+//! across a grazing view and long along it, so the fade follows the short one (but no less
+//! than a quarter of the long one) and each octave is averaged over up to four taps spread
+//! along the long one. Faded by the long step alone (before 2026-11-27), every octave was gone
+//! from the ground a kilometre or more in front of a scene camera a few hundred metres up, and
+//! that ground — most of every frame — was a smooth smear (`tests/headless_ground_detail.rs`,
+//! the grazing view).
 //!
 //! How much each pixel takes is read from its vertex colour (the land-cover rules of
 //! [`super::ground_color`], the deposit tint and frozen lava are all in it): full relief on

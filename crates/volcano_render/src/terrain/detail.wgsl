@@ -1,9 +1,12 @@
 // Ground detail finer than the terrain mesh's vertices (see `detail.rs`): gradient noise of the
 // world position (x, z) at seven wavelengths, 160 m down to 0.66 m, tilts the mesh normal and
-// varies the brightness of the vertex colour. Each octave fades out as the pixel's world-space
-// footprint grows from a quarter to half its wavelength (never fewer than two pixels per
-// wavelength: no aliasing); how much a pixel takes follows its vertex colour (none on water,
-// less on vegetation and snow).
+// varies the brightness of the vertex colour. Each octave fades out as the pixel's footprint
+// grows from a quarter to half its wavelength (never fewer than two samples per wavelength: no
+// aliasing). The footprint is anisotropic: on a grazing view a pixel covers far more ground
+// along the view than across it, so the fade follows the short side (at most MAX_ANISO times
+// shorter than the long one) and each octave finer than the long side is averaged over taps
+// spread along it. How much a pixel takes follows its vertex colour (none on water, less on
+// vegetation and snow).
 
 #import bevy_pbr::{
     pbr_fragment::pbr_input_from_standard_material,
@@ -31,6 +34,8 @@ const OCTAVES: u32 = 7u;
 const COARSEST: f32 = 160.0;
 const RATIO: f32 = 2.5;
 const TAU: f32 = 6.283185307;
+// Longest footprint, in multiples of the one the octaves fade by (and most taps along it).
+const MAX_ANISO: f32 = 4.0;
 
 fn hash_u32(x: u32) -> u32 {
     // PCG output permutation.
@@ -74,9 +79,17 @@ fn fragment(
     @builtin(front_facing) is_front: bool,
 ) -> FragmentOutput {
     var in = vertex_output;
-    // Derivatives first, in uniform control flow: the longer world-space step to the next pixel.
+    // Derivatives first, in uniform control flow: the ground-plane steps (the noise is of x, z)
+    // to the next pixel across and down; the longer is the footprint's long side.
     let wp = in.world_position.xyz;
-    let footprint = max(length(dpdx(wp)), length(dpdy(wp)));
+    let step_x = dpdx(wp.xz);
+    let step_y = dpdy(wp.xz);
+    let long_side = select(step_y, step_x, dot(step_x, step_x) >= dot(step_y, step_y));
+    let long_len = length(long_side);
+    // What the octaves fade by: the short side, but no less than a MAX_ANISO-th of the long one.
+    let footprint = max(min(length(step_x), length(step_y)), long_len / MAX_ANISO);
+    // Taps along the long side, each covering about one `footprint` of it.
+    let taps = u32(clamp(ceil(long_len / max(footprint, 1e-6) - 1e-3), 1.0, MAX_ANISO));
 
     var pbr_input = pbr_input_from_standard_material(in, is_front);
     pbr_input.material.base_color = alpha_discard(pbr_input.material, pbr_input.material.base_color);
@@ -99,7 +112,14 @@ fn fragment(
             if keep <= 0.0 {
                 break;
             }
-            let n = noise_d(wp.xz / lambda, k + 1u);
+            // An octave longer than four long sides takes one tap: the long side cannot alias it.
+            var n = vec3<f32>(0.0);
+            let octave_taps = select(1u, taps, lambda < 4.0 * long_len);
+            for (var t = 0u; t < octave_taps; t++) {
+                let along = (f32(t) + 0.5) / f32(octave_taps) - 0.5;
+                n += noise_d((wp.xz + along * long_side) / lambda, k + 1u);
+            }
+            n = n / f32(octave_taps);
             // Equal weights: brightness patches at every scale.
             value += keep * n.x;
             // Height amplitude proportional to the wavelength: the slope of each octave is
