@@ -8,8 +8,11 @@
 
 use bevy::prelude::AppExit;
 use bevy_egui::EguiPlugin;
-use volcano_egui::VolcanoDebugPlugins;
+use volcano_egui::{EguiOverlayCameraPlugin, VolcanoDebugPlugins};
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("eruption_collapse", (EguiPlugin::default(), VolcanoDebugPlugins))
+    volcano::scenes::run_scene_window(
+        "eruption_collapse",
+        (EguiPlugin::default(), EguiOverlayCameraPlugin, VolcanoDebugPlugins),
+    )
 }

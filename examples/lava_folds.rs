@@ -12,8 +12,11 @@
 
 use bevy::prelude::AppExit;
 use bevy_egui::EguiPlugin;
-use volcano_egui::VolcanoDebugPlugins;
+use volcano_egui::{EguiOverlayCameraPlugin, VolcanoDebugPlugins};
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("lava_folds", (EguiPlugin::default(), VolcanoDebugPlugins))
+    volcano::scenes::run_scene_window(
+        "lava_folds",
+        (EguiPlugin::default(), EguiOverlayCameraPlugin, VolcanoDebugPlugins),
+    )
 }

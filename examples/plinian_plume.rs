@@ -9,8 +9,11 @@
 
 use bevy::prelude::AppExit;
 use bevy_egui::EguiPlugin;
-use volcano_egui::VolcanoDebugPlugins;
+use volcano_egui::{EguiOverlayCameraPlugin, VolcanoDebugPlugins};
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("plinian_plume", (EguiPlugin::default(), VolcanoDebugPlugins))
+    volcano::scenes::run_scene_window(
+        "plinian_plume",
+        (EguiPlugin::default(), EguiOverlayCameraPlugin, VolcanoDebugPlugins),
+    )
 }

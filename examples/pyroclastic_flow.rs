@@ -10,8 +10,11 @@
 
 use bevy::prelude::AppExit;
 use bevy_egui::EguiPlugin;
-use volcano_egui::VolcanoDebugPlugins;
+use volcano_egui::{EguiOverlayCameraPlugin, VolcanoDebugPlugins};
 
 fn main() -> AppExit {
-    volcano::scenes::run_scene_window("pyroclastic_flow", (EguiPlugin::default(), VolcanoDebugPlugins))
+    volcano::scenes::run_scene_window(
+        "pyroclastic_flow",
+        (EguiPlugin::default(), EguiOverlayCameraPlugin, VolcanoDebugPlugins),
+    )
 }

@@ -377,7 +377,9 @@ pub(crate) fn spawn_simulation(
 }
 
 /// Runs built-in scene `name` in a window with `VolcanoPlugins`, the scene's sky and `extra`
-/// (the examples pass `EguiPlugin` and the debug panels), at the thesis' fixed rate
+/// (the examples pass `EguiPlugin`, `volcano_egui::EguiOverlayCameraPlugin` and the debug
+/// panels; egui without the overlay draws nothing on the scene camera, which is HDR with
+/// bloom, `volcano_render::GlowCamera`), at the thesis' fixed rate
 /// (`THESIS_TICK_HZ`, the game's choice here). `VOLCANO_SCREENSHOT=out.png` (e.g. under
 /// xvfb-run) takes a screenshot after 60 frames and exits. An unknown or invalid scene prints
 /// the error and exits with an error code.
@@ -397,7 +399,13 @@ pub fn run_scene_window<M>(name: &str, extra: impl bevy::app::Plugins<M>) -> App
     }))
     .add_plugins((crate::VolcanoPlugins, scene))
     .add_plugins(extra)
-    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
+    .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
+    // HDR with bloom on the scene camera, as `volcano render` has: the examples draw their
+    // panels on `volcano_egui::EguiOverlayCameraPlugin`'s camera (bevy_egui draws nothing on
+    // an HDR camera).
+    .add_observer(|add: On<Add, volcano_render::VolcanoViewer>, mut commands: Commands| {
+        commands.entity(add.entity).insert(volcano_render::GlowCamera);
+    });
     if let Some(capture) = volcano_render::WindowScreenshotPlugin::from_env() {
         app.add_plugins(capture);
     }

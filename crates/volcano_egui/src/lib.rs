@@ -11,14 +11,20 @@
 //! The game adds `EguiPlugin` itself, before or after these plugins (as bevy_egui asks of
 //! plugins built on it: they must not add `EguiPlugin` for the user); without it the panels are
 //! not drawn and a warning says so.
+//!
+//! [`EguiOverlayCameraPlugin`] (opt-in, used by the examples) draws egui on its own LDR overlay
+//! camera, so the scene camera can be HDR with bloom: bevy_egui 0.40 draws nothing on an HDR
+//! camera.
 
 mod atmosphere;
 mod eruption;
 mod lava;
+mod overlay;
 
 pub use atmosphere::{AtmospherePanel, map_rgb, map_to_grid, ramp};
 pub use eruption::EruptionPanel;
 pub use lava::LavaPanel;
+pub use overlay::{EguiOverlayCamera, EguiOverlayCameraPlugin, overlay_camera_bundle};
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 use bevy::prelude::*;
@@ -38,7 +44,8 @@ pub const SPEED_RANGE: std::ops::RangeInclusive<f64> = 0.1..=4.0;
 ///
 /// The panels draw on the primary egui context, which bevy_egui puts on the first camera. With
 /// bevy_egui 0.40 nothing is drawn on an HDR camera (seen with llvmpipe), which is why
-/// `volcano_render::camera_bundle` cameras are LDR.
+/// `volcano_render::camera_bundle` cameras are LDR; with [`EguiOverlayCameraPlugin`] the
+/// context is on an overlay camera of its own and the scene camera may be HDR.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct VolcanoDebugPlugins;
 

@@ -21,8 +21,9 @@ pub struct VolcanoViewer;
 /// Opt-in HDR with bloom for a camera: adding it brings [`Hdr`] and [`glow_bloom`] (unless the
 /// camera already has a `Bloom`), so incandescent lava (and anything brighter than white)
 /// glows past its edges instead of clipping. Nothing in the volcano adds it to a game's camera;
-/// the headless `volcano render` does to its own. Interactive scenes leave it out: bevy_egui
-/// 0.40 drew no panels on an HDR camera under llvmpipe.
+/// the headless `volcano render` does to its own and the examples' scenes to theirs. bevy_egui
+/// 0.40 draws no panels on an HDR camera: the examples draw them on an overlay camera
+/// (`volcano_egui::EguiOverlayCameraPlugin`).
 #[derive(Component, Debug, Clone, Copy, Default, Reflect)]
 #[reflect(Component, Default, Debug)]
 #[require(Hdr, Bloom = glow_bloom())]
