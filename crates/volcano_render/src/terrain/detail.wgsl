@@ -4,8 +4,8 @@
 // grows from a quarter to half its wavelength (never fewer than two samples per wavelength: no
 // aliasing). The footprint is anisotropic: on a grazing view a pixel covers far more ground
 // along the view than across it, so the fade follows the short side (at most MAX_ANISO times
-// shorter than the long one) and each octave finer than the long side is averaged over taps
-// spread along it. How much a pixel takes follows its vertex colour (none on water, less on
+// shorter than the long one) and each octave shorter than four long sides is averaged over
+// taps spread along it. How much a pixel takes follows its vertex colour (none on water, less on
 // vegetation and snow).
 
 #import bevy_pbr::{
