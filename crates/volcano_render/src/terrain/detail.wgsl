@@ -84,10 +84,12 @@ fn fragment(
     let wp = in.world_position.xyz;
     let step_x = dpdx(wp.xz);
     let step_y = dpdy(wp.xz);
-    let long_side = select(step_y, step_x, dot(step_x, step_x) >= dot(step_y, step_y));
-    let long_len = length(long_side);
+    let len_x = length(step_x);
+    let len_y = length(step_y);
+    let long_side = select(step_y, step_x, len_x >= len_y);
+    let long_len = max(len_x, len_y);
     // What the octaves fade by: the short side, but no less than a MAX_ANISO-th of the long one.
-    let footprint = max(min(length(step_x), length(step_y)), long_len / MAX_ANISO);
+    let footprint = max(min(len_x, len_y), long_len / MAX_ANISO);
     // Taps along the long side, each covering about one `footprint` of it.
     let taps = u32(clamp(ceil(long_len / max(footprint, 1e-6) - 1e-3), 1.0, MAX_ANISO));
 
