@@ -1,7 +1,6 @@
 //! The smallest game with a volcano: `cargo run --example hello_volcano`.
 use bevy::prelude::*;
 use volcano::prelude::*;
-use volcano::render::{VolcanoSkyCamera, VolcanoSkyPlugin, VolcanoViewer};
 
 fn main() -> AppExit {
     App::new()

@@ -88,7 +88,9 @@ impl PluginGroup for VolcanoPlugins {
     }
 }
 
-/// What a game usually imports.
+/// What a game usually imports: the plugins, the volcano and its eruption, terrains and their
+/// generators, lava sources and zones, the atmosphere, every gameplay message and point query,
+/// quality levels, and (feature `render`) the camera markers and the opt-in sky.
 pub mod prelude {
     pub use crate::assets::{
         EruptionTimelineSource, HeightmapSource, PlumePresetSource, VolcanoAssetPlugin, VolcanoSceneSource,
@@ -96,10 +98,25 @@ pub mod prelude {
     pub use crate::quality::VolcanoQuality;
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
+    pub use volcano_atmosphere::{
+        AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, WeatherStepped, WeatherSystems,
+        air_ash_at, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+    };
     pub use volcano_core::prelude::*;
-    pub use volcano_coupling::{CouplingBudget, CouplingSettings, CouplingSystems};
+    pub use volcano_coupling::{CouplingBudget, CouplingPlugin, CouplingSettings, CouplingSystems};
+    pub use volcano_lava::{
+        LavaBreakout, LavaField, LavaFieldStatus, LavaParams, LavaPlugin, LavaProbe, LavaQuery, LavaReached,
+        LavaSource, LavaSourceStatus, LavaZone,
+    };
     pub use volcano_plume::{
-        Eruption, EruptionScript, EruptionTimeline, NeutralBuoyancyReached, PlumeCapReport, PlumeCaps,
-        PlumeCollapsed, PlumeParams, PlumeSlice, PlumeSystems, Preset, UmbrellaSpreading, WindProfile,
+        AshReleased, Eruption, EruptionScript, EruptionTimeline, NeutralBuoyancyReached, PlumeCapReport,
+        PlumeCaps, PlumeCollapsed, PlumeParams, PlumePlugin, PlumeSlice, PlumeSystems, Preset,
+        PyroclasticFlowStarted, PyroclasticQuery, SecondaryColumnFormed, SecondaryColumnRising,
+        SliceCollapsed, UmbrellaSpreading, WindProfile,
+    };
+    #[cfg(feature = "render")]
+    pub use volcano_render::{
+        GlowCamera, OrbitCamera, VolcanoRenderPlugins, VolcanoSkyCamera, VolcanoSkyPlugin, VolcanoViewer,
+        camera_bundle,
     };
 }

@@ -8,7 +8,7 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano::prelude::*;
-use volcano::render::headless::{HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev};
+use volcano::render::headless::{HeadlessCapturePlugin, headless_default_plugins};
 use volcano::scenes::CameraSpec;
 
 use crate::TICK_HZ;
@@ -260,7 +260,7 @@ pub(crate) fn render(
         eprintln!("error: rendering failed ({exit:?}); is a Vulkan driver installed (mesa-vulkan-drivers)?");
         return ExitCode::FAILURE;
     }
-    match png_pixel_stddev(&out) {
+    match frame_stddev(&out) {
         Ok(sd) => {
             println!(
                 "wrote {} ({width}×{height}) after {ticks} ticks in {:.1} s; pixel std-dev {sd:.1}",
@@ -280,11 +280,62 @@ pub(crate) fn render(
     }
 }
 
+/// The blank-frame measure of `--min-stddev`: the mean over R, G and B of each channel's
+/// standard deviation across the pixels of the PNG at `path` (0–255 scale); a one-colour frame
+/// gives 0 whatever the colour.
+fn frame_stddev(path: &std::path::Path) -> Result<f64, String> {
+    let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let mut decoder = png::Decoder::new(std::io::BufReader::new(file));
+    decoder.set_transformations(png::Transformations::EXPAND | png::Transformations::STRIP_16);
+    let mut reader = decoder.read_info().map_err(|e| e.to_string())?;
+    let mut buf = vec![0; reader.output_buffer_size().ok_or("PNG too large")?];
+    let info = reader.next_frame(&mut buf).map_err(|e| e.to_string())?;
+    let channels = info.color_type.samples();
+    let (mut sum, mut sq, mut n) = ([0f64; 3], [0f64; 3], 0f64);
+    for p in buf[..info.buffer_size()].chunks_exact(channels) {
+        for c in 0..3 {
+            // Grey (and grey with alpha) frames count their one value on each channel.
+            let v = f64::from(p[if channels < 3 { 0 } else { c }]);
+            sum[c] += v;
+            sq[c] += v * v;
+        }
+        n += 1.0;
+    }
+    if n == 0.0 {
+        return Ok(0.0);
+    }
+    Ok((0..3).map(|c| (sq[c] / n - (sum[c] / n).powi(2)).max(0.0).sqrt()).sum::<f64>() / 3.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::{Cli, Command};
     use clap::Parser;
+
+    /// A 4 × 2 RGB PNG: left half pure blue, right half `right`.
+    fn two_tone_png(name: &str, right: [u8; 3]) -> PathBuf {
+        let path = std::env::temp_dir().join(format!("volcano_cli_{}_{name}.png", std::process::id()));
+        let rgb: Vec<u8> = (0..8).flat_map(|i| if i % 4 < 2 { [0, 0, 255] } else { right }).collect();
+        let mut encoder = png::Encoder::new(std::fs::File::create(&path).unwrap(), 4, 2);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        encoder.write_header().unwrap().write_image_data(&rgb).unwrap();
+        path
+    }
+
+    #[test]
+    fn frame_stddev_measures_contrast_whatever_the_colour() {
+        // Blue channel half 0, half 255: σ = 127.5; R and G: 0. Mean of the three: 42.5.
+        let half = two_tone_png("half", [0, 0, 0]);
+        assert!((frame_stddev(&half).unwrap() - 42.5).abs() < 1e-9);
+        let blank = two_tone_png("blank", [0, 0, 255]);
+        assert_eq!(frame_stddev(&blank).unwrap(), 0.0);
+        assert!(frame_stddev(&half.with_file_name("missing.png")).is_err());
+        for p in [half, blank] {
+            std::fs::remove_file(p).ok();
+        }
+    }
 
     #[test]
     fn sun_override_parses_and_rejects_bad_input() {

@@ -49,10 +49,7 @@ pub use camera::{
     GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
 };
 pub use clouds::{CloudDraw, CloudMaterial, CloudRenderPlugin, CloudRenderSettings, CloudVolume};
-pub use headless::{
-    CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, png_pixel_stddev, read_png_rgb,
-    rgb_region_mean, rgb_stddev, write_png_rgb,
-};
+pub use headless::{CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, write_png_rgb};
 pub use lava::{LavaRenderMode, LavaRenderPlugin, LavaRenderSettings};
 pub use plume::{AshCloud, PlumeRenderMode, PlumeRenderPlugin, PlumeVisuals};
 pub use sky::{

@@ -1,0 +1,11 @@
+//! The integration tests of `volcano_lava`: one test binary (one link), a module per topic.
+//! Run one module with `cargo test -p volcano_lava --test it MODULE::`.
+
+mod analytic;
+mod conservation;
+mod cooling;
+mod flank;
+mod folds;
+mod mobility_cap;
+mod plugin;
+mod robustness;

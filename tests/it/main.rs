@@ -1,0 +1,11 @@
+//! The integration tests of `volcano`: one test binary (one link), a module per topic.
+//! Run one module with `cargo test -p volcano --test it MODULE::`.
+
+mod assets;
+mod headless_sim;
+mod host_app;
+mod module_cycles;
+mod readme;
+mod reflect;
+mod save_load;
+mod view_boundary;
