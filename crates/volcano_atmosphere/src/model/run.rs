@@ -1,5 +1,5 @@
 //! Headless scenario runner: builds a scenario, applies its timeline, steps it and gathers
-//! the summary the CLI writes as `summary.json` (issue 6, CLI section).
+//! the summary the CLI writes as `summary.json`.
 
 use std::collections::BTreeMap;
 use std::time::Instant;

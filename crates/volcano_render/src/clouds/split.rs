@@ -55,7 +55,8 @@ pub(crate) fn split_cloud_draws(
     }
     // A resized image is a new texture, and a material's bind group keeps the one it was
     // built with: touch every cloud material so its bind group is built again (otherwise,
-    // after a window resize, the clouds read a stale image and fall back to the old order).
+    // after a window resize, the clouds read a stale image and fall back to the single-pass
+    // order).
     let resized = image_events.read().fold(false, |any, e| any | e.is_modified(&ash_depth.image));
     if resized {
         let ids: Vec<_> = originals.iter().map(|o| o.1.id()).chain(twins.iter().map(|t| t.id())).collect();

@@ -1,4 +1,4 @@
-//! The light incandescent lava casts on what is around it (issue 18 items 4 and 6): by night
+//! The light incandescent lava casts on what is around it: by night
 //! the ground, the folds and the obstacles beside a flow are lit orange; by day the same light
 //! is lost beside the sun's.
 //!
@@ -318,7 +318,7 @@ mod tests {
     /// Along a long tongue the lights are strung out, carry the whole emission between them,
     /// and light the ground beside the tongue's ends about as the lava next to it does: each
     /// sampled block an isotropic emitter where it lies is the reference. One light at the
-    /// centroid (the old rule) left the ends at a few tenths of it.
+    /// centroid would leave the ends at a few tenths of it.
     #[test]
     fn a_long_tongue_gets_lights_along_it_that_light_its_ends() {
         let (f, p) = tongue();

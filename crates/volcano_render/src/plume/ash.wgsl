@@ -199,7 +199,7 @@ fn vertex(v: Vertex) -> VertexOutput {
     // A detail sphere on the far side of its parent from the eye is seen through the parent's
     // body: Beer–Lambert over the chord toward the eye, as toward the sun in the fragment
     // stage. Children are not sorted within their parent, so without this the shadowed back
-    // children were blended over the lit front ones (dark discs ringed with light).
+    // children would be blended over the lit front ones (dark discs ringed with light).
     let to_eye = normalize(view.world_position - a.center_radius.xyz);
     let view_chord = max(-dot(place, to_eye), 0.0) * 2.0;
     var out: VertexOutput;

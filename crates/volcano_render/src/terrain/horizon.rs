@@ -1,5 +1,5 @@
 //! A world without edges: [`TerrainHorizon`] on a [`Terrain`] entity adds a far ring of coarse
-//! ground around its mesh, so the terrain's square edge is no longer the horizon of every shot.
+//! ground around its mesh, so the terrain's square edge is not the horizon of every shot.
 //!
 //! The ring's inner loop is the terrain mesh's own border vertices (same positions, normals
 //! and colours: no gap, no seam). Further rings scale the border loop outward about the
@@ -466,9 +466,9 @@ mod tests {
 
     /// Nothing on the border runs out as a radial streak: 4 and 7 km beyond the edge,
     /// neighbouring vertices of a ring differ in height and in colour by a small part of what
-    /// neighbours on the border do. Carried vertex by vertex (the code before), ring 6 kept
-    /// 0.74 of the border's height differences and 1.03 of its luminance differences; averaged
-    /// along the ring, 0.13 and 0.04.
+    /// neighbours on the border do. Carried vertex by vertex, ring 6 would keep 0.74 of the
+    /// border's height differences and 1.03 of its luminance differences; averaged along the
+    /// ring, it keeps 0.13 and 0.04.
     #[test]
     fn nothing_runs_out_as_a_streak() {
         let hilly = StratovolcanoParams {
