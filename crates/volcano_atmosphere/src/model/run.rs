@@ -15,7 +15,7 @@ use super::scenario::{Diagnostic, Event, EventAction, FieldKind, Scenario, add_n
 use super::step::{Workspace, check_dt, step};
 use super::volume::coherent_forms;
 
-/// What a scenario run measured. Keys follow the CLI section.
+/// What a scenario run measured; serialised as the CLI's `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AtmosphereSummary {
     /// Scenario name.

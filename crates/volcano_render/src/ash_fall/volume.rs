@@ -279,7 +279,7 @@ pub fn edge_fade(inside: f64, band: f64) -> f64 {
 /// integers), interpolated bilinearly, clamped to the edge voxels: what
 /// `Grid2::sample_grid(u, v, Boundary::Clamp)` gives, in f32 on a plain slice, because this is
 /// the meander's per-voxel read (the grid's sampler, with its f64 coordinates and an index
-/// resolve per read, made a 128² × 64 rebuild about 10 ms slower: 47–52 vs 37 ms, `ash_volume`
+/// resolve per read, makes a 128² × 64 rebuild about 10 ms slower: 47–52 vs 37 ms, `ash_volume`
 /// bench).
 fn bilinear_clamped(img: &[f32], n: usize, u: f32, v: f32) -> f32 {
     let top = (n - 1) as f32;
@@ -302,12 +302,12 @@ pub const MEANDER_NODES: usize = 33;
 /// (x, y, altitude) with features of half `relief_m` across and 3 km in altitude, doubled
 /// and clamped to ±1, times `meander_m`. Empty when `meander_m` is 0. A rendering choice: the
 /// layers' ash is advected with the same winds over a few layers, so where the curtain ends
-/// sideways it ends in the same cell at every altitude, and read straight down its sides are
-/// vertical edges kilometres tall. Reading each level a little to the side makes
-/// them wander; an offset of up to ±1.5 km over 3 km features changes a level's drawn ash by
-/// up to 12 % (tested; the default is ±800 m). Sampled on a lattice, not per voxel: 2 · 33² · 64 noise calls
-/// instead of 2 · 128² · 64 per rebuild (4.4 ms; the whole meander adds 14 ms to a 128² × 64
-/// rebuild, `benches/ash_volume.rs`).
+/// sideways it ends in the same cell at every altitude: read straight down, its sides would
+/// be vertical edges kilometres tall. Reading each level a little to the side makes them
+/// wander; an offset of up to ±1.5 km over 3 km features changes a level's drawn ash by up to
+/// 12 % (tested; the default is ±800 m). Sampled on a lattice, not per voxel: 2 · 33² · 64
+/// noise calls instead of 2 · 128² · 64 per rebuild (4.4 ms; the whole meander adds 14 ms to
+/// a 128² × 64 rebuild, `benches/ash_volume.rs`).
 pub fn meander_offsets(spec: &AshVolumeSpec, extent: f64) -> Vec<Vec2> {
     if spec.meander_m <= 0.0 {
         return Vec::new();

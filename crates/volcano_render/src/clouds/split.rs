@@ -109,9 +109,9 @@ mod tests {
     use crate::clouds::{CloudRenderSettings, CloudUniform};
 
     /// After the ash-depth image is resized (a window resize), every cloud material is marked
-    /// changed, so that the renderer builds its bind group again with the new texture. Written
-    /// after finding that the materials kept the first texture; without the touch, no
-    /// `Modified` event follows the resize and this fails.
+    /// changed, so that the renderer builds its bind group again with the new texture (else
+    /// the materials keep the first texture); without the touch, no `Modified` event follows
+    /// the resize and this fails.
     #[test]
     fn resizing_the_ash_depth_image_rebuilds_the_cloud_materials() {
         use bevy::asset::AssetPlugin;

@@ -127,7 +127,7 @@ pub fn glow_light(
 /// their power-weighted positions and cut into runs of equal power, as many as the glowing
 /// area is about twice as long as wide (a compact lobe gets one light, a 250 × 15 m tongue
 /// eight), each run one light ([`light_of`]). The lights' powers add up to the whole
-/// emission. One light at the centroid of a long tongue left the ground beside its ends
+/// emission. One light at the centroid of a long tongue would leave the ground beside its ends
 /// nearly dark: the ground there is lit by the lava next to it, not by the lava 100 m away.
 /// Empty when nothing glows (under a lumen in all) or `max_lights` is 0.
 pub fn glow_lights(

@@ -286,7 +286,7 @@ fn coverage(in: VertexOutput) -> vec2<f32> {
 
 // Fragments at least this opaque mark where the ash begins along a view ray (the ash-depth
 // pass). Low, so that a puff's soft fringe behind a cloud is not drawn over the cloud (with
-// 0.35 the fringe showed as a dark outline through a cloud in front of the puff); the price is
+// 0.35 the fringe shows as a dark outline through a cloud in front of the puff); the price is
 // that a cloud behind a faint veil of ash and in front of dense ash is drawn under both.
 const DEPTH_ALPHA: f32 = 0.03;
 

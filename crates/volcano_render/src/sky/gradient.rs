@@ -128,7 +128,7 @@ impl GradientSky {
             // with `tests/headless_horizon.rs`, where the far ring's edge shows (183, 203, 234)
             // against a sky of (179, 203, 236)). On an HDR camera both go through the
             // tonemapping pass and meet at 1.0× ((160, 175, 193) against (159, 175, 194); the
-            // LDR gains there showed (180, 200, 232), a bright band under the horizon).
+            // LDR gains there show (180, 200, 232), a bright band under the horizon).
             color: Color::from(LinearRgba::from_vec3(
                 self.horizon.to_vec3() * if hdr { Vec3::ONE } else { FOG_MATCH },
             )),

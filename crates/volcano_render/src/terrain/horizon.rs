@@ -12,9 +12,9 @@
 //!
 //! What a ring carries outward (border heights, sea or land, colours) is averaged along the
 //! ring over a window as wide as the ring is far from the edge (`loop_mean`): carried
-//! vertex by vertex, each border vertex's relief and land-cover class ran out as a straight
-//! radial streak, tens of kilometres long, which every camera outside the terrain saw
-//! converging on the volcano. Opt-in: nothing is added to
+//! vertex by vertex, each border vertex's relief and land-cover class would run out as a
+//! straight radial streak, tens of kilometres long, which every camera outside the terrain
+//! would see converging on the volcano. Opt-in: nothing is added to
 //! a terrain without the component (a game that draws its own surroundings leaves it off).
 
 use bevy::asset::RenderAssetUsages;
