@@ -16,12 +16,12 @@
 //!   e.g. Emanuel 1994, *Atmospheric Convection*); linearised, the drive of the flow through
 //!   a layer's top grows with the depth of anomalous air below it. A terrain sliver (a few
 //!   metres of air that follow the ground) is then a small mass anomaly, not a full-slab one:
-//!   without the weight, a night-cooled sliver on a slope pulled air down at several m/s.
+//!   without the weight, a night-cooled sliver on a slope pulls air down at several m/s.
 //! - Non-convective uplift: the printed `U_i = ν (P_{i+1} − P_i)` feeds back through the
 //!   continuity projection (the convergence under a rising column lowers P, which changes U,
 //!   which changes the target): on the torus the loop gain exceeds 1 for the largest modes and
-//!   D oscillated to its bound in our tests. We keep the mechanism of Fig 4.4 — wind meeting
-//!   a slope is deflected upward — in the standard kinematic form of upslope models (Smith
+//!   in our tests D oscillates until a bound stops it. We keep the mechanism of Fig 4.4 — wind
+//!   meeting a slope is deflected upward — in the standard kinematic form of upslope models (Smith
 //!   1979): `U_i = ν (V_i · ∇Θ_T) exp(−max(0, Θ_top,i − Θ_T) / H_o)`, the terrain-following
 //!   vertical wind of layer i at its top boundary, fading with height above the ground over
 //!   `H_o`. Windward (V·∇Θ_T > 0): up; lee: down. ν is dimensionless here.

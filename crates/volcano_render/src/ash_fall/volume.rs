@@ -265,7 +265,7 @@ pub fn blur_level(level: &mut [f32], nxy: usize, radius: usize) {
 /// How much of the ash is drawn `inside` metres from the nearest side of the footprint: 0 at
 /// the side, rising smoothly (smoothstep) to 1 at `band` metres in. The atmosphere's grid
 /// ends there but the air does not: drawn at full value up to the side, an umbrella's ash that
-/// reached the boundary stood as a wall with straight vertical edges (the box's own). A
+/// reaches the boundary would stand as a wall with straight vertical edges (the box's own). A
 /// rendering choice, like [`lid_fade`]; the ash budget is the layers'.
 pub fn edge_fade(inside: f64, band: f64) -> f64 {
     if band.is_nan() || band <= 0.0 {
