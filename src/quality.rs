@@ -256,8 +256,7 @@ mod tests {
         assert_eq!(low.step_count, VolcanoQuality::Low.settings().cloud_steps);
         assert_eq!(low.substeps, 2);
         low.validate().unwrap();
-        // The ash-fall curtain's march is set too (it was left at High's 128 × 8 until
-        // 2026-11-27).
+        // The ash-fall curtain's march follows the level too (not High's 128 × 8).
         let ash = app.world().resource::<AshFallSettings>().clone();
         assert_eq!((ash.step_count, ash.substeps), (64, 2));
         ash.validate().unwrap();

@@ -1,4 +1,4 @@
-//! Bevy assets (issue 14, item 3): plume presets, eruption timelines, scenes and atmosphere
+//! Bevy assets: plume presets, eruption timelines, scenes and atmosphere
 //! scenarios as RON asset types, heightmaps as PNG assets, each with its loader; the built-in
 //! files embedded under `embedded://volcano/…`; and four components that put a loaded asset
 //! to work on an entity, again whenever it is reloaded (with Bevy's `file_watcher` feature a

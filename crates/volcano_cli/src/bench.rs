@@ -1,5 +1,5 @@
 //! `volcano bench`: a scene's whole simulation headless, one base tick per app update, timed
-//! on the main thread (the frame-budget issue's whole-scene numbers). Writes `DIR/bench.json`:
+//! on the main thread (whole-scene numbers against the frame budget). Writes `DIR/bench.json`:
 //! the main thread's time per base tick (p50, p99, max), the mean on ticks where a weather step
 //! started or was written back beside the mean on the others, each domain's mean per tick, and
 //! the same split by domain on weather ticks and on the others (where a weather tick's extra
@@ -257,8 +257,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         q.iter(world).fold((0.0, 0.0), |(a, b), s| (a + s.last_start_ms, b + s.last_apply_ms))
     };
     let (mut start_ms, mut apply_ms) = (Vec::new(), Vec::new());
-    // Written as the ticks come, not kept: an hour's rows held in a string grew the process by
-    // ≈ 11 MB, the resident-memory creep the soak report showed.
+    // Written as the ticks come, not kept: an hour's rows held in a string would grow the
+    // process by ≈ 11 MB, a resident-memory creep in the soak report.
     let mut rows = match std::fs::File::create(dir.join("ticks.csv")) {
         Ok(f) => std::io::BufWriter::new(f),
         Err(e) => return ticks_csv_failed(e),

@@ -19,9 +19,9 @@
 //! runs whatever task of that pool is queued, systems included. The weather step runs as a
 //! task (`AsyncComputeTaskPool`) that a system joins (`block_on`) one weather step later: had
 //! its bands been on the compute pool, the task's own thread could pick up that joining
-//! system while helping and wait for itself for ever (the deadlock the first version of this
-//! helper had). So the weather step runs its bands on the async compute pool, whose tasks
-//! never wait for a system. `tests/pool.rs` in `volcano_atmosphere` runs the pipeline in a
+//! system while helping and wait for itself for ever. So the weather step runs its bands on
+//! the async compute pool, whose tasks never wait for a system. `tests/pool.rs` in
+//! `volcano_atmosphere` runs the pipeline in a
 //! multi-threaded app on a two-thread compute pool.
 //!
 //! The helper is written by hand rather than with rayon on purpose: rayon brings a second

@@ -30,8 +30,8 @@
 //!   [`crate::PyroclasticBudget::capped`]) but no column is simulated for them. A secondary column
 //!   carries no ash account (`model::pyroclastic::secondary_column`), so only the light
 //!   column's own rise and its heat and moisture for a coupled atmosphere are not simulated.
-//!   (Holding them back as particles for a later step was tried first: after the eruption
-//!   scene's collapse it re-clustered thousands of stragglers every step.)
+//!   (They are not held back as particles for a later step: after the eruption scene's
+//!   collapse that would re-cluster thousands of stragglers every step.)
 
 use bevy::prelude::*;
 use volcano_core::ConfigError;

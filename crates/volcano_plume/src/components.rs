@@ -99,7 +99,7 @@ impl Eruption {
     }
 
     /// A collapsing column (preset `pyroclastic_showcase`, v₀ = 70 m/s): falls back from
-    /// ≈255 m. Until the pyroclastic model lands, collapsed slices are removed.
+    /// ≈255 m. Collapsed slices leave the column for the pyroclastic flows (§3.6).
     pub fn pyroclastic() -> Self {
         Self { params: crate::Preset::PyroclasticShowcase.params(), ..Self::thesis() }
     }

@@ -216,7 +216,7 @@ fn step_flows(
     }
     // The model keeps each volcano's particles in id order (a new one gets the next id, a
     // removal keeps the order); the query's order drifts from it as despawns swap-remove.
-    // Stepped in the query's order, two particles depositing on one node in one step were
+    // Stepped in the query's order, two particles depositing on one node in one step would be
     // summed in another order than the model alone sums them (1 ulp apart). So, in id order.
     for (own, flows) in owned.iter_mut().zip(&mut state.volcanoes) {
         if !flows.particles.is_sorted_by_key(|p| p.id) {

@@ -121,7 +121,7 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
         if let Some(&eruption) = index.get(&u.volcano) {
             // The sphere has shed `1 − exp(−age/τ)` of its ash (the model's fallout law), which
             // the air's ash draws once coupled: drawn at the density it detached with, that
-            // ash was drawn twice.
+            // ash would be drawn twice.
             let kept = (-u.age / eruptions[eruption].2).exp();
             parents.push(ParentSphere {
                 id: u.id,

@@ -93,10 +93,10 @@ pub fn smooth_density(density: &mut [f32], nxy: usize, nz: usize, passes: u32) -
 /// the finer texels under it *and under its neighbours* (one texel of its level on every side,
 /// 27 in all). So a texel is 0 only where no texel within one coarse texel of it is lit, and
 /// the pass can read the one texel around a point, unfiltered, to learn whether anything lies
-/// within a coarse texel of the point in any direction. (Until 2026-11-27 a texel held the
-/// maximum under itself alone and the pass read it through the linear filter, whose 8-bit
-/// result rounds a faint texel's small share to 0: faint puffs near the edges of the coarse
-/// texels were skipped.) Cost: the levels add 1/7 of the texels; the widening is three passes
+/// within a coarse texel of the point in any direction. (A texel holding the maximum under
+/// itself alone would have to be read through the linear filter, whose 8-bit result rounds a
+/// faint texel's small share to 0: faint puffs near the edges of the coarse texels would be
+/// skipped.) Cost: the levels add 1/7 of the texels; the widening is three passes
 /// of three comparisons per texel. Returns the number of levels.
 pub fn append_max_levels(texels: &mut Vec<u8>, w: usize, h: usize, d: usize) -> u32 {
     let (mut dims, mut levels) = ([w, h, d], 1u32);
@@ -165,11 +165,11 @@ pub fn density_image(density: &[f32], nxy: usize, nz: usize, d0: f32) -> Result<
         image.texture_descriptor.mip_level_count = append_max_levels(data, nxy, nz, nxy);
     }
     // Sampled only, never copied into: without `COPY_DST`, an image replaced in place under its
-    // handle (as the rebuilds did until 2026-11-27, or a game may) gets a new texture with every
+    // handle (as a game may do; the rebuilds add a new handle) gets a new texture with every
     // level; a material's bind group then needs the material touched too. With
-    // it, Bevy reuses the texture and writes the new data into level 0 alone
-    // (`GpuImage::prepare_asset`), so the maximum levels kept the first volume's occupancy and
-    // the pass skipped today's cloud where yesterday's air was clear (until 2026-11-27).
+    // it, Bevy would reuse the texture and write the new data into level 0 alone
+    // (`GpuImage::prepare_asset`), so the maximum levels would keep the first volume's
+    // occupancy and the pass would skip today's cloud where yesterday's air was clear.
     image.texture_descriptor.usage = TextureUsages::TEXTURE_BINDING;
     image.sampler = ImageSampler::Descriptor(ImageSamplerDescriptor {
         address_mode_u: ImageAddressMode::ClampToEdge,

@@ -1,5 +1,5 @@
 //! [`SmoothMotionPlugin`]: slices, s1 and umbrella spheres and pyroclastic particles are drawn
-//! between their last two base ticks (issue 15 item 6), through
+//! between their last two base ticks, through
 //! [`volcano_core::interpolation`]: the simulation runs at the game's fixed rate (50–64 Hz),
 //! the ash moves on every rendered frame. A member of
 //! [`VolcanoRenderPlugins`](crate::VolcanoRenderPlugins); disable it to draw the ticks as they

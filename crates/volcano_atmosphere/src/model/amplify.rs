@@ -349,9 +349,9 @@ mod tests {
         assert!(profile(Anchor::Centre, 0.5) > 5.0 * profile(Anchor::Centre, 0.02));
     }
 
-    /// The old volume sampled the noise at the cell centre: the 4 × 4 voxels of one 400 m cell
-    /// were identical at every altitude, so a cloud had no structure below the cell size. Here
-    /// a uniform cumulus deck varies inside every cell.
+    /// The noise is sampled per voxel, not at the cell centre (where the 4 × 4 voxels of one
+    /// 400 m cell would be identical at every altitude, and a cloud would have no structure
+    /// below the cell size): a uniform cumulus deck varies inside every cell.
     #[test]
     fn a_uniform_deck_has_structure_inside_each_cell() {
         let mut st = clear();
@@ -377,7 +377,7 @@ mod tests {
 
     /// Thesis Table 4.3: cumulus develop vertically. A deck holding 0.05 g/m³ in its western
     /// half and 0.8 g/m³ in its eastern half: the wet half's tops stand at least twice as high
-    /// above the (shared, flat) base. With the old fixed extent both reached 0.6 thickness.
+    /// above the (shared, flat) base. With a fixed extent both would reach 0.6 thickness.
     #[test]
     fn wetter_cumulus_stand_taller_on_the_same_flat_base() {
         let mut st = clear();
@@ -410,7 +410,7 @@ mod tests {
     }
 
     /// A uniform stratus deck is not a slab: its top varies across the deck by more than two
-    /// voxels (the relief noise). The old tent profile gave one flat top.
+    /// voxels (the relief noise). A tent profile would give one flat top.
     #[test]
     fn a_uniform_stratus_deck_has_relief() {
         let mut st = clear();

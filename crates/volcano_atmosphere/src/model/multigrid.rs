@@ -1,7 +1,7 @@
 //! Geometric multigrid for the pressure Poisson equation (thesis eq. 4.1, `∇²P = ∇·V`) on a
 //! toroidal, cell-centred `n × n` grid (n a power of two), optionally with face weights:
 //! `∇·(a ∇P) = rhs` with `a ∈ [0, 1]` the open fraction (aperture) of each cell face, so the
-//! terrain closes faces (`a = 0`) and narrows partly cut ones (issue 17 item 6).
+//! terrain closes faces (`a = 0`) and narrows partly cut ones.
 //!
 //! V-cycle: red-black Gauss–Seidel smoothing, over-relaxed (SOR, ω = 1.15; 2 pre, 2 post
 //! sweeps), residual restricted by averaging
@@ -418,10 +418,10 @@ mod tests {
 
     /// A layer cut by terrain: a closed block (odd-aligned edges) inside a rim of half-open
     /// cells, on 256². Every V-cycle reduces the residual at least 5× (measured 94×, 25×,
-    /// 14×, 12×, 9.8×, 8.4×; 58×, 17×, 9.9×, 7.6×, 6.9×, 6.6× before the smoother was
-    /// over-relaxed). A one-cell-thick wall with an open end is the hard case of
+    /// 14×, 12×, 9.8×, 8.4×; 58×, 17×, 9.9×, 7.6×, 6.9×, 6.6× with a plain, ω = 1 smoother).
+    /// A one-cell-thick wall with an open end is the hard case of
     /// rediscretised coarse operators (the two sides connect only round its end): measured
-    /// 17×, 1.4×, 2.1×, 2.4×, 2.6×, 2.7× (18×, 1.2×, 1.7×, 1.9×, 2.1×, 2.1× before);
+    /// 17×, 1.4×, 2.1×, 2.4×, 2.6×, 2.7× (18×, 1.2×, 1.7×, 1.9×, 2.1×, 2.1× with ω = 1);
     /// required: 100× over the six cycles.
     #[test]
     fn masked_problems_converge() {

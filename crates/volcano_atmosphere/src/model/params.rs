@@ -24,7 +24,7 @@ pub enum AdvectionScheme {
 #[serde(deny_unknown_fields, default)]
 pub struct AtmosphereParams {
     /// λ, convective coupling (m/s per J/kg): `C_i = λ · ΔMSE` (eq. 4.5). 1e-4: 0.1 m/s per
-    /// kelvin of anomaly. The later implementation's 5e-4 (docs/ARCHITECTURE.md §5.5) drove
+    /// kelvin of anomaly. The later implementation's 5e-4 (docs/ARCHITECTURE.md §5.5) drives
     /// ±5 m/s oscillations on our grids (0.5 m/s per K, layer-wide bands of that speed need
     /// 15 m/s inflow through the continuity target).
     pub convective_coupling: f64,

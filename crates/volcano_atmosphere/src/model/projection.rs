@@ -6,7 +6,7 @@
 //! eq. 4.8, see `advection::apertures`): what must meet the target is the flux `a·V`, so the
 //! pressure solves the variable-coefficient problem `∇·(a∇P) = ∇·(aV) − target` and the
 //! correction `V ← V − ∇P` applies on open faces, while the wind on closed faces (`a = 0`,
-//! rock on one side) is zero: no wind blows into the terrain (issue 17 item 6).
+//! rock on one side) is zero: no wind blows into the terrain.
 //!
 //! On the staggered grid the discrete flux divergence of the corrected wind equals the target
 //! up to the multigrid residual. On a torus a net gain or loss of air in a layer is not
@@ -63,10 +63,10 @@ fn flux_divergence_at(
 /// Orographic damping of the wind, thesis eq. (4.8) "σ is used for damping the velocity field
 /// around obstacles": each face's velocity is scaled by how much narrower the face is than the
 /// air it joins, `f = a / max(σ_left, σ_right)` (1 where the terrain cuts both cells alike,
-/// e.g. a flat floor inside the lowest slab; 0 against a wall). Multiplying by `a` itself, as
-/// when σ was read at the layer's centre, would brake a layer whose slab reaches below a flat
-/// ground every step (docs/ARCHITECTURE.md §5). The thesis applies `f` once per step, so the
-/// damping doubled when the step was halved and the wind over a ridge did not converge in Δt
+/// e.g. a flat floor inside the lowest slab; 0 against a wall). Multiplying by `a` itself
+/// would brake a layer whose slab reaches below a flat ground every step
+/// (docs/ARCHITECTURE.md §5). The thesis applies `f` once per step, so the damping doubles
+/// when the step is halved and the wind over a ridge does not converge in Δt
 /// (`tests/convergence.rs`); here it is a rate: `f^{steps}` with `steps = Δt/τ`, i.e. `f`
 /// every τ seconds.
 pub fn damp(u: &mut [f32], v: &mut [f32], ax: &[f32], ay: &[f32], sigma: &[f32], n: usize, steps: f64) {

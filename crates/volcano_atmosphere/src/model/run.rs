@@ -1,5 +1,5 @@
 //! Headless scenario runner: builds a scenario, applies its timeline, steps it and gathers
-//! the summary the CLI writes as `summary.json` (issue 6, CLI section).
+//! the summary the CLI writes as `summary.json`.
 
 use std::collections::BTreeMap;
 use std::time::Instant;
@@ -15,7 +15,7 @@ use super::scenario::{Diagnostic, Event, EventAction, FieldKind, Scenario, add_n
 use super::step::{Workspace, check_dt, step};
 use super::volume::coherent_forms;
 
-/// What a scenario run measured. Keys follow the issue's CLI section.
+/// What a scenario run measured; serialised as the CLI's `summary.json`.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct AtmosphereSummary {
     /// Scenario name.

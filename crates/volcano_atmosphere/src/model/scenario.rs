@@ -229,7 +229,7 @@ fn default_sea_water() -> f64 {
     1.0e6
 }
 
-/// Built-in scenarios (the five), shipped as RON assets.
+/// Built-in scenarios (five weather scenarios and `eruption`), shipped as RON assets.
 pub const BUILTIN: [(&str, &str); 6] = [
     ("convection", include_str!("../../scenarios/convection.ron")),
     ("island", include_str!("../../scenarios/island.ron")),

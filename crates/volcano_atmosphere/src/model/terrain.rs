@@ -25,7 +25,7 @@ pub const STEFAN_BOLTZMANN: f64 = 5.670_374e-8;
 /// thesis eq. (4.8), `σ_i = 1 − min(1, max(0, (Θ_T − Θ_i) / ΔΘ_i))`, with Θ_i read as the
 /// layer's lower boundary: the printed form with Θ_i the layer's (centre) altitude makes σ the
 /// free fraction of a slab that does not exist (a layer over ground at 1,100 m with its slab
-/// at 0–800 m and centre at 400 m kept σ = 0.125) and disagrees with the volume σ scales
+/// at 0–800 m and centre at 400 m keeps σ = 0.125) and disagrees with the volume σ scales
 /// (docs/ARCHITECTURE.md §5). σ is the layer's damping (4.8), its free volume for the
 /// amounts, the source of the face apertures, and picks ℓ(p).
 pub fn free_fraction(terrain: f64, bottom: f64, thickness: f64) -> f32 {

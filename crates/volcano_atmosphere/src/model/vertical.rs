@@ -16,17 +16,17 @@
 //!   e.g. Emanuel 1994, *Atmospheric Convection*); linearised, the drive of the flow through
 //!   a layer's top grows with the depth of anomalous air below it. A terrain sliver (a few
 //!   metres of air that follow the ground) is then a small mass anomaly, not a full-slab one:
-//!   without the weight, a night-cooled sliver on a slope pulled air down at several m/s.
+//!   without the weight, a night-cooled sliver on a slope pulls air down at several m/s.
 //! - Non-convective uplift: the printed `U_i = ν (P_{i+1} − P_i)` feeds back through the
 //!   continuity projection (the convergence under a rising column lowers P, which changes U,
 //!   which changes the target): on the torus the loop gain exceeds 1 for the largest modes and
-//!   D oscillated to its bound in our tests. We keep the mechanism of Fig 4.4 — wind meeting
-//!   a slope is deflected upward — in the standard kinematic form of upslope models (Smith
+//!   in our tests D oscillates until a bound stops it. We keep the mechanism of Fig 4.4 — wind
+//!   meeting a slope is deflected upward — in the standard kinematic form of upslope models (Smith
 //!   1979): `U_i = ν (V_i · ∇Θ_T) exp(−max(0, Θ_top,i − Θ_T) / H_o)`, the terrain-following
 //!   vertical wind of layer i at its top boundary, fading with height above the ground over
 //!   `H_o`. Windward (V·∇Θ_T > 0): up; lee: down. ν is dimensionless here.
-//! - No bound on D (issue 13 item 3: a volcanic plume's updraft is tens of m/s; the former
-//!   ±2 m/s clamp made its cap cloud a trace). The stable scheme is the printed exponential of
+//! - No bound on D (a volcanic plume's updraft is tens of m/s; a ±2 m/s clamp would make its
+//!   cap cloud a trace). The stable scheme is the printed exponential of
 //!   (4.6) applied to the velocity: the stored D is the *realised* velocity
 //!   `D = sign(D_raw) · V (1 − exp(−|D_raw| Δt / V)) / Δt` ([`realised_velocity`]) with
 //!   `D_raw = C + U` and `V` the thinner of the two free columns `σ h` of the pair. It is
@@ -34,8 +34,8 @@
 //!   give more than it holds (positivity, the vertical CFL of an upwind scheme), and a thin
 //!   destination (a layer mostly cut by a slope) is not filled with several times its own
 //!   volume before the horizontal wind can carry the excess away (monotonicity: without this,
-//!   air pushed into a 10–80 m wedge multiplied its humidity six-fold and more, its MSE ran
-//!   away and `D_raw` reached 368 m/s). The transfer then moves exactly `|D| Δt`, the volume the
+//!   air pushed into a 10–80 m wedge multiplies its humidity six-fold and more, its MSE runs
+//!   away and `D_raw` reaches 368 m/s). The transfer then moves exactly `|D| Δt`, the volume the
 //!   projection's continuity target asks the horizontal wind to supply. Cells where the
 //!   exponential takes more than 10 % off `D_raw` are counted as limited in
 //!   [`VerticalReport`] (and the step report and run summary), with the largest `|D_raw|`.
@@ -468,8 +468,8 @@ mod tests {
         assert_eq!(realised_velocity(f64::INFINITY, 100.0, 30.0), 0.0);
     }
 
-    /// A volcanic plume's hot, moist spot under a layer (issue 13 item 3): D far above the
-    /// old ±2 m/s bound, the limiter reported, and the transfer moves |D| Δt of air.
+    /// A volcanic plume's hot, moist spot under a layer: D far above 2 m/s, the limiter
+    /// reported, and the transfer moves |D| Δt of air.
     #[test]
     fn a_hot_moist_spot_drives_an_updraft_far_above_two_m_s() {
         let mut layers = two_layers(16);

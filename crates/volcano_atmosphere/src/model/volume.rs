@@ -115,8 +115,8 @@ pub const COHERENCE_TIME_S: f64 = 3_600.0;
 /// velocities. The classification thresholds (0.15, 0.5 m/s) are then 0.07 apart, a few cells
 /// of a 64² grid: cells of one form speckled through a cloud mass of another are grouped with
 /// their neighbours (the point of the pass), while masses tens of cells wide apart stay
-/// apart. At 1 m/s per unit, k-means split a checkerboard deck by form instead of by place
-/// and changed nothing.
+/// apart. At 1 m/s per unit, k-means splits a checkerboard deck by form instead of by place
+/// and changes nothing.
 pub const CONVECTION_SCALE: f64 = 5.0;
 /// Altitude (m) per unit of the altitude feature.
 pub const ALTITUDE_SCALE: f64 = 10_000.0;
@@ -304,7 +304,7 @@ mod tests {
     }
 
     /// A calm layer (D = C + U = 0) whose convection C is strong: Table 4.3 keys on
-    /// convection, so the cell is cumuliform. (Classified on |D| it was stratus.)
+    /// convection, so the cell is cumuliform. (Classified on |D| it would be stratus.)
     #[test]
     fn first_pass_reads_convection_not_the_total_vertical_velocity() {
         let s = Scenario::builtin("convection").unwrap();

@@ -46,10 +46,11 @@ pub struct WeatherPipelineSettings {
     pub off_thread: bool,
     /// Wall-clock time an off-thread step waits before it starts working (default 20 ms).
     /// Started at once, its first burst (a newly woken thread copying the layers, 5 MB at
-    /// 128² × 5, at full memory bandwidth) landed on the main thread's busiest tick: in the
-    /// eruption scene on two cores the weather tick took 2.3× the others (`volcano bench`,
-    /// release), 1.15× with the delay, the other ticks unchanged. The result is applied at the same base tick whatever
-    /// the delay (the state never depends on it), and a join ends the delay at once (several
+    /// 128² × 5, at full memory bandwidth) lands on the main thread's busiest tick: in the
+    /// eruption scene on two cores the weather tick takes 2.3× the others without the delay
+    /// and 1.15× with it (`volcano bench`, release), the other ticks alike. The result is
+    /// applied at the same base tick whatever the delay (the state never depends on it), and a
+    /// join ends the delay at once (several
     /// steps in one base tick, `join_weather`, `flush_weather`); keep it well under the weather
     /// cadence's wall time (a second of game time at 50 Hz), or the write-back waits.
     pub start_delay: std::time::Duration,

@@ -65,7 +65,7 @@ pub fn rss_mib() -> f64 {
 /// (`uordblks`) plus the blocks it mapped on its own (`hblkhd`, large allocations), over all
 /// arenas. It counts what was allocated, touched or not: a buffer that grows by doubling shows
 /// as a step in the heap at each doubling and a ramp in resident memory in between, as its
-/// pages are written (an hour's `ticks.csv` held in a `String` did so: 4 and 8 MiB steps at
+/// pages are written (an hour's `ticks.csv` held in a `String` would: 4 and 8 MiB steps at
 /// simulated minutes 25 and 50, resident memory +0.2 MiB a minute). Resident memory growing
 /// under a flat heap is a reserved buffer being filled (the bench's own tick times, 8 B per
 /// tick: ≈ 0.023 MiB per simulated minute) or memory the allocator keeps after a free.

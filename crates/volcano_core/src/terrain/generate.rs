@@ -166,7 +166,7 @@ impl StratovolcanoParams {
 }
 
 /// The radial gully field of [`StratovolcanoParams::generate`], about [−1, 1] (standard
-/// deviation 0.40 on the upper and middle flank). Our own law for the look (issue 18), not from
+/// deviation 0.40 on the upper and middle flank). Our own law for the look, not from
 /// the thesis: it is tuned against aerial views of stratovolcanoes (Mayon, Fuji, Ruapehu),
 /// whose flanks carry gullies a few hundred metres apart, irregular, branching and merging, a
 /// few times longer than wide, that die out on the lower apron.
@@ -181,26 +181,26 @@ impl StratovolcanoParams {
 ///   [`Gullies::MIN_CELLS`] cells (fully at twice that), so no octave is ever finer than the
 ///   grid can draw at that radius: near the summit only the coarsest remains, downslope finer
 ///   ones join in and gullies branch; a coarse grid (the tests' 100–500 m cells) gets fewer,
-///   broader gullies rather than aliased ones. Before issue 18, five octaves on a fixed circle
-///   of radius 6 reached 26 m across the slope at mid-flank, below the 40 m cell, and aliased
-///   into hairline streaks.
+///   broader gullies rather than aliased ones. Five octaves on a fixed circle of radius 6
+///   would reach 26 m across the slope at mid-flank, below the 40 m cell, and alias into
+///   hairline streaks.
 /// - **Down the slope** the coordinate is `(k_i / ELONGATION) · ln(r / r_foot)`: `(θ, ln r)` is
 ///   conformal, so every octave is [`Gullies::ELONGATION`] times longer down the slope than
-///   across it at every radius (the old ridges: 6:1 at mid-flank, 30:1 near the crater).
+///   across it at every radius (ridges on a fixed circle: 6:1 at mid-flank, 30:1 near the
+///   crater).
 /// - The crest `|n|` is rounded (`√(n² + ε²)`, `ε` = two cells over the octave's unit, at
 ///   least 0.15), so gully floors are about two cells wide rather than one-node creases.
 /// - The angle is warped by a slow noise (about ±0.1 rad, changing over the flank's length),
 ///   so gullies bend instead of running as straight rays.
 /// - The envelope rises from the crater rim over 0.1 `r_foot`, is full down to 0.5 `r_foot`
-///   and falls smoothly to zero at the foot (0.22 of full at 0.85 `r_foot`, where the old
-///   `sin(π r / r_foot)` still gave 0.45): the gentle concave apron is where real gullies end
+///   and falls smoothly to zero at the foot (0.22 of full at 0.85 `r_foot`, where a
+///   `sin(π r / r_foot)` envelope gives 0.45): the gentle concave apron is where real gullies end
 ///   in fans, so they fade out instead of running on as straight lines.
 ///
 /// Measured on the default cone at 40 m (tests below, seeds 7, 1, 2): the share of the
 /// cross-slope slope variance at wavelengths under three cells is at most 0.03 from
-/// 0.15 `r_foot` outwards (0.03–0.24 before, 0.09–0.24 at 0.15–0.3 `r_foot`), and the correlation
-/// length is 2.9–6.5 times longer down the slope than across it (5.6–12.8 before), at least
-/// 85 m across (61 m before).
+/// 0.15 `r_foot` outwards, and the correlation length is 2.9–6.5 times longer down the slope
+/// than across it, at least 85 m across.
 struct Gullies {
     octaves: Vec<Perlin>,
     warp: Perlin,
@@ -221,8 +221,8 @@ impl Gullies {
     const ELONGATION: f64 = 4.0;
     /// An octave fades in from this many cells per noise unit, fully at twice as many.
     const MIN_CELLS: f64 = 5.0;
-    /// Scale of the field: its standard deviation between 0.2 and 0.5 `r_foot` is then 0.40, as
-    /// the pre-issue-18 ridges' was, so `ridge_amplitude` keeps its size.
+    /// Scale of the field: its standard deviation between 0.2 and 0.5 `r_foot` is then 0.40, so
+    /// `ridge_amplitude` scales a field of that size.
     const GAIN: f64 = 1.3;
     /// Angular warp amplitude, in units of the coarsest octave's angular unit (1 / K0 rad).
     const WARP: f64 = 0.8;
@@ -424,8 +424,8 @@ mod tests {
         (length(false), length(true))
     }
 
-    /// Issue 18: the flanks showed hairline radial stripes because the ridge noise's
-    /// cross-slope octaves went below the cell and aliased node to node.
+    /// No cross-slope octave goes below the cell: one that did would alias node to node into
+    /// hairline radial stripes on the flanks.
     #[test]
     fn gullies_are_resolved_across_the_slope() {
         let mut worst: f64 = 0.0;
@@ -445,8 +445,8 @@ mod tests {
         assert!(worst_top < 0.08, "near the summit detail under 3 cells carries {worst_top:.3}");
     }
 
-    /// Gullies run down the slope, a few times longer than wide, but not as the 10:1 streaks
-    /// of issue 18; and nowhere narrower than two cells.
+    /// Gullies run down the slope, a few times longer than wide, but not as 10:1 streaks; and
+    /// nowhere narrower than two cells.
     #[test]
     fn gullies_are_elongated_downslope_but_not_streaks() {
         let mut bad = Vec::new();
@@ -467,9 +467,8 @@ mod tests {
         assert!(bad.is_empty(), "{bad:?}");
     }
 
-    /// The gully relief keeps the old ridges' size on the upper and middle flank (standard
-    /// deviation 0.40 `ridge_amplitude` before issue 18), dies out on the apron and is nil on
-    /// the plain.
+    /// The gully relief has a standard deviation of 0.40 `ridge_amplitude` on the upper and
+    /// middle flank, dies out on the apron and is nil on the plain.
     #[test]
     fn gully_relief_fades_out_on_the_apron() {
         for seed in [7, 1, 2] {

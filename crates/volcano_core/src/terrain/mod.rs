@@ -30,8 +30,8 @@ pub use remap::{NodeRegion, NodeRemap};
 use crate::error::ConfigError;
 use crate::grid::{Boundary, Grid2};
 
-/// Surface type of a terrain cell; drives colour now, and albedo, emissivity and heat
-/// capacity in the atmosphere model later (thesis §4.2.5).
+/// Surface type of a terrain cell; drives its colour, and its albedo, emissivity and heat
+/// capacity in the atmosphere model (thesis §4.2.5).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash, Reflect, Serialize, Deserialize)]
 pub enum LandCover {
     /// Bare rock, ash or soil.

@@ -26,7 +26,7 @@ pub fn contact_from_crust(kappa: f64, h: f64) -> f64 {
 
 /// `eˣ`, by its Taylor series to x⁴ when |x| < 10⁻² (relative error < 10⁻¹², the usual
 /// case: divergence × 0.02 s), else `f64::exp`. The divergence factor of eq (5.3) is
-/// evaluated for every crusted cell each step, and `exp` was most of the crust update.
+/// evaluated for every crusted cell each step, and `exp` would be most of the crust update.
 #[inline]
 pub fn exp_small(x: f64) -> f64 {
     if x.abs() < 1e-2 { exp_taylor(x) } else { x.exp() }

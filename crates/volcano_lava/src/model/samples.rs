@@ -12,8 +12,9 @@
 //! the cell; dry or off-grid samples are removed; a cell keeps at most `2 × max_per_cell`
 //! (twice: samples one cell apart that cross cell edges a step apart, by the rounding of their
 //! positions, would otherwise find their next cell still full and drop one another; the cell
-//! they left was re-seeded from the grid, and on a translating sheet this replaced carried
-//! crust by stale crust over whole stretches, 4 % too thick where the crust varied 1 % a cell).
+//! they left would be re-seeded from the grid, and on a translating sheet this would replace
+//! carried crust by stale crust over whole stretches, 4 % too thick where the crust varies 1 %
+//! a cell).
 
 use bevy::math::DVec2;
 

@@ -13,7 +13,8 @@
 //! `h_c < ratio × 2√(κt)` is decided without its square root, as `h_c² > 4 ratio² κ t`
 //! with a 10⁻¹² relative margin (far more than the round-off of either side), so only cells
 //! that may reset (flagged: they need the division of `t = h_c²/(4κ)`) or lie within the
-//! margin are redone. The divider (square roots and divisions) was the loop's bottleneck.
+//! margin are redone. The divider (square roots and divisions) would be the loop's
+//! bottleneck.
 
 use std::ops::Range;
 

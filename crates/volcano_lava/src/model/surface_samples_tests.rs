@@ -91,13 +91,13 @@ fn crust_is_carried_with_the_lava_and_keeps_growing() {
     check_translation(0);
 }
 
-/// The same with Lagrangian samples. When a cell could hold only `max_per_cell` samples,
-/// cells 37–42 (x = 18.5–21 m) came out up to 4 % too thick (worst 4.05e-2): samples
-/// crossing cell edges a step apart dropped one another and their cells were re-seeded
-/// from stale grid values. Now 5.1e-3: a cell re-seeded once keeps two samples half a
-/// cell apart whose mean stands for the cell, and the crust varies 1 % per cell here, so
-/// the bound is 1e-2 (the grid's 5e-3 would ask the mean of two positions to be the value
-/// at one).
+/// The same with Lagrangian samples. A cell holds up to `2 × max_per_cell` samples: with
+/// only `max_per_cell`, cells 37–42 (x = 18.5–21 m) come out up to 4 % too thick (worst
+/// 4.05e-2), as samples crossing cell edges a step apart drop one another and their cells
+/// are re-seeded from stale grid values. The error is 5.1e-3: a cell re-seeded once keeps
+/// two samples half a cell apart whose mean stands for the cell, and the crust varies 1 % per
+/// cell here, so the bound is 1e-2 (the grid's 5e-3 would ask the mean of two positions to be
+/// the value at one).
 #[test]
 fn samples_carry_the_crust_with_the_lava() {
     check_translation(1);

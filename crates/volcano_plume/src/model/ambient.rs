@@ -79,7 +79,7 @@ impl LayeredAmbient {
         }
         // The first level above `z` (levels are strictly increasing: a binary search).
         match l.partition_point(|v| v.altitude <= z) {
-            // 0 only for a NaN `z` (it failed the test above): the top level, as before.
+            // 0 only for a NaN `z` (it failed the test above): treated as above the top level.
             i if i == l.len() || i == 0 => Bracket::Above,
             i => {
                 let (a, b) = (&l[i - 1], &l[i]);

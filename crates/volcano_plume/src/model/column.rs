@@ -19,9 +19,9 @@
 //!   which is < 3 % of the enthalpy at 275 m/s). Heat capacities are per phase.
 //! - **Entrainment**: the thesis' eq 3.7, `U_e = k_s |v − v_w cos θ| + k_w |v_w sin θ|`, through
 //!   the side, with the constant top-hat coefficient of Morton et al. (1956) and Woods (1988)
-//!   (`k_s = 0.09`). A gas-thrust factor `(ρ/ρ_a)^{1/2}` (Ricou & Spalding 1961) was tried: it
-//!   lowers the collapse threshold of the 100 m, 3 wt% vent from 72 to 60 m/s, away from the
-//!   Woods-type value of ≈ 72 m/s, and is not used.
+//!   (`k_s = 0.09`). A gas-thrust factor `(ρ/ρ_a)^{1/2}` (Ricou & Spalding 1961) is not used:
+//!   it lowers the collapse threshold of the 100 m, 3 wt% vent from 72 to 60 m/s, away from
+//!   the Woods-type value of ≈ 72 m/s.
 //! - **Wind** enters through the horizontal momentum of the entrained air
 //!   (`M v ← M v + m_a v_w`, Bursik 2001); the thesis' λ force (eq 3.6) is kept as a
 //!   coefficient the preset sets to 0.

@@ -1,8 +1,7 @@
 //! The plume domain's step (docs/ARCHITECTURE.md §2.1): everything one volcano's column does
 //! in one plume step, on plain data, called by `PlumePlugin`, the tests and the benches alike.
 //!
-//! [`step`] runs, in this order (the order the plugin's systems ran in before there was a
-//! model step, so results are unchanged):
+//! [`step`] runs, in this order:
 //!
 //! 1. **Emission** (§3.4.1): a slice at the vent every `PlumeParams::emission_interval`
 //!    (`r₀/(2v₀)` for the thesis' slice), at most [`MAX_EMISSIONS_PER_STEP`] per step; what is
@@ -357,7 +356,7 @@ fn cap_umbrella(
     let u = &state.umbrella;
     let older = |a: &usize, b: &usize| u[*b].age.total_cmp(&u[*a].age).then(u[*a].id.cmp(&u[*b].id));
     // Only the excess is ordered: at the cap a few spheres arrive per step among tens of
-    // thousands (a full sort of them every step was most of a soak's tick).
+    // thousands (a full sort of them every step would be most of a soak's tick).
     let excess = list.len() - max;
     list.select_nth_unstable_by(excess - 1, older);
     list[..excess].sort_by(older);

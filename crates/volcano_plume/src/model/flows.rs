@@ -2,8 +2,7 @@
 //! pyroclastic flows of every volcano do in one step, on plain data, called by
 //! `PyroclasticPlugin`, the tests and the benches alike.
 //!
-//! [`step`] runs, in this order (the order the plugin's systems ran in before there was a
-//! model step, so results are unchanged):
+//! [`step`] runs, in this order:
 //!
 //! 1. **Hand-over**: each collapsed slice becomes `N = round(V / V_s2)` particles
 //!    ([`collapse`], at most [`MAX_PARTICLES_PER_SLICE`]) from its own random stream
@@ -56,9 +55,9 @@ use super::spheres::SphereParams;
 pub const MAX_PARTICLES_PER_SLICE: usize = 2_000;
 
 /// The plugin's deposit relaxation: one Jacobi pass per `RELAX_PERIOD.0` of domain time, at
-/// `RELAX_PERIOD.1` past each multiple (a pass at 1/8, 3/8, 5/8, 7/8 s: four a second, as the
-/// four passes once per second before, but spread, and off the whole seconds where the weather
-/// steps, so the two costs never fall on one tick).
+/// `RELAX_PERIOD.1` past each multiple (a pass at 1/8, 3/8, 5/8, 7/8 s: four a second, spread
+/// rather than run together once a second, and off the whole seconds where the weather steps,
+/// so the two costs never fall on one tick).
 pub const RELAX_PERIOD: (std::time::Duration, std::time::Duration) =
     (std::time::Duration::from_millis(250), std::time::Duration::from_millis(125));
 

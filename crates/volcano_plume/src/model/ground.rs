@@ -1,5 +1,5 @@
-//! What eruptions leave on the ground and their books, as plain data (issue 14, item 2: many
-//! volcanoes on many terrains share nothing): the [`DepositMap`] of one terrain (the
+//! What eruptions leave on the ground and their books, as plain data (many volcanoes on many
+//! terrains share nothing): the [`DepositMap`] of one terrain (the
 //! pyroclastic flows and the coupled ash fall of the volcanoes standing on it add to it), and
 //! the [`PyroclasticBudget`] of one volcano. The plugins keep them as components (on every
 //! `Terrain` and on every volcano with an `Eruption`); the pyroclastic domain's step
@@ -60,8 +60,8 @@ impl DepositMap {
     /// Creates the grids over `terrain` if they do not exist yet, or anew (emptied) if the
     /// terrain's grid changed size, with the relaxation's scratch, every page of them written
     /// once now: zeroed memory is mapped on first write, and the first relaxation after the
-    /// first deposit wrote the whole mass grid and its scratch, ≈ 1,000 page faults at 513²,
-    /// which made that one tick 3–18 ms (`volcano bench`'s tick 107 of `eruption`). The
+    /// first deposit writes the whole mass grid and its scratch, ≈ 1,000 page faults at 513²,
+    /// which would make that one tick take 3–18 ms (`volcano bench`'s tick 107 of `eruption`). The
     /// plugin calls this for the terrains erupting volcanoes stand on before their first tick.
     pub fn ensure(&mut self, terrain: &Terrain) {
         if !self.fits(terrain) {

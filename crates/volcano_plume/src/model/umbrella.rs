@@ -96,14 +96,15 @@ impl UmbrellaSphere {
     ///
     /// Our reading of §3.5.2 (docs/ARCHITECTURE.md §4.3, "Umbrella"): the thesis spreads the
     /// spheres radially from a vertical column's axis, where the ring is horizontal and the
-    /// ring azimuth *is* the radial direction, so an untilted slice spreads as before. A column
-    /// bent over by the wind arrives with a near-vertical ring, whose offsets all point across
-    /// the wind horizontally: spread along them, every slice's spheres piled up in two clumps.
+    /// ring azimuth *is* the radial direction, so an untilted slice spreads as the thesis has it.
+    /// A column bent over by the wind arrives with a near-vertical ring, whose offsets all point
+    /// across the wind horizontally: spread along them, every slice's spheres would pile up in
+    /// two clumps.
     /// The point the sphere spreads from (`axis`) is set so that it starts where it sat, within
     /// a ring diameter of the slice centre. Under either law: a gravity current's spheres too
-    /// start where they sit and move on at the speed the front would have there (they once
-    /// started on the axis, a jump of half a slice — up to a kilometre for the physical column
-    /// — at detachment).
+    /// start where they sit and move on at the speed the front would have there (starting on
+    /// the axis would be a jump of half a slice — up to a kilometre for the physical column —
+    /// at detachment).
     pub fn detach(slice: &Slice, local: DVec3, spread: Spread) -> Self {
         let offset = slice.rotation() * local;
         let h = offset.truncate();
@@ -263,10 +264,10 @@ mod tests {
 
     /// A column bent over by the wind reaches its apex with its ring nearly vertical: the
     /// horizontal parts of the ring offsets all lie along one line across the wind. Spread
-    /// along them, the umbrella was two clumps on that line, every slice's spheres piled on
-    /// the same two spots (issue 18: the "disc face" of the `eruption` frame was one of them,
-    /// seen end-on). Each sphere now spreads along its own ring azimuth: a ring of six covers
-    /// every direction, 60° apart, however the slice is tilted.
+    /// along them, the umbrella would be two clumps on that line, every slice's spheres piled
+    /// on the same two spots (seen end-on, such a clump shows as a flat disc face). Each sphere
+    /// spreads along its own ring azimuth: a ring of six covers every direction, 60° apart,
+    /// however the slice is tilted.
     #[test]
     fn a_bent_columns_ring_spreads_in_every_direction() {
         use super::super::params::Preset;
@@ -306,7 +307,7 @@ mod tests {
     }
 
     /// A sphere leaving a wind-tilted slice starts where it sits on the ring, under either
-    /// spreading law (issue 17 item 11: the gravity current's spheres used to start on the axis).
+    /// spreading law (the gravity current's spheres too, not on the axis).
     #[test]
     fn a_detached_sphere_starts_where_it_sat_on_the_tilted_ring() {
         use super::super::params::Preset;

@@ -1,4 +1,5 @@
-//! Wind by altitude, an input of the plume model (the coupled atmosphere replaces it later).
+//! Wind by altitude, an input of the plume model (a coupled atmosphere replaces it, see
+//! `model::ambient`).
 
 use bevy::math::DVec2;
 use bevy::reflect::Reflect;

@@ -2,12 +2,12 @@
 //! slices and umbrella spheres into a [`PlumeState`] (in query order), calls [`domain::step`]
 //! once per volcano with the s1 entities as its [`RingSource`] (one pass over them in a step
 //! where slices leave the column, none otherwise), and writes the results back in the order
-//! the plugin's separate systems used to: the emitted slices are spawned first, then the live-slice cap's
-//! retirements, then the slices in query order (state, transform, neutral-buoyancy messages,
-//! removals, then the finished slices: umbrella spheres or a collapse), then the umbrella
-//! spheres in query order (the detached ones last), then the umbrella cap's retirements. Keeping
-//! that order keeps the entities' storage order, and with it the order of every later step's
-//! sums and messages, what it was.
+//! the domain step produced them: the emitted slices are spawned first, then the live-slice
+//! cap's retirements, then the slices in query order (state, transform, neutral-buoyancy
+//! messages, removals, then the finished slices: umbrella spheres or a collapse), then the
+//! umbrella spheres in query order (the detached ones last), then the umbrella cap's
+//! retirements. That fixed order fixes the entities' storage order, and with it the order of
+//! every later step's sums and messages.
 
 use std::cell::RefCell;
 use std::collections::HashSet;

@@ -9,7 +9,8 @@
 //! the optical depth at its light-facing surface, minus its own contribution (a sphere does not
 //! shadow itself through the grid; the shader shades its own body with its normal). A cell's
 //! density is capped at the densest parent reaching it: the parents overlap as samples of one
-//! continuum, and summing their masses made a column's head 20 times too opaque (dark discs).
+//! continuum, and summing their masses would make a column's head 20 times too opaque (dark
+//! discs).
 
 use bevy::prelude::*;
 
@@ -263,7 +264,7 @@ mod tests {
         let l = light_parents(&parents, &settings(Vec3::X));
         let tau = -l[0].sun.ln();
         // The grid blurs the column's edge and the rings leave gaps: within half of 1.2 (1.23
-        // measured). Summing the spheres' masses instead gave τ ≈ 29.
+        // measured). Summing the spheres' masses instead would give τ ≈ 29.
         assert!((0.6..1.8).contains(&tau), "τ = {tau} (sun {:?})", l[0]);
     }
 

@@ -1,4 +1,4 @@
-//! Ash fall (issue 13 item 4, thesis §4.3: ash carried by the layers): each [`Atmosphere`](volcano_atmosphere::Atmosphere)
+//! Ash fall (thesis §4.3: ash carried by the layers): each [`Atmosphere`](volcano_atmosphere::Atmosphere)
 //! holding ash gets one box over its footprint drawn by the lit ray-marching pass of the clouds
 //! ([`CloudMaterial`], `clouds.wgsl`: a march toward the sun per sample, ambient sky light,
 //! the shadow on the ground behind) whose 3D density image is the layers' ash concentration
@@ -12,13 +12,13 @@
 //! forward less. Its mass extinction is ≈ 0.5 m²/g for fine ash, so 0.05 g/m³ would be opaque
 //! within 40 m; [`AshFallSettings::extinction_per_gram`] is far lower than that so that the
 //! curtain, drawn from voxels of a few hundred metres, shows its shafts and thins at its edges
-//! instead of standing as a wall. At 0.03 (until 2026-11-27) a ray along the `eruption`
-//! scene's curtain, through kilometres of ash, was opaque: seen across the wind it hid the
-//! column behind it as one pale, smooth, straight-sided wall. At 0.005, darker and browner
-//! (albedo 0.6, less sky light under the umbrella), the column shows through it. Until
-//! 2026-11-26 the ash was a Bevy `FogVolume`, whose shader attenuates the light reaching a
-//! sample by the whole volume's bounding radius (tens of km): any fog dense enough to see
-//! turned black, the curtain a dark box.
+//! instead of standing as a wall. At 0.005, darker and browner (albedo 0.6, less sky light
+//! under the umbrella), the column shows through it; at 0.03 a ray along the `eruption`
+//! scene's curtain, through kilometres of ash, is opaque: seen across the wind it hides the
+//! column behind it as one pale, smooth, straight-sided wall. The ash is not a Bevy
+//! `FogVolume`: that shader attenuates the light reaching a sample by the whole volume's
+//! bounding radius (tens of km), so any fog dense enough to see turns black, the curtain a
+//! dark box.
 //! The ground tint of the fall deposit is [`crate::terrain::deposit`]'s (the coupling writes the fall
 //! into the same `DepositMap` as the pyroclastic flows).
 
@@ -165,7 +165,7 @@ impl AshFallSettings {
 pub struct AshFallVolume {
     /// The drawn box ([`AshFallDraw`]).
     pub draw: Entity,
-    /// The 3D density image: a new handle at every rebuild (since 2026-11-27; see
+    /// The 3D density image: a new handle at every rebuild (see
     /// `density_volume::density_image` for why it is not replaced in place).
     pub image: Handle<Image>,
     /// The box's material.
@@ -273,10 +273,10 @@ pub fn ash_material(
         march: Vec4::new(s.step_count as f32, s.sun_steps as f32, s.sun_distance_m, s.shadow_strength),
         light: Vec4::new(s.sun_gain, s.ambient_gain, s.albedo, 60.0),
         tint: Vec4::new(colour.red, colour.green, colour.blue, 0.0),
-        // No noise. The pass's lumps (`CloudRenderSettings::detail`) were tried on the curtain,
-        // stretched 4× vertically as fall shafts (2026-11-27): a view ray crosses kilometres
-        // of thin ash and averages many features, so the frame barely changed (mean
-        // horizontal luminance step 1.13 → 1.15 in `headless_ash_fall`'s scene).
+        // No noise. The pass's lumps (`CloudRenderSettings::detail`), stretched 4× vertically
+        // as fall shafts, add next to nothing on the curtain: a view ray crosses kilometres of
+        // thin ash and averages many features (mean horizontal luminance step 1.15 with them,
+        // 1.13 without, in `headless_ash_fall`'s scene).
         detail: Vec4::ZERO,
         segment: CloudMaterial::BEHIND_ASH,
         substeps: s.substeps,

@@ -11,8 +11,8 @@
 //! drawn mass follows the field, and each level reads the field a little to the side
 //! ([`meander_offsets`]) so the curtain's sides wander instead of standing straight. Below the
 //! terrain nothing is drawn, and over the top layer the ash fades to nothing at the stack's
-//! top ([`lid_fade`]): held at the top layer's value up to its top, the curtain had a flat,
-//! hard lid above the umbrella. That fade and the one along the footprint's
+//! top ([`lid_fade`]): held at the top layer's value up to its top, the curtain would have a
+//! flat, hard lid above the umbrella. That fade and the one along the footprint's
 //! sides ([`edge_fade`]) are moved per column by a noise ([`relief_factors`]).
 
 use bevy::math::Vec2;
@@ -132,9 +132,9 @@ pub fn ash_density_volume(
     let radius = (spec.blur_m * nxy as f64 / extent).round() as usize;
     let meander = meander_offsets(spec, extent);
     // Each layer's ash at the voxel columns, sampled once: the columns are the same at every
-    // level, and a level blends two layers (sampled per voxel, the same bilinear reads were
-    // repeated for every level of a layer; `benches/ash_volume.rs`, the plain sampling of a
-    // 128² × 64 volume: 50 → 14 ms).
+    // level, and a level blends two layers (sampled per voxel, the same bilinear reads would
+    // be repeated for every level of a layer; `benches/ash_volume.rs`, the plain sampling of a
+    // 128² × 64 volume: 14 ms, 50 ms per voxel).
     let mut at_columns: Vec<Option<Vec<f64>>> = vec![None; layers.len()];
     for &(_, blend) in &levels {
         let Some((lo, hi, w)) = blend else { continue };
@@ -193,9 +193,9 @@ pub fn ash_density_volume(
 /// its top, the whole ramp lowered by half of `drop` times the top layer's thickness. The
 /// layers hold one value per slab; where the stack ends, this reads the air above as thinning
 /// out. A rendering choice, against two defects seen in renders: held at the top layer's value
-/// up to its top, the curtain had a flat, hard lid above the umbrella; faded over the layer's
+/// up to its top, the curtain has a flat, hard lid above the umbrella; faded over the layer's
 /// upper half only, with a noise-lowered ramp, its top seen edge-on from a camera near the lid
-/// was a row of square notches. The top layer is also where the umbrella's spheres draw the
+/// is a row of square notches. The top layer is also where the umbrella's spheres draw the
 /// same ash. The air-ash query (`air_ash_at`) keeps the slab's value.
 pub fn lid_fade(layers: &[&LayerFields], z: f64, drop: f64) -> f64 {
     let Some(top) = layers.last() else { return 0.0 };
@@ -233,7 +233,7 @@ pub fn relief_factors(spec: &AshVolumeSpec, extent: f64) -> (Vec<f64>, Vec<f64>)
 /// voxels along x, then y, twice (close to a Gaussian of σ ≈ 0.8 · radius), edges clamped.
 /// The atmosphere's ash is advected with little diffusion, so where it begins upwind of the
 /// column it begins within a cell, the same cell in every layer: drawn as sampled, the curtain
-/// had a straight vertical edge kilometres tall. A rendering choice; the mass stays where the
+/// would have a straight vertical edge kilometres tall. A rendering choice; the mass stays where the
 /// layers hold it, spread over a few hundred metres. Written by hand: a running sum per row.
 pub fn blur_level(level: &mut [f32], nxy: usize, radius: usize) {
     if radius == 0 || nxy < 2 || level.len() != nxy * nxy {
@@ -265,7 +265,7 @@ pub fn blur_level(level: &mut [f32], nxy: usize, radius: usize) {
 /// How much of the ash is drawn `inside` metres from the nearest side of the footprint: 0 at
 /// the side, rising smoothly (smoothstep) to 1 at `band` metres in. The atmosphere's grid
 /// ends there but the air does not: drawn at full value up to the side, an umbrella's ash that
-/// reached the boundary stood as a wall with straight vertical edges (the box's own). A
+/// reaches the boundary would stand as a wall with straight vertical edges (the box's own). A
 /// rendering choice, like [`lid_fade`]; the ash budget is the layers'.
 pub fn edge_fade(inside: f64, band: f64) -> f64 {
     if band.is_nan() || band <= 0.0 {
@@ -279,7 +279,7 @@ pub fn edge_fade(inside: f64, band: f64) -> f64 {
 /// integers), interpolated bilinearly, clamped to the edge voxels: what
 /// `Grid2::sample_grid(u, v, Boundary::Clamp)` gives, in f32 on a plain slice, because this is
 /// the meander's per-voxel read (the grid's sampler, with its f64 coordinates and an index
-/// resolve per read, made a 128² × 64 rebuild about 10 ms slower: 47–52 vs 37 ms, `ash_volume`
+/// resolve per read, makes a 128² × 64 rebuild about 10 ms slower: 47–52 vs 37 ms, `ash_volume`
 /// bench).
 fn bilinear_clamped(img: &[f32], n: usize, u: f32, v: f32) -> f32 {
     let top = (n - 1) as f32;
@@ -302,12 +302,12 @@ pub const MEANDER_NODES: usize = 33;
 /// (x, y, altitude) with features of half `relief_m` across and 3 km in altitude, doubled
 /// and clamped to ±1, times `meander_m`. Empty when `meander_m` is 0. A rendering choice: the
 /// layers' ash is advected with the same winds over a few layers, so where the curtain ends
-/// sideways it ended in the same cell at every altitude, and a render showed its sides as
-/// straight vertical edges kilometres tall. Reading each level a little to the side makes
-/// them wander; an offset of up to ±1.5 km over 3 km features changes a level's drawn ash by
-/// up to 12 % (tested; the default is ±800 m). Sampled on a lattice, not per voxel: 2 · 33² · 64 noise calls
-/// instead of 2 · 128² · 64 per rebuild (4.4 ms; the whole meander adds 14 ms to a 128² × 64
-/// rebuild, `benches/ash_volume.rs`).
+/// sideways it ends in the same cell at every altitude: read straight down, its sides would
+/// be vertical edges kilometres tall. Reading each level a little to the side makes them
+/// wander; an offset of up to ±1.5 km over 3 km features changes a level's drawn ash by up to
+/// 12 % (tested; the default is ±800 m). Sampled on a lattice, not per voxel: 2 · 33² · 64
+/// noise calls instead of 2 · 128² · 64 per rebuild (4.4 ms; the whole meander adds 14 ms to
+/// a 128² × 64 rebuild, `benches/ash_volume.rs`).
 pub fn meander_offsets(spec: &AshVolumeSpec, extent: f64) -> Vec<Vec2> {
     if spec.meander_m <= 0.0 {
         return Vec::new();
@@ -365,8 +365,8 @@ pub fn meander_shifts(lattice: &[Vec2], nxy: usize, out: &mut [Vec2]) {
 /// shafts about twice the field. A rendering choice: the layers' ash has no structure below
 /// their cells, and a real fall hangs in shafts (fall streaks) under the umbrella. The
 /// features must span several voxels to survive the pass's filtering and the kilometres of
-/// curtain a view ray crosses: at 350 m over 200 m voxels (before 2026-11-27) the curtain read
-/// as one smooth grey wall.
+/// curtain a view ray crosses: at 350 m over 200 m voxels the curtain reads as one smooth grey
+/// wall.
 pub fn streak_factors(spec: &AshVolumeSpec, extent: f64) -> Vec<f64> {
     let nxy = spec.nxy;
     if spec.streaks <= 0.0 {

@@ -185,9 +185,9 @@ fn octave_keep(wavelength: f32, footprint: f32) -> f32 {
 
 // Optical depth from `p` toward the sun `l`, up to the volume's exit or the march length;
 // steps grow quadratically (fine near the sample, coarse far away), each sampled at its
-// middle. (Jittered per pixel until 2026-11-27: over the far steps, up to a kilometre long,
-// that turned the shaded parts of every deck and the clouds' shadows on the ground into a fine
-// per-pixel hatch; `skyscape`'s decks: mean |ΔL| 3.04 → 0.71.)
+// middle, not jittered per pixel: over the far steps, up to a kilometre long, a jitter turns
+// the shaded parts of every deck and the clouds' shadows on the ground into a fine per-pixel
+// hatch (`skyscape`'s decks: mean |ΔL| 0.71 at the middles, 3.04 jittered).
 fn sun_depth(p: vec3<f32>, l: vec3<f32>) -> f32 {
     let hit = box_hit(p, l, cloud.volume_min, cloud.volume_max);
     let len = min(max(hit.y, 0.0), cloud.march.z);
@@ -294,12 +294,12 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
     var weight = 0.0;
     if t1 > t0 && dt_full > 0.0 {
         // A short part keeps at least 16 steps (or all of them): with one or two jittered steps
-        // the part in front of the ash showed as a per-pixel checker over it.
+        // the part in front of the ash shows as a per-pixel checker over it.
         let n = min(max(ceil((t1 - t0) / dt_full), 16.0), n_full);
         let dt = (t1 - t0) / n;
         // Density samples per step (at most 8: the size of `sig`). Fewer, from how many voxels
-        // a ray crosses in a step (two samples per voxel crossed), brought `skyscape_island`'s
-        // checker back (its band's |ΔL| 29.7 against 6.9 with 8; tried 2026-11-27).
+        // a ray crosses in a step (two samples per voxel crossed), bring `skyscape_island`'s
+        // checker back (its band's |ΔL| 29.7 against 6.9 with 8).
         let m = f32(clamp(cloud.substeps, 1u, 8u));
         let ds = dt / m;
         // The occupancy level: the coarsest whose texels (maxima over themselves and their
@@ -307,10 +307,10 @@ fn fragment(in: VertexOutput) -> @location(0) vec4<f32> {
         // lumps' displacement plus one voxel (a filtered read of the finest level weighs the
         // voxels whose centres lie within one voxel of it). The texel around the step's
         // middle, read unfiltered, then covers everything the step's samples can read: where
-        // it is 0 the step holds no cloud. (Until 2026-11-27 the level was read through the
-        // linear filter, whose 8-bit result rounds a faint texel's small share to 0: faint
-        // puffs near the edges of the coarse texels were skipped. The blocks and the missing
-        // cloud of the `eruption` frame then were stale levels: `density_volume::density_image`.)
+        // it is 0 the step holds no cloud. (The level is not read through the linear filter:
+        // its 8-bit result rounds a faint texel's small share to 0, so faint puffs near the
+        // edges of the coarse texels would be skipped. Stale levels, the other way to lose
+        // cloud here, are avoided in `density_volume::density_image`.)
         let fine_dims = vec3<i32>(textureDimensions(density_texture));
         let voxel = (cloud.volume_max - cloud.volume_min) / vec3<f32>(fine_dims);
         let voxel_min = max(min(voxel.x, min(voxel.y, voxel.z)), 1e-3);

@@ -84,8 +84,8 @@ pub struct CloudRenderSettings {
     pub step_count: u32,
     /// Density samples per view step (1–8): the light is computed once per step, the
     /// density at this many jittered points in it, so that a sheet thinner than a step shows
-    /// as a sheet rather than as a per-pixel checker (1 is the single sample of before
-    /// 2026-11-27). Steps whose stretch of the volume is empty are skipped whole.
+    /// as a sheet rather than as a per-pixel checker (1: a single sample per step). Steps
+    /// whose stretch of the volume is empty are skipped whole.
     pub substeps: u32,
     /// Steps of the march toward the sun per sample (1–32).
     pub sun_steps: u32,
@@ -176,7 +176,7 @@ impl CloudRenderSettings {
 pub struct CloudVolume {
     /// The drawn box ([`CloudDraw`]).
     pub draw: Entity,
-    /// The 3D density image: a new handle at every rebuild (since 2026-11-27; see
+    /// The 3D density image: a new handle at every rebuild (see
     /// `density_volume::density_image` for why it is not replaced in place).
     pub image: Handle<Image>,
     /// The box's material.

@@ -193,9 +193,9 @@ pub(super) fn apply_cloud_builds(
             Some(mut v) => {
                 // A new image under a new handle: the material then differs from its twin in
                 // front of the ash (`split`), which is updated in the same frame. Replaced in
-                // place under the old handle, the image got a new texture that the twin's bind
-                // group never saw: it kept drawing the first volume (`density_image` makes
-                // images Bevy cannot update in place). The old image is freed when the last
+                // place under the old handle, the image would get a new texture that the twin's
+                // bind group never sees: it would keep drawing the first volume (`density_image`
+                // makes images Bevy cannot update in place). The old image is freed when the last
                 // material holding it lets go.
                 v.image = images.add(image);
                 if materials
@@ -321,9 +321,9 @@ mod tests {
 
     /// A rebuilt volume reaches the box drawn in front of the ash too (`split`'s twin): its
     /// material is modified, so the renderer builds its bind group again with the new image.
-    /// (Until 2026-11-27 the image was replaced in place and the twin's material, equal to
-    /// before, was left alone: the part of the clouds and the ash fall in front of the column
-    /// kept drawing the first volume.)
+    /// (With the image replaced in place, the twin's material would be unchanged and left
+    /// alone: the part of the clouds and the ash fall in front of the column would keep
+    /// drawing the first volume.)
     #[test]
     fn a_rebuild_reaches_the_twin_in_front_of_the_ash() {
         use crate::clouds::split::CloudFrontDraw;

@@ -55,7 +55,8 @@ pub(crate) fn split_cloud_draws(
     }
     // A resized image is a new texture, and a material's bind group keeps the one it was
     // built with: touch every cloud material so its bind group is built again (otherwise,
-    // after a window resize, the clouds read a stale image and fall back to the old order).
+    // after a window resize, the clouds read a stale image and fall back to the single-pass
+    // order).
     let resized = image_events.read().fold(false, |any, e| any | e.is_modified(&ash_depth.image));
     if resized {
         let ids: Vec<_> = originals.iter().map(|o| o.1.id()).chain(twins.iter().map(|t| t.id())).collect();
@@ -108,9 +109,9 @@ mod tests {
     use crate::clouds::{CloudRenderSettings, CloudUniform};
 
     /// After the ash-depth image is resized (a window resize), every cloud material is marked
-    /// changed, so that the renderer builds its bind group again with the new texture. Written
-    /// after finding that the materials kept the first texture; without the touch, no
-    /// `Modified` event follows the resize and this fails.
+    /// changed, so that the renderer builds its bind group again with the new texture (else
+    /// the materials keep the first texture); without the touch, no `Modified` event follows
+    /// the resize and this fails.
     #[test]
     fn resizing_the_ash_depth_image_rebuilds_the_cloud_materials() {
         use bevy::asset::AssetPlugin;

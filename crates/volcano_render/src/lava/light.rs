@@ -1,4 +1,4 @@
-//! The light incandescent lava casts on what is around it (issue 18 items 4 and 6): by night
+//! The light incandescent lava casts on what is around it: by night
 //! the ground, the folds and the obstacles beside a flow are lit orange; by day the same light
 //! is lost beside the sun's.
 //!
@@ -127,7 +127,7 @@ pub fn glow_light(
 /// their power-weighted positions and cut into runs of equal power, as many as the glowing
 /// area is about twice as long as wide (a compact lobe gets one light, a 250 × 15 m tongue
 /// eight), each run one light ([`light_of`]). The lights' powers add up to the whole
-/// emission. One light at the centroid of a long tongue left the ground beside its ends
+/// emission. One light at the centroid of a long tongue would leave the ground beside its ends
 /// nearly dark: the ground there is lit by the lava next to it, not by the lava 100 m away.
 /// Empty when nothing glows (under a lumen in all) or `max_lights` is 0.
 pub fn glow_lights(
@@ -318,7 +318,7 @@ mod tests {
     /// Along a long tongue the lights are strung out, carry the whole emission between them,
     /// and light the ground beside the tongue's ends about as the lava next to it does: each
     /// sampled block an isotropic emitter where it lies is the reference. One light at the
-    /// centroid (the old rule) left the ends at a few tenths of it.
+    /// centroid would leave the ends at a few tenths of it.
     #[test]
     fn a_long_tongue_gets_lights_along_it_that_light_its_ends() {
         let (f, p) = tongue();

@@ -307,7 +307,7 @@ fn update_surfaces(
             let (w, h) = (surface.pattern.width, surface.pattern.height);
             let _ = images.insert(surface.image.id(), emissive_image(w, h, surface.texels.clone()));
             // Touch the material so its bind group picks up the new texture (`into_inner` marks
-            // it modified; a bare `get_mut`, as here before, marks nothing in Bevy 0.19).
+            // it modified; a bare `get_mut` marks nothing in Bevy 0.19).
             if let Some(m) = materials.get_mut(&surface.material) {
                 m.into_inner();
             }

@@ -199,7 +199,7 @@ fn vertex(v: Vertex) -> VertexOutput {
     // A detail sphere on the far side of its parent from the eye is seen through the parent's
     // body: Beer–Lambert over the chord toward the eye, as toward the sun in the fragment
     // stage. Children are not sorted within their parent, so without this the shadowed back
-    // children were blended over the lit front ones (dark discs ringed with light).
+    // children would be blended over the lit front ones (dark discs ringed with light).
     let to_eye = normalize(view.world_position - a.center_radius.xyz);
     let view_chord = max(-dot(place, to_eye), 0.0) * 2.0;
     var out: VertexOutput;
@@ -286,7 +286,7 @@ fn coverage(in: VertexOutput) -> vec2<f32> {
 
 // Fragments at least this opaque mark where the ash begins along a view ray (the ash-depth
 // pass). Low, so that a puff's soft fringe behind a cloud is not drawn over the cloud (with
-// 0.35 the fringe showed as a dark outline through a cloud in front of the puff); the price is
+// 0.35 the fringe shows as a dark outline through a cloud in front of the puff); the price is
 // that a cloud behind a faint veil of ash and in front of dense ash is drawn under both.
 const DEPTH_ALPHA: f32 = 0.03;
 

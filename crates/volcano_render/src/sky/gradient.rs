@@ -124,11 +124,11 @@ impl GradientSky {
             // tonemapping, whose shoulder dims and desaturates it, while the skybox's horizon
             // is not tonemapped: per-channel gains measured so that fully fogged land meets
             // the default horizon on screen (llvmpipe, ACES fitted, EV100 13: fog at 1.0×
-            // showed (162, 178, 197) against a sky of (177, 201, 233); the gains were set
+            // shows (162, 178, 197) against a sky of (177, 201, 233); the gains are set
             // with `tests/headless_horizon.rs`, where the far ring's edge shows (183, 203, 234)
             // against a sky of (179, 203, 236)). On an HDR camera both go through the
             // tonemapping pass and meet at 1.0× ((160, 175, 193) against (159, 175, 194); the
-            // LDR gains there showed (180, 200, 232), a bright band under the horizon).
+            // LDR gains there show (180, 200, 232), a bright band under the horizon).
             color: Color::from(LinearRgba::from_vec3(
                 self.horizon.to_vec3() * if hdr { Vec3::ONE } else { FOG_MATCH },
             )),

@@ -218,7 +218,7 @@ mod tests {
         assert!(hi > 1.3 * lo, "red/blue from {lo} to {hi}: one hue");
     }
 
-    /// Vertices kilometres apart get no metre-scale detail: the colour no longer depends on the
+    /// Vertices kilometres apart get no metre-scale detail: the colour does not depend on the
     /// fine octaves (two points 75 m apart, half the finest wavelength, look the same).
     #[test]
     fn coarse_vertices_get_no_fine_noise() {

@@ -1,8 +1,8 @@
 //! Per-pixel ground detail: the terrain's material is a [`StandardMaterial`] extended by
 //! [`GroundDetailExtension`], whose fragment shader (`detail.wgsl`) adds what the mesh cannot
 //! carry. The mesh has a vertex every 40 m on the default 512² terrain, so its colours and
-//! normals hold nothing finer than about 80 m: seen from a few hundred metres, every slope was
-//! a smooth, out-of-focus gradient.
+//! normals hold nothing finer than about 80 m: seen from a few hundred metres, every slope on
+//! its own would be a smooth, out-of-focus gradient.
 //!
 //! The shader sums gradient noise of the world position `(x, z)` at seven wavelengths from
 //! 160 m down to 0.66 m (each 2.5 times finer; the coarsest overlap what the vertices carry, but
@@ -16,9 +16,9 @@
 //! steps to the next pixel across and down (`dpdx`, `dpdy` of the world `x, z`) are short
 //! across a grazing view and long along it, so the fade follows the short one (but no less
 //! than a quarter of the long one) and each octave is averaged over up to four taps spread
-//! along the long one. Faded by the long step alone (before 2026-11-27), every octave was gone
-//! from the ground a kilometre or more in front of a scene camera a few hundred metres up, and
-//! that ground — most of every frame — was a smooth smear (`tests/headless_ground_detail.rs`,
+//! along the long one. Faded by the long step alone, every octave would be gone from the
+//! ground a kilometre or more in front of a scene camera a few hundred metres up, and that
+//! ground — most of every frame — would be a smooth smear (`tests/headless_ground_detail.rs`,
 //! the grazing view).
 //!
 //! How much each pixel takes is read from its vertex colour (the land-cover rules of

@@ -1,5 +1,5 @@
 //! A world without edges: [`TerrainHorizon`] on a [`Terrain`] entity adds a far ring of coarse
-//! ground around its mesh, so the terrain's square edge is no longer the horizon of every shot.
+//! ground around its mesh, so the terrain's square edge is not the horizon of every shot.
 //!
 //! The ring's inner loop is the terrain mesh's own border vertices (same positions, normals
 //! and colours: no gap, no seam). Further rings scale the border loop outward about the
@@ -12,9 +12,9 @@
 //!
 //! What a ring carries outward (border heights, sea or land, colours) is averaged along the
 //! ring over a window as wide as the ring is far from the edge (`loop_mean`): carried
-//! vertex by vertex, each border vertex's relief and land-cover class ran out as a straight
-//! radial streak, tens of kilometres long, which every camera outside the terrain saw
-//! converging on the volcano. Opt-in: nothing is added to
+//! vertex by vertex, each border vertex's relief and land-cover class would run out as a
+//! straight radial streak, tens of kilometres long, which every camera outside the terrain
+//! would see converging on the volcano. Opt-in: nothing is added to
 //! a terrain without the component (a game that draws its own surroundings leaves it off).
 
 use bevy::asset::RenderAssetUsages;
@@ -466,9 +466,9 @@ mod tests {
 
     /// Nothing on the border runs out as a radial streak: 4 and 7 km beyond the edge,
     /// neighbouring vertices of a ring differ in height and in colour by a small part of what
-    /// neighbours on the border do. Carried vertex by vertex (the code before), ring 6 kept
-    /// 0.74 of the border's height differences and 1.03 of its luminance differences; averaged
-    /// along the ring, 0.13 and 0.04.
+    /// neighbours on the border do. Carried vertex by vertex, ring 6 would keep 0.74 of the
+    /// border's height differences and 1.03 of its luminance differences; averaged along the
+    /// ring, it keeps 0.13 and 0.04.
     #[test]
     fn nothing_runs_out_as_a_streak() {
         let hilly = StratovolcanoParams {

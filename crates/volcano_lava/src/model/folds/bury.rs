@@ -1,8 +1,8 @@
 //! Burial of overridden fold particles: under sustained compression (lava ponding against an
 //! obstacle) ropes are overridden by the folds pushed into them, as pahoehoe ropes are in
 //! the field. Beyond the thesis, which keeps every particle: without this, converging surface
-//! velocity packed particles of dozens of folds into one cell and the neighbour searches
-//! became quadratic (a 5 s slice of the obstacle scenario took 92 s at 270 s).
+//! velocity packs particles of dozens of folds into one cell and the neighbour searches
+//! become quadratic (a 5 s slice of the obstacle scenario takes 92 s at 270 s).
 
 use super::{Fold, FoldSystem};
 
@@ -37,7 +37,7 @@ pub(crate) fn bury_overridden(sys: &mut FoldSystem, depth: f64) -> u32 {
 
 /// Removes the particles flagged in `dead`. A chain loses its dead particles and closes up
 /// (the springs then pull the survivors together: an overridden rope is drawn under rather
-/// than torn into pieces, which in a test of the obstacle scenario left 3,154 folds of 2.8
+/// than torn into pieces, which in a test of the obstacle scenario leaves 3,154 folds of 2.8
 /// particles on average at 400 s, against 335 of 14.5 this way); folds left empty disappear
 /// and follower links to them are dropped. Particle and fold indices are compacted in order,
 /// so the result is deterministic.

@@ -44,7 +44,7 @@ pub fn roll_sign(own: f64, other: f64, neighbours: &[f64], random: bool) -> f64 
 /// The pass is Jacobi-style: every particle sees the positions and heights of the step
 /// before, so the result does not depend on the particle order, and a particle squeezed
 /// between several folds gets the sum of their pushes (the thesis' closest-particle rule
-/// alone let converging flow stack particles of dozens of folds in one cell).
+/// alone lets converging flow stack particles of dozens of folds in one cell).
 pub(crate) fn collide(sys: &mut FoldSystem, field: &FlowField, p: &FoldParams) -> u32 {
     let n = sys.particles.len();
     if n == 0 {

@@ -60,8 +60,7 @@ pub struct FlowsReport {
     /// The particles removed, as (volcano, number as in [`VolcanoFlowsReport::kept`]), in the
     /// order the step removed them: in the particle step in each volcano's order, by the cap in
     /// id order, at lift-off cluster by cluster. (The plugin despawns in this order, which
-    /// keeps Bevy's table order, and with it the next step's gathering order, what it was
-    /// when each phase was a system of its own.)
+    /// fixes Bevy's table order, and with it the next step's gathering order.)
     pub removed: Vec<(usize, usize)>,
     /// Per terrain: its deposit changed (created, added to, relaxed).
     pub grounds_changed: Vec<bool>,

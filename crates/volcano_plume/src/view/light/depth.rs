@@ -7,8 +7,7 @@
 //! selects ([`Ball::for_each_column`]); a lookup finds the parent's own share in the few grid
 //! columns it reads ([`Ball::run`]) instead of scanning the whole ball. Testing every cell
 //! with a square root and a pushed list, then scanning that list again for each corner of
-//! every lookup, took 80 ms a frame (2026-11-26, `cargo bench -p volcano_plume --bench
-//! plume_ecs`; the README has the figures after).
+//! every lookup, would cost 80 ms a frame (`cargo bench -p volcano_plume --bench plume_ecs`).
 
 use bevy::prelude::*;
 
@@ -272,7 +271,7 @@ impl DepthGrid {
         let weight = self.ball_weight.get(index).copied().unwrap_or(0.0);
         let ball = if weight > 0.0 { self.ball(p) } else { None };
         // A small parent's own cells, as grid coordinates (no divisions in the loop below:
-        // they were most of a lookup's cost).
+        // they would be most of a lookup's cost).
         let (mut points, mut count) = ([([0usize; 3], 0.0f32); 8], 0);
         if ball.is_none() {
             self.trilinear(self.cell_coords(p.center), |cell, wt| {
