@@ -31,7 +31,7 @@ pub enum VolcanoQuality {
     Ultra,
 }
 
-/// What a level sets (plain numbers; see the README's quality table for their cost).
+/// What a level sets (plain numbers; docs/QUALITY.md gives their cost).
 #[derive(Debug, Clone, PartialEq, Reflect)]
 pub struct QualitySettings {
     /// Factor on a scene atmosphere's cells per side (a power of two, the result kept in

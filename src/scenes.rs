@@ -189,7 +189,7 @@ pub enum EruptionPreset {
     Plinian,
     /// Table 3.1 at v₀ = 70 m/s: the column collapses into pyroclastic flows.
     Pyroclastic,
-    /// The physical column (3 wt% gas, 2.7·10⁷ kg/s, docs/ARCHITECTURE.md §4.5): its top is
+    /// The physical column (3 wt% gas, 2.7·10⁷ kg/s, docs/physics/plume.md §4.5): its top is
     /// near the air's temperature, so the moisture it lifts condenses into a cap cloud.
     Physical,
 }

@@ -1,4 +1,4 @@
-//! Pahoehoe lava (thesis chapter 5, docs/ARCHITECTURE.md §6): a mass-exact viscous heightfield
+//! Pahoehoe lava (thesis chapter 5, docs/physics/lava.md §6): a mass-exact viscous heightfield
 //! flow with temperature-dependent viscosity, cooling and solidification (layer 1), the crust
 //! (layer 2) and folds of oriented particles that collide and roll (layer 3).
 //!

@@ -80,7 +80,7 @@ impl Eruption {
         Self { params: crate::Preset::PlinianShowcase.params(), ..Self::thesis() }
     }
 
-    /// The physical column (preset `physical`, docs/ARCHITECTURE.md §4.5): 3 wt% gas, 1,273 K,
+    /// The physical column (preset `physical`, docs/physics/plume.md §4.5): 3 wt% gas, 1,273 K,
     /// r₀ = 100 m, v₀ = 150 m/s, 2.7·10⁷ kg/s.
     pub fn physical() -> Self {
         Self { params: crate::Preset::Physical.params(), ..Self::thesis() }

@@ -3,7 +3,7 @@
 //!   the min/max limiter of Selle et al. 2008 (less dissipation, still unconditionally stable);
 //! - humidity, condensed water and ash: conservative finite-volume upwind fluxes through the
 //!   staggered faces, with the face aperture min(σ) so no water enters terrain, and as many
-//!   substeps as the outflow Courant number needs. docs/ARCHITECTURE.md §5.3 erratum:
+//!   substeps as the outflow Courant number needs. docs/physics/atmosphere.md §5.3 erratum:
 //!   semi-Lagrangian advection does not conserve, flux form does (to rounding) on the torus.
 //!
 //! All grids are `n × n`, `n` a power of two, toroidal. Displacements are in cells.

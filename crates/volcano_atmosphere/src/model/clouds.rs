@@ -1,5 +1,5 @@
 //! Cloud cover and per-cell cloud forms (thesis Table 4.3, Fig 4.5) with the thresholds of the
-//! later implementation (docs/ARCHITECTURE.md §5.6): vertical motion below 0.15 m/s is
+//! later implementation (docs/physics/atmosphere.md §5.6): vertical motion below 0.15 m/s is
 //! stratiform, above 0.5 m/s cumuliform; height bands at 2 km and 6 km. The k-means++ coherence
 //! pass and the 3D density volume are in [`super::volume`].
 

@@ -227,7 +227,7 @@ impl Default for LayerFields {
     }
 }
 
-/// Surface properties of a land cover (docs/ARCHITECTURE.md §5.5 numbers; snow and vegetation
+/// Surface properties of a land cover (docs/physics/atmosphere.md §5.5 numbers; snow and vegetation
 /// heat capacity are estimates: ice 2100, wet soil ≈ soil).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CoverProps {
@@ -242,7 +242,7 @@ pub struct CoverProps {
 }
 
 /// Properties of each land cover: water 0.1/0.952/4000, soil 0.2/0.91/800, vegetation
-/// 0.2/0.94/800 (docs/ARCHITECTURE.md §5.5), snow 0.8/0.98/2100 (fresh snow albedo, ice heat
+/// 0.2/0.94/800 (docs/physics/atmosphere.md §5.5), snow 0.8/0.98/2100 (fresh snow albedo, ice heat
 /// capacity).
 pub fn cover_props(cover: LandCover) -> CoverProps {
     match cover {

@@ -1,6 +1,6 @@
 //! Model layer: plain data and functions, no ECS types. Each physical law is a function with a
 //! doc comment naming its thesis equation (Lastic 2023, §4.2) and the erratum of
-//! docs/ARCHITECTURE.md §5.3 where one applies.
+//! docs/physics/atmosphere.md §5.3 where one applies.
 
 pub mod advection;
 pub mod amplify;

@@ -1,4 +1,4 @@
-//! Coefficients of the atmosphere model (thesis Table 4.2 and docs/ARCHITECTURE.md §5.5),
+//! Coefficients of the atmosphere model (thesis Table 4.2 and docs/physics/atmosphere.md §5.5),
 //! validated where they enter.
 
 use bevy::reflect::Reflect;
@@ -18,13 +18,13 @@ pub enum AdvectionScheme {
 }
 
 /// Coefficients of the layered model. Defaults are the values of the later implementation
-/// quoted in docs/ARCHITECTURE.md §5.5 where given, otherwise physical estimates (documented
+/// quoted in docs/physics/atmosphere.md §5.5 where given, otherwise physical estimates (documented
 /// per field).
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct AtmosphereParams {
     /// λ, convective coupling (m/s per J/kg): `C_i = λ · ΔMSE` (eq. 4.5). 1e-4: 0.1 m/s per
-    /// kelvin of anomaly. The later implementation's 5e-4 (docs/ARCHITECTURE.md §5.5) drives
+    /// kelvin of anomaly. The later implementation's 5e-4 (docs/physics/atmosphere.md §5.5) drives
     /// ±5 m/s oscillations on our grids (0.5 m/s per K, layer-wide bands of that speed need
     /// 15 m/s inflow through the continuity target).
     pub convective_coupling: f64,

@@ -1,5 +1,5 @@
 //! Pressure projection of a layer's wind (thesis eq. 4.1) with the continuity target of
-//! docs/ARCHITECTURE.md §5.3: `∇·V_i = −(D_i − D_{i−1}) / h_i`, so air leaving a layer through
+//! docs/physics/atmosphere.md §5.3: `∇·V_i = −(D_i − D_{i−1}) / h_i`, so air leaving a layer through
 //! its top draws air in horizontally (and the pressure coupling of eq. 4.7 is not erased).
 //!
 //! The terrain enters through the face apertures `a` (open fraction of each face, from σ of
@@ -65,7 +65,7 @@ fn flux_divergence_at(
 /// air it joins, `f = a / max(σ_left, σ_right)` (1 where the terrain cuts both cells alike,
 /// e.g. a flat floor inside the lowest slab; 0 against a wall). Multiplying by `a` itself
 /// would brake a layer whose slab reaches below a flat ground every step
-/// (docs/ARCHITECTURE.md §5). The thesis applies `f` once per step, so the damping doubles
+/// (docs/physics/atmosphere.md §5). The thesis applies `f` once per step, so the damping doubles
 /// when the step is halved and the wind over a ridge does not converge in Δt
 /// (`tests/convergence.rs`); here it is a rate: `f^{steps}` with `steps = Δt/τ`, i.e. `f`
 /// every τ seconds.

@@ -1,14 +1,14 @@
 //! Terrain–atmosphere interaction (thesis §4.2.5): the free fraction σ of each layer (4.8),
 //! terrain self-shadowing and cloud shading, irradiation (4.9), grey-body emission (4.10, T⁴
 //! per the erratum), heat (4.11) and water (4.12) exchange with the lowest layer with air, all
-//! with a ground heat capacity per m² (docs/ARCHITECTURE.md §5.3 erratum: C_p × density × active depth).
+//! with a ground heat capacity per m² (docs/physics/atmosphere.md §5.3 erratum: C_p × density × active depth).
 //!
 //! σ has one definition, used for the amounts (free volume), the face apertures of transport
 //! and projection, the damping and ℓ(p): the free fraction of the layer's slab
 //! `[bottom, bottom + thickness]` above the ground. The ground temperature is integrated
 //! without a clamp: radiation and sensible heat are linearised about the ground temperature
 //! (Newton) and the linear ground–air system is integrated exactly over the step, then
-//! re-linearised once about the result (docs/ARCHITECTURE.md §5).
+//! re-linearised once about the result (docs/physics/atmosphere.md §5).
 
 use volcano_core::parallel;
 use volcano_core::{LandCover, Terrain};
@@ -26,7 +26,7 @@ pub const STEFAN_BOLTZMANN: f64 = 5.670_374e-8;
 /// layer's lower boundary: the printed form with Θ_i the layer's (centre) altitude makes σ the
 /// free fraction of a slab that does not exist (a layer over ground at 1,100 m with its slab
 /// at 0–800 m and centre at 400 m keeps σ = 0.125) and disagrees with the volume σ scales
-/// (docs/ARCHITECTURE.md §5). σ is the layer's damping (4.8), its free volume for the
+/// (docs/physics/atmosphere.md §5). σ is the layer's damping (4.8), its free volume for the
 /// amounts, the source of the face apertures, and picks ℓ(p).
 pub fn free_fraction(terrain: f64, bottom: f64, thickness: f64) -> f32 {
     ((bottom + thickness - terrain) / thickness).clamp(0.0, 1.0) as f32
@@ -154,7 +154,7 @@ pub fn cloud_transmission(lwp: f64) -> f64 {
     1.0 / (1.0 + 0.75 * tau * (1.0 - 0.85))
 }
 
-/// Grey-body emission (W/m²), eq. (4.10) with the erratum of docs/ARCHITECTURE.md §5.3
+/// Grey-body emission (W/m²), eq. (4.10) with the erratum of docs/physics/atmosphere.md §5.3
 /// (T⁴, not T⁸): `ε σ_B T⁴`.
 pub fn grey_body(emissivity: f64, t: f64) -> f64 {
     emissivity * STEFAN_BOLTZMANN * t.powi(4)
@@ -169,7 +169,7 @@ pub fn grey_body(emissivity: f64, t: f64) -> f64 {
 /// exponential), then linearised again about that first result and integrated again from the
 /// start: unconditionally stable, no overshoot of the common temperature, and independent of
 /// the step to well under 1 K for a 20-minute soil time constant and 1 h steps. Replaces the
-/// explicit step and its 150–400 K clamp (docs/ARCHITECTURE.md §5).
+/// explicit step and its 150–400 K clamp (docs/physics/atmosphere.md §5).
 #[allow(clippy::too_many_arguments)]
 pub fn ground_heat_step(
     tg: f64,

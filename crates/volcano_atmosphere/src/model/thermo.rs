@@ -21,14 +21,14 @@ pub const KAPPA: f64 = R_AIR / CP_AIR;
 pub const ZERO_CELSIUS: f64 = 273.15;
 
 /// Mean atmospheric pressure of a layer at altitude `theta` (m): thesis eq. (4.2) with the
-/// erratum of docs/ARCHITECTURE.md §5.3 (the printed exponent lacks the altitude):
+/// erratum of docs/physics/atmosphere.md §5.3 (the printed exponent lacks the altitude):
 /// `Π_i = Π_sea · exp(−g · M_air · Θ_i / (R_0 · T_sea))`.
 pub fn layer_pressure(theta: f64) -> f64 {
     P_SEA * (-G0 * M_AIR * theta / (R_STAR * T_SEA)).exp()
 }
 
 /// Saturation vapour pressure over liquid water (Pa), Tetens' formula, thesis eq. (4.3), with
-/// the erratum of docs/ARCHITECTURE.md §5.3: the printed law gives kPa, converted here to Pa.
+/// the erratum of docs/physics/atmosphere.md §5.3: the printed law gives kPa, converted here to Pa.
 pub fn saturation_pressure_water(t_kelvin: f64) -> f64 {
     let t = t_kelvin - ZERO_CELSIUS;
     1000.0 * 0.61078 * (17.27 * t / (t + 237.3)).exp()
@@ -55,7 +55,7 @@ pub fn air_density(pi: f64, t: f64) -> f64 {
     pi / (R_AIR * t.max(150.0))
 }
 
-/// Saturation humidity (g/m³): thesis eq. (4.4) with the erratum of docs/ARCHITECTURE.md §5.3.
+/// Saturation humidity (g/m³): thesis eq. (4.4) with the erratum of docs/physics/atmosphere.md §5.3.
 /// The printed formula is a mixing ratio (kg of vapour per kg of dry air); multiplied here by
 /// the air density (and 1000 g/kg) to compare with H in g/m³. The vapour pressure is capped at
 /// half the layer pressure so the ratio stays finite (reached only above ≈80 °C at sea level).

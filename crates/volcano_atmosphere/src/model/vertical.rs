@@ -39,14 +39,14 @@
 //!   projection's continuity target asks the horizontal wind to supply. Cells where the
 //!   exponential takes more than 10 % off `D_raw` are counted as limited in
 //!   [`VerticalReport`] (and the step report and run summary), with the largest `|D_raw|`.
-//! - Transfers (4.6) move *amounts* (concentration × free volume), docs/ARCHITECTURE.md §5.3:
+//! - Transfers (4.6) move *amounts* (concentration × free volume), docs/physics/atmosphere.md §5.3:
 //!   the moved air volume per m² is `|D| Δt` of the source's concentration. H, W and ash move
 //!   with the air (conserved exactly); temperature mixes as potential temperature into the
 //!   destination (rising air cools adiabatically).
 //! - Pressure coupling (4.7), `P_i ← P_i + μ D_i`, is not applied: P is re-solved from the
 //!   wind every step, so an increment would only change the multigrid's starting guess. Its
 //!   purpose (vertical motion acting on the horizontal flow) is served by the continuity
-//!   target of the projection (docs/ARCHITECTURE.md §5.3), see [`divergence_target`].
+//!   target of the projection (docs/physics/atmosphere.md §5.3), see [`divergence_target`].
 
 use bevy::reflect::Reflect;
 use serde::Serialize;
@@ -339,7 +339,7 @@ pub fn precipitate(
     total
 }
 
-/// Divergence targets of the projection (docs/ARCHITECTURE.md §5.3, continuity):
+/// Divergence targets of the projection (docs/physics/atmosphere.md §5.3, continuity):
 /// `−(D_i − D_{i−1}) / h_i` with `D_{−1} = 0` (ground) and the top layer's `D = 0` (lid).
 pub fn divergence_target(layers: &[LayerFields], i: usize, out: &mut [f64]) {
     let layer = &layers[i];

@@ -2,7 +2,7 @@
 //! 120 s down to 3.75 s must approach one answer, as a consistent scheme does — a rate applied
 //! per step instead of per second (a damping factor, a relaxation, a transfer share) would make
 //! the answer depend on the number of steps and the differences would not shrink. What the
-//! shipped scenarios show is written in docs/ARCHITECTURE.md §5.4 ("Time step").
+//! shipped scenarios show is written in docs/physics/atmosphere.md §5.4 ("Time step").
 
 use volcano_atmosphere::model::fields::AtmosphereState;
 use volcano_atmosphere::model::scenario::Scenario;

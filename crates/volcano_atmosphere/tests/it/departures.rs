@@ -1,4 +1,4 @@
-//! The departures from the printed equations that docs/ARCHITECTURE.md §5.4 argues, each with
+//! The departures from the printed equations that docs/physics/atmosphere.md §5.4 argues, each with
 //! the behaviour that makes the printed form unusable here and ours hold: convection (4.5) as
 //! the anomaly of MSE_i − MSE_{i+1}, heat exchange (4.11) as a sensible-heat flux, and the
 //! pressure coupling (4.7) left out, and the printed non-convective uplift replaced by the
@@ -71,7 +71,7 @@ fn sensible_heat_cools_air_over_cold_ground_and_warms_it_over_warm_ground() {
 }
 
 /// Eq. (4.7), the pressure coupling `P ← P + …` between steps, is not applied
-/// (docs/ARCHITECTURE.md §5.4): the projection solves P afresh every step, and the stored P is
+/// (docs/physics/atmosphere.md §5.4): the projection solves P afresh every step, and the stored P is
 /// only its starting guess. Two copies of the orographic scenario after a minute of weather,
 /// one with an arbitrary smooth increment added to every layer's P (a stand-in for any 4.7
 /// increment), give the same wind after the next step to within the solver's tolerance: what
@@ -153,7 +153,7 @@ fn a_supersaturated_layer_condenses_and_warms_by_the_latent_heat_in_a_full_step(
 }
 
 /// The printed non-convective uplift `U_i = ν (P_{i+1} − P_i)` (§4.2.4.2, ν = 1e-3 per metre
-/// in the authors' later implementation, docs/ARCHITECTURE.md §5.5) closes a loop through the
+/// in the authors' later implementation, docs/physics/atmosphere.md §5.5) closes a loop through the
 /// continuity projection: a vertical velocity D_i through a layer's top asks the layer below
 /// to converge and the layer above to diverge, the projection answers with a pressure low below
 /// and a high above, and the printed law turns that pressure difference into more uplift in

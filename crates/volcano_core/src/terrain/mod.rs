@@ -5,7 +5,7 @@
 //! heightmaps, the way real DEMs are commonly shared).
 //!
 //! What the simulation adds on top of the ground (frozen lava) is kept as an exact `f64`
-//! *added layer* per node beside the `f32` heights (docs/ARCHITECTURE.md §6.7): heights are
+//! *added layer* per node beside the `f32` heights (docs/physics/lava.md §6.7): heights are
 //! `base + added` rounded to `f32` for rendering and queries, and the layer's sum is the
 //! volume gained. [`remap`] carries a patch's cell field onto the nodes conservatively, and
 //! [`TerrainChanged`] tells games and the renderer which nodes moved.

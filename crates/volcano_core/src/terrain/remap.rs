@@ -1,5 +1,5 @@
 //! Conservative transfer of a cell-centred thickness field (a lava patch's frozen layer, on its
-//! own grid) onto terrain nodes (docs/ARCHITECTURE.md §6.7).
+//! own grid) onto terrain nodes (docs/physics/lava.md §6.7).
 //!
 //! Each value of the source grid covers the square of side `c` centred on its sample; each
 //! terrain node owns the square of side `C` centred on it (its *footprint*), and the outermost

@@ -163,7 +163,7 @@ pub fn ambient_levels<L: Borrow<LayerFields>>(
 /// it carries a water mass fraction `q` (kg/kg): `q ρ_air`, `ρ_air = Π / (R_air T)`.
 ///
 /// The slice's own water per volume is not used: the thesis' vent mixture is ≈ 50× denser than
-/// a real one (docs/ARCHITECTURE.md §4.1), so its 3 wt% of magmatic water would be thousands of
+/// a real one (docs/physics/plume.md §4.1), so its 3 wt% of magmatic water would be thousands of
 /// g/m³ near the vent and its latent heat would run the layer's temperature away. The mass
 /// fraction is what the column's air carries into the layer.
 pub fn humidity_of(q: f64, pi: f64, t: f64) -> f64 {

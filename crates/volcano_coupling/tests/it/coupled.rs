@@ -72,7 +72,7 @@ fn app(
     .init_resource::<Apexes>()
     .add_systems(FixedUpdate, record.in_set(SimSystems::End));
     // 0.01 s plume steps (the thesis' 0.002 s gives the same apex to a few metres; DESIGN
-    // numbers in docs/ARCHITECTURE.md §4) keep the test fast.
+    // numbers in docs/physics/plume.md §4) keep the test fast.
     app.world_mut()
         .resource_mut::<Time<DomainClock<PlumeStep>>>()
         .context_mut()

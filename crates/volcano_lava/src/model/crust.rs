@@ -13,7 +13,7 @@ pub const MOVING_SPEED: f64 = 1e-3;
 /// Crust thickness after `t` seconds of contact with the air, `2√(κt)` (thesis eq 5.1).
 ///
 /// Its rate of change is `(1/h_crust) ∂h_crust/∂t = 1/(2t)`. Eq 5.2 as printed
-/// (`(1/h) ∂h_crust/∂t = 1/t`) is inconsistent with 5.1; see docs/ARCHITECTURE.md §6. The code
+/// (`(1/h) ∂h_crust/∂t = 1/t`) is inconsistent with 5.1; see docs/physics/lava.md §6. The code
 /// follows eq 5.1 (the surface update integrates it exactly as `h ← √(h² + 4κ dt)`).
 pub fn crust_from_contact(kappa: f64, t: f64) -> f64 {
     2.0 * (kappa * t.max(0.0)).sqrt()

@@ -1,6 +1,6 @@
 //! Layer 1, the flow: a mass-exact explicit finite-volume scheme for the lubrication
 //! (Jeffreys) equation of a viscous sheet over a heightfield,
-//! `∂h/∂t = ∇·(ρ g h³/(3η(T)) ∇s)`, `s = ground + h` (docs/ARCHITECTURE.md §6.1; the thesis
+//! `∂h/∂t = ∇·(ρ g h³/(3η(T)) ∇s)`, `s = ground + h` (docs/physics/lava.md §6.1; the thesis
 //! used a closed virtual-pipes simulator, §5.4, whose role this replaces).
 //!
 //! Per substep: (1) a flux per face from the surface gradient, with the face mobility the mean

@@ -1,4 +1,4 @@
-//! The lubrication (Jeffreys) flux of the lava sheet (docs/ARCHITECTURE.md §6.1; it replaces the
+//! The lubrication (Jeffreys) flux of the lava sheet (docs/physics/lava.md §6.1; it replaces the
 //! thesis' virtual-pipes simulator, §5.4): the laws the flow substep ([`super::flow`]) and its
 //! row loops evaluate per face and per cell, as plain functions. Kept apart from both so neither
 //! module depends on the other.

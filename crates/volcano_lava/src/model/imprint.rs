@@ -1,4 +1,4 @@
-//! Frozen lava written back into the terrain under a field (docs/ARCHITECTURE.md §6.7: lava
+//! Frozen lava written back into the terrain under a field (docs/physics/lava.md §6.7: lava
 //! colder than the solidus freezes into the ground). Inside a field the ground already
 //! includes the frozen layer; this carries it into the terrain's exact added layer
 //! ([`Terrain::add_thickness`]), so a field built later, the pyroclastic particles and gameplay

@@ -60,7 +60,7 @@ impl ViscosityModel {
 }
 
 /// Parameters of the flow, thermal and surface layers. Defaults are thesis Table 5.2 plus
-/// docs/ARCHITECTURE.md §6.3 choices (emissivity 0.95, convection 60 W/m²/K, FLOWGO viscosity).
+/// docs/physics/lava.md §6.3 choices (emissivity 0.95, convection 60 W/m²/K, FLOWGO viscosity).
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
 #[serde(default)]
 pub struct LavaParams {

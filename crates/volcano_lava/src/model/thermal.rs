@@ -1,4 +1,4 @@
-//! Cooling and solidification of the flow (docs/ARCHITECTURE.md §6.2): heat conducts through the crust to its top, which
+//! Cooling and solidification of the flow (docs/physics/lava.md §6.2): heat conducts through the crust to its top, which
 //! radiates and convects (and optionally through the base), so the core stays hot while the
 //! crust thickens; lava colder than the solidus, or crusted through, freezes into the ground,
 //! so later lava flows over it.
@@ -8,7 +8,7 @@ use super::params::{LavaParams, STEFAN_BOLTZMANN};
 
 /// Heat flux out of a lava surface at temperature `t` (W/m²): grey-body radiation
 /// `εσ(T⁴ − T_e⁴)` plus convection `h_c (T − T_e)` (thesis Table 5.2 σ and T_e; ε = 0.95 and
-/// h_c ≈ 60 W/m²/K from docs/ARCHITECTURE.md §6.3).
+/// h_c ≈ 60 W/m²/K from docs/physics/lava.md §6.3).
 pub fn top_heat_loss(params: &LavaParams, t: f64) -> f64 {
     let te = params.air_temperature;
     params.emissivity * STEFAN_BOLTZMANN * (t.powi(4) - te.powi(4)) + params.convection * (t - te)

@@ -135,7 +135,7 @@ fn still_sheet_cools_through_its_crust_like_hon_1994() {
     }
 }
 
-/// A still 10 cm sheet keeps a molten core for tens of minutes (docs/ARCHITECTURE.md §6.2:
+/// A still 10 cm sheet keeps a molten core for tens of minutes (docs/physics/lava.md §6.2:
 /// radiating at the core temperature would freeze a 10 cm lobe within minutes) and is solid by
 /// ~1.5 h, when its crust has reached its whole thickness.
 #[test]

@@ -159,7 +159,7 @@ fn a_clicked_patch_lies_downslope_and_inside_the_terrain() {
 
 /// The `eruption` scene's flank patch alone (its lava entry copied from
 /// assets/scenes/eruption.ron), printing what flowed and froze: the numbers quoted in
-/// docs/ARCHITECTURE.md §6.7. `TICKS` (default 1500) and `KELVIN` (default 1473) override.
+/// docs/physics/lava.md §6.7. `TICKS` (default 1500) and `KELVIN` (default 1473) override.
 /// `cargo test -p volcano_lava --test flank -- --ignored --nocapture` (~20 s per 1500 ticks).
 #[test]
 #[ignore = "prints numbers for the docs; tens of seconds"]

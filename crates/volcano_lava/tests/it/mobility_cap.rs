@@ -7,7 +7,7 @@ use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
 /// The hottest, thickest lava of each shipped scenario: `spread` releases its 20 m³ as a
 /// 1.6 m cylinder at the liquidus (53 Pa·s), the most mobile lava any scenario holds; the
 /// sloping scenarios and `incline` over their first seconds. (Their later, cooler ponds were
-/// measured over 240 s with the CLI; see the README.)
+/// measured over 240 s with the CLI; see docs/physics/lava.md §6.6.)
 #[test]
 fn shipped_scenarios_never_hit_the_substep_cap() {
     for (kind, seconds, grid) in [

@@ -1,5 +1,5 @@
 //! A slice of a sustained eruption column ([`Dynamics::Column`](super::Dynamics::Column), the
-//! `physical` preset; docs/ARCHITECTURE.md §4.5). The thesis' structure is kept — Lagrangian
+//! `physical` preset; docs/physics/plume.md §4.5). The thesis' structure is kept — Lagrangian
 //! slices that entrain air (eq 3.7), feel weight, buoyancy, drag and wind (3.4–3.6), phases
 //! jet → buoyant → umbrella or collapse (§3.6) — with what a sustained column needs:
 //!

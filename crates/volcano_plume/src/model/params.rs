@@ -35,7 +35,7 @@ pub struct PlumeParams {
     /// Time step of the slice integration (s); Table 3.1: 0.002 s.
     pub dt: f64,
     /// Contraction on mixing (`V' = V T^{i+1}/T^i`, as in the text). Off reproduces the
-    /// authors' released prototype (docs/ARCHITECTURE.md §4.1).
+    /// authors' released prototype (docs/physics/plume.md §4.1).
     pub contraction: bool,
     /// Ambient air profile.
     pub atmosphere: AtmosphereModel,
@@ -48,7 +48,7 @@ pub struct PlumeParams {
     /// no gas fraction; 0.03 (3 wt%, the usual Plinian value, e.g. Woods 1988) is the default.
     /// With [`Dynamics::Column`] it also sets the vent density ([`PlumeParams::vent_density`]).
     pub gas_fraction: f64,
-    /// Which slice equations run: the thesis' (Table 3.1 reading, docs/ARCHITECTURE.md §4.1)
+    /// Which slice equations run: the thesis' (Table 3.1 reading, docs/physics/plume.md §4.1)
     /// or the physical column (§4.5). The thesis' ones by default.
     pub dynamics: Dynamics,
     /// Density of the solid (ash) phase (kg/m³), for the vent density and the column's
@@ -72,11 +72,11 @@ pub struct PlumeParams {
 /// The slice equations a [`PlumeParams`] runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Reflect, Serialize, Deserialize)]
 pub enum Dynamics {
-    /// The thesis' slice (§3.4 as read in docs/ARCHITECTURE.md §4.1): `V = π r³`, a slice every
+    /// The thesis' slice (§3.4 as read in docs/physics/plume.md §4.1): `V = π r³`, a slice every
     /// `r₀/(2v₀)`, the ring entrainment of eq 3.7, contraction on mixing, the `v r/d` umbrella.
     #[default]
     Thesis,
-    /// A slice of a sustained column (docs/ARCHITECTURE.md §4.5, `model::column`): a cylinder as
+    /// A slice of a sustained column (docs/physics/plume.md §4.5, `model::column`): a cylinder as
     /// long as the distance to the next slice, volume from the equation of state of gas and
     /// solid (expands as the pressure falls), Woods' (1988) entrainment and enthalpy, a
     /// gravity-current umbrella. Reduces to Woods' steady top-hat plume.
@@ -116,7 +116,7 @@ impl Default for PlumeParams {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Reflect, Serialize, Deserialize)]
 pub enum Preset {
     /// The thesis as written: Table 3.1, v₀ = 150 m/s, contraction on, the printed ISA law.
-    /// With these values the column collapses at ≈1.9 km (docs/ARCHITECTURE.md §4.1).
+    /// With these values the column collapses at ≈1.9 km (docs/physics/plume.md §4.1).
     Thesis,
     /// Table 3.1 at v₀ = 200 m/s with a light wind: a Plinian column with an umbrella (Fig 3.4).
     PlinianShowcase,
@@ -253,7 +253,7 @@ impl PlumeParams {
     /// `v₀ = 40 · (MER / 10⁴ kg/s)^0.18`, 40 m/s at 10⁴ kg/s, 318 m/s at 10⁹. The column's
     /// collapse threshold at a fixed rate grows about as `MER^0.2` (17 m/s at 10⁴ kg/s, 170 m/s
     /// at 10⁹ for 3 wt% and 1,273 K), so this keeps a margin of ≥ 1.5 over 10²–10¹⁰ kg/s
-    /// (tested from 10⁴ to 10⁹ with a 20 % slower vent; docs/ARCHITECTURE.md §4.5).
+    /// (tested from 10⁴ to 10⁹ with a 20 % slower vent; docs/physics/plume.md §4.5).
     pub fn default_exit_speed(mer: f64) -> f64 {
         40.0 * (mer / 1e4).powf(0.18)
     }

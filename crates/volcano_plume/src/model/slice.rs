@@ -3,7 +3,7 @@
 //!
 //! Model frame: `z` is up and measured above the vent; `x, y` horizontal. Budgets are f64.
 //!
-//! Readings settled in docs/ARCHITECTURE.md §4.1 (checked by an independent re-implementation):
+//! Readings settled in docs/physics/plume.md §4.1 (checked by an independent re-implementation):
 //! - entrained mass per step is the ring volume times the air density,
 //!   `M_a = ρ_a π((τU_e + r)² − r²) |v| Δt` (the printed `ρ_a U_e v Δt²` has units of kg/m);
 //! - eq 3.3 uses `M^{i−1}` = the mass before this step's entrainment, i.e. momentum is kept

@@ -6,7 +6,7 @@
 //!   tangent (the sphere's surface moves with the slice's speed at the column's outside).
 //!   Our reading adds a radial jitter (default ±30 % of r/2, [`SphereParams::radial_jitter`]):
 //!   with every centre at exactly r/2, the rims of successive slices nested as concentric
-//!   circles wherever the column was seen along its axis (docs/ARCHITECTURE.md §4.3).
+//!   circles wherever the column was seen along its axis (docs/physics/plume.md §4.3).
 //! - s2, s3: *procedural*, not simulated. Child `k` of a parent sits at a pseudo-random point of
 //!   the parent's surface derived from `(seed, parent id, k)` only, with radius ÷5 per level, and
 //!   turns rigidly with its parent. Rendering and export enumerate them with

@@ -94,7 +94,7 @@ impl UmbrellaSphere {
     /// the distance from the axis of its offset's horizontal part, and relaxes from its own
     /// altitude toward `z_neutral`.
     ///
-    /// Our reading of §3.5.2 (docs/ARCHITECTURE.md §4.3, "Umbrella"): the thesis spreads the
+    /// Our reading of §3.5.2 (docs/physics/plume.md §4.3, "Umbrella"): the thesis spreads the
     /// spheres radially from a vertical column's axis, where the ring is horizontal and the
     /// ring azimuth *is* the radial direction, so an untilted slice spreads as the thesis has it.
     /// A column bent over by the wind arrives with a near-vertical ring, whose offsets all point

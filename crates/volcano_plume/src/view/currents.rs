@@ -1,5 +1,5 @@
 //! The ash cloud a pyroclastic current carries above itself, as the renderer draws it
-//! (docs/ARCHITECTURE.md §4.3, "Pyroclastic currents").
+//! (docs/RENDERING.md (the ash), "Pyroclastic currents").
 //!
 //! The model's particles are the current's dense basal part (thesis §3.6: s2-sized spheres that
 //! follow the terrain). A real current also carries a dilute, turbulent ash cloud over that

@@ -1,5 +1,5 @@
 //! How much sun and sky reach each parent sphere: the ash between a parent and the light, from
-//! a coarse density grid splatted from the parents every frame (docs/ARCHITECTURE.md, "How ash
+//! a coarse density grid splatted from the parents every frame (docs/RENDERING.md, "How ash
 //! is lit"). Engine-free: plain functions over [`ParentSphere`]s, tested with plain `#[test]`s
 //! and measured by the plume benchmark with the rest of a frame's plain data; only packing the
 //! result into the shader's 32-bit word is the renderer's (`volcano_render::plume::layout`).
@@ -52,7 +52,7 @@ pub struct AshLightSettings {
     /// thread is taken up `refresh_ticks` ticks or rendered frames after it started, whichever
     /// comes first, so it has that long to finish. The ash moves metres per tick against grid
     /// cells of tens to hundreds of metres: a light per frame bought nothing a viewer sees
-    /// (docs/ARCHITECTURE.md, "How ash is lit"). 1 lights once per base tick.
+    /// (docs/RENDERING.md, "How ash is lit"). 1 lights once per base tick.
     pub refresh_ticks: u32,
 }
 

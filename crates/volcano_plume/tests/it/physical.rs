@@ -1,4 +1,4 @@
-//! The physical preset (`Dynamics::Column`, docs/ARCHITECTURE.md §4.5) against published
+//! The physical preset (`Dynamics::Column`, docs/physics/plume.md §4.5) against published
 //! numbers: Mastin et al. (2009), Costa et al. (2016), the collapse threshold of a Woods-type
 //! column, and the inverse control. Single slice, vent at sea level.
 

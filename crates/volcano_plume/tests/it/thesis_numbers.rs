@@ -1,4 +1,4 @@
-//! The thesis preset against the numbers settled in docs/ARCHITECTURE.md §4.1 (independent
+//! The thesis preset against the numbers settled in docs/physics/plume.md §4.1 (independent
 //! re-implementation): single slice, no wind, vent at sea level.
 
 use volcano_plume::model::run::{TrajectorySample, run_single_slice};
@@ -10,7 +10,7 @@ fn near(value: f64, target: f64, tol: f64) -> bool {
 
 #[test]
 fn collapse_thresholds_bracket_the_settled_values() {
-    // docs/ARCHITECTURE.md §4.1: threshold ≈160 m/s with contraction, ≈148 m/s without.
+    // docs/physics/plume.md §4.1: threshold ≈160 m/s with contraction, ≈148 m/s without.
     for (contraction, below, above) in [(true, 157.0, 163.0), (false, 145.0, 151.0)] {
         let regime = |v0| {
             let p = PlumeParams { v0, contraction, ..Preset::Thesis.params() };

@@ -1,4 +1,4 @@
-//! Lava rendering (thesis chapter 5, docs/ARCHITECTURE.md §6).
+//! Lava rendering (thesis chapter 5, docs/RENDERING.md (lava)).
 //!
 //! - **Surface**: one mesh per [`LavaState`] (a child of the field entity, vertices at the cell
 //!   centres on the lava surface, see [`surface_mesh`]), rebuilt at most every

@@ -6,7 +6,7 @@
 //                turned by the spin projected on the screen (thesis §3.7.1), lit as a soft sphere.
 // Shade 0 = dense dark ash at the vent, 1 = diluted light ash aloft; coverage thins the puff.
 //
-// Lighting (docs/ARCHITECTURE.md, "How ash is lit"): each parent carries the sun and sky
+// Lighting (docs/RENDERING.md, "How ash is lit"): each parent carries the sun and sky
 // transmittance through the other parents (volcano_plume::view::light_parents, Beer–Lambert
 // on a coarse grid); a detail sphere is also shadowed by its own parent's body (the chord
 // toward the sun); each fragment has a sphere normal bent by the smoke texture, so every puff
