@@ -5,6 +5,7 @@ mod assets;
 mod headless_sim;
 mod host_app;
 mod module_cycles;
+mod placement;
 mod readme;
 mod reflect;
 mod save_load;

@@ -121,6 +121,11 @@ impl<T: Copy> Grid2<T> {
     pub fn origin(&self) -> Vec2 {
         self.origin
     }
+    /// Moves the grid: sample (0, 0) to `origin` (finite: callers check).
+    pub(crate) fn set_origin(&mut self, origin: Vec2) {
+        debug_assert!(origin.is_finite());
+        self.origin = origin;
+    }
     /// Extent covered by the samples: `(nx − 1, ny − 1) · cell`.
     pub fn extent(&self) -> Vec2 {
         Vec2::new(((self.nx - 1) as f64 * self.cell) as f32, ((self.ny - 1) as f64 * self.cell) as f32)

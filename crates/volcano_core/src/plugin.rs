@@ -47,8 +47,15 @@ impl Plugin for VolcanoCorePlugin {
             .add_systems(FixedUpdate, begin_tick.in_set(SimSystems::Begin))
             // Vents snap in Update (visible at once) and again before each tick, so a volcano
             // spawned or moved between ticks is on the ground when its domains step.
-            .add_systems(Update, volcano::snap_vents)
-            .add_systems(FixedUpdate, volcano::snap_vents.in_set(SimSystems::Begin).after(begin_tick));
+            // Terrains move to their entity's translation first, so the vents land on them.
+            .add_systems(Update, (crate::terrain::place_terrains, volcano::snap_vents).chain())
+            .add_systems(
+                FixedUpdate,
+                (crate::terrain::place_terrains, volcano::snap_vents)
+                    .chain()
+                    .in_set(SimSystems::Begin)
+                    .after(begin_tick),
+            );
         #[cfg(debug_assertions)]
         app.add_systems(bevy::app::PostUpdate, volcano::assert_finite_volcanoes);
     }

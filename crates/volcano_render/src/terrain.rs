@@ -75,6 +75,9 @@ impl Plugin for TerrainRenderPlugin {
                     (build_terrain_meshes, update_changed_regions).chain(),
                     (horizon::drop_horizons, horizon::build_horizons).chain(),
                     update_vent_markers,
+                    keep_terrain_meshes_in_world_space
+                        .after(build_terrain_meshes)
+                        .after(horizon::build_horizons),
                 ),
             );
     }
@@ -333,6 +336,29 @@ fn build_terrain_meshes(
             Transform::IDENTITY,
             ChildOf(entity),
         ));
+    }
+}
+
+/// A terrain whose transform or children changed.
+type MovedOrNewChildren = Or<(Changed<Transform>, Changed<Children>)>;
+
+/// The terrain's meshes are built in world coordinates from its grids, which the core plugin
+/// moves to the entity's translation; as children of the entity they take a transform that
+/// cancels the entity's, so they are drawn where the simulation has the ground whatever the
+/// entity's transform (a rotation or scale the simulation ignores is ignored here too).
+fn keep_terrain_meshes_in_world_space(
+    terrains: Query<(&Transform, &Children), (With<Terrain>, MovedOrNewChildren)>,
+    mut meshes: Query<&mut Transform, (DrawnGround, Without<Terrain>)>,
+) {
+    for (parent, children) in &terrains {
+        let cancel = Transform::from_matrix(parent.to_matrix().inverse());
+        for child in children.iter() {
+            if let Ok(mut t) = meshes.get_mut(child)
+                && *t != cancel
+            {
+                *t = cancel;
+            }
+        }
     }
 }
 

@@ -11,6 +11,7 @@
 //! [`TerrainChanged`] tells games and the renderer which nodes moved.
 
 pub mod generate;
+mod placement;
 pub mod png_io;
 pub mod remap;
 
@@ -25,6 +26,7 @@ use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
 
 pub use generate::StratovolcanoParams;
+pub(crate) use placement::place_terrains;
 pub use remap::{NodeRegion, NodeRemap};
 
 use crate::error::ConfigError;
@@ -61,6 +63,10 @@ pub struct Terrain {
     sea_level: f32,
     /// The base heights and the added thickness, once anything was added.
     layer: Option<AddedLayer>,
+    /// World (x, z) of sample (0, 0) as built, before [`Terrain::set_placement`].
+    built_origin: Vec2,
+    /// Offset of the grids from where they were built (the entity's translation, x and z).
+    placement: Vec2,
 }
 
 /// Base heights under the added layer, and the layer's thickness per node (m, f64).
@@ -134,7 +140,8 @@ impl Terrain {
             });
         }
         crate::error::finite("sea_level", sea_level as f64)?;
-        Ok(Self { heights, cover, sea_level, layer: None })
+        let built_origin = heights.origin();
+        Ok(Self { heights, cover, sea_level, layer: None, built_origin, placement: Vec2::ZERO })
     }
 
     /// A flat terrain of `n × n` samples at altitude `height`, centred on the origin.
@@ -143,6 +150,42 @@ impl Terrain {
         let heights = Grid2::new(n, n, cell, origin, height)?;
         let cover = Grid2::new(n, n, cell, origin, LandCover::Ground)?;
         Self::new(heights, cover, f32::MIN)
+    }
+
+    /// How far the terrain was moved from where it was built (world x, z; m): its entity's
+    /// `Transform` translation, applied by the core plugin ([`place_terrains`]).
+    pub fn placement(&self) -> Vec2 {
+        self.placement
+    }
+
+    /// Moves the terrain `offset` (world x, z; m) from where it was built: every grid's sample
+    /// (0, 0) goes to the built origin plus `offset`, so placing it again never accumulates
+    /// rounding. The core plugin calls it from the entity's `Transform`; a game moves a terrain
+    /// by moving its entity. Errors, changing nothing, on a non-finite offset.
+    pub fn set_placement(&mut self, offset: Vec2) -> Result<(), ConfigError> {
+        if !offset.is_finite() {
+            return Err(ConfigError::InvalidParameter {
+                name: "terrain placement",
+                value: if offset.x.is_finite() { offset.y } else { offset.x } as f64,
+                reason: "must be finite".into(),
+            });
+        }
+        let origin = self.built_origin + offset;
+        if !origin.is_finite() {
+            return Err(ConfigError::InvalidParameter {
+                name: "terrain placement",
+                value: offset.length() as f64,
+                reason: "moves the grid beyond f32 range".into(),
+            });
+        }
+        self.heights.set_origin(origin);
+        self.cover.set_origin(origin);
+        if let Some(layer) = &mut self.layer {
+            layer.base.set_origin(origin);
+            layer.added.set_origin(origin);
+        }
+        self.placement = offset;
+        Ok(())
     }
 
     /// The heightfield (absolute altitudes, m): base plus added layer.
