@@ -1,4 +1,4 @@
-//! Bevy assets (issue 14, item 3): bad files give errors naming the field, a reloaded preset
+//! Bevy assets: bad files give errors naming the field, a reloaded preset
 //! changes the next slices, a timeline asset drives an eruption, the built-ins load from
 //! `embedded://`, the bundled heightmap is the default stratovolcano, and a scene asset spawns
 //! its simulation and respawns it when reloaded.

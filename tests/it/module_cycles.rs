@@ -1,4 +1,4 @@
-//! No module cycles inside any crate of the workspace (issue 14; docs/ARCHITECTURE.md §2):
+//! No module cycles inside any crate of the workspace (docs/ARCHITECTURE.md §2):
 //! every `super::…`, `self::…` and `crate::…` path in the sources is resolved to the module it
 //! names, each reference is lifted to the two sibling modules under the pair's lowest common
 //! ancestor, and the graph of siblings must have no cycle. A parent using its child, or a child

@@ -1,4 +1,4 @@
-//! Reflection (issue 14, item 4): every component and resource of the volcano crates that a
+//! Reflection: every component and resource of the volcano crates that a
 //! running eruption scene knows (spawned, or named by one of its systems) is registered with
 //! `ReflectComponent` or `ReflectResource`, so scenes, the remote protocol and inspectors can
 //! read and write it. One exception: `AtmosphereWork`, a weather step in flight (a task

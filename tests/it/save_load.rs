@@ -1,15 +1,15 @@
-//! Saving a running eruption (issue 14, item 4): the world of the `eruption` scene (column,
+//! Saving a running eruption: the world of the `eruption` scene (column,
 //! coupled five-layer atmosphere, lava patch on the flank) is copied into a `DynamicWorld`
 //! (Bevy 0.19's `DynamicScene`) after 2 simulated seconds, written into a fresh app that has
 //! only the plugins, and both apps then run the same ticks: slices, spheres, air layers, lava
 //! and deposits must agree bit for bit. The weather step in flight is written back first
 //! (`flush_weather`), in the world that is saved and therefore in both.
 //!
-//! Each of these made it fail before it was fixed: entity references not mapped (the copied
-//! slices lost their volcano and were removed), the domain clocks not reflected (the copy's
-//! weather stepped at other ticks), the lava field's build key holding the old terrain entity
-//! (the copy rebuilt its lava from scratch), and the atmosphere's pipeline component missing
-//! from the copy (its weather never stepped).
+//! Each of these faults makes it fail: entity references not mapped (the copied slices lose
+//! their volcano and are removed), the domain clocks not reflected (the copy's weather steps at
+//! other ticks), the lava field's build key holding the saved world's terrain entity (the copy
+//! rebuilds its lava from scratch), and the atmosphere's pipeline component missing from the
+//! copy (its weather never steps).
 
 use std::time::Duration;
 

@@ -1,5 +1,5 @@
 //! Renderers and panels read each domain through its view and public API, never through its
-//! model or scenario internals (issue 14 item 5; docs/ARCHITECTURE.md §2.3): no source file of
+//! model or scenario internals (docs/ARCHITECTURE.md §2.3): no source file of
 //! `volcano_render`, `volcano_egui` or the umbrella crate (`src/`) names a module `model` or
 //! `scenario` in a path (`volcano_lava::model::thermal`, `volcano_atmosphere::{model::…}`,
 //! `volcano::lava::scenario::…`, a `use …::model;` followed by `model::…`). None of those crates
@@ -10,7 +10,8 @@
 //! (`crates/*/tests`) are left out too: a test may look inside a model to check it.
 //!
 //! Reads the sources as text, like `tests/it/module_cycles.rs`; a planted file checks that it can
-//! fail (on the tree before the views it listed 20 such segments on 18 lines of 11 files).
+//! fail. (With renderers and panels reading the models directly instead of through the views,
+//! it lists 20 such segments on 18 lines of 11 files.)
 
 use std::fs;
 use std::path::{Path, PathBuf};

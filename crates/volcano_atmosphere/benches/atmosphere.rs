@@ -1,4 +1,4 @@
-//! One weather step of 512² × 3 layers (issue target ≤ 25 ms on 2 cores and ≤ 4× a memory
+//! One weather step of 512² × 3 layers (target ≤ 25 ms on 2 cores and ≤ 4× a memory
 //! sweep over the state; thesis 2.73 s) and 512² × 7 layers (≤ 60 ms; thesis 6.75 s),
 //! Δt = 30 s, each beside a same-run memory sweep: one read-modify-write pass over every
 //! byte of the layers' fields (the bandwidth floor of anything that touches the whole state).

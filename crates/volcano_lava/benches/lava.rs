@@ -1,6 +1,6 @@
-//! Criterion benches (issue 5 performance targets): one flow substep on a 512² grid
-//! (η = 1000 Pa·s, lava up to 1 m thick), also on one thread, one crust update, and a same-run
-//! memory sweep over the same field bytes (the bandwidth limit) for the ratio.
+//! Criterion benches (the frame-budget targets, docs/PERFORMANCE.md): one flow substep on a
+//! 512² grid (η = 1000 Pa·s, lava up to 1 m thick), also on one thread, one crust update, and
+//! a same-run memory sweep over the same field bytes (the bandwidth limit) for the ratio.
 
 use std::hint::black_box;
 use std::time::Duration;

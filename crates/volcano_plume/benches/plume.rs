@@ -1,6 +1,6 @@
-//! The plume's hot paths (issue target: one 1/50 s tick of 10 substeps with 1,000 slices and
-//! 6,000 s1 spheres, plus ≥ 500,000 detail-sphere instances, ≤ 4 ms together). This bench
-//! measures the model parts alone: the slice steps, the whole plume domain step
+//! The plume's hot paths (frame-budget target: one 1/50 s tick of 10 substeps with 1,000
+//! slices and 6,000 s1 spheres, plus ≥ 500,000 detail-sphere instances, ≤ 4 ms together).
+//! This bench measures the model parts alone: the slice steps, the whole plume domain step
 //! (`volcano_plume::step`: emission, slices, rings, umbrella, books) without ECS, and
 //! enumerating the detail spheres of 2,500 s1 spheres × 200 children. ECS overhead is not
 //! included (`plume_ecs` measures the same tick through the plugin).

@@ -1,6 +1,7 @@
-//! The target, measured through the ECS: one 1/50 s base tick (10 plume substeps) with
-//! ≈1,000 live slices and ≈6,000 s1 spheres, plus the CPU work one rendered frame needs for its
-//! ≥500,000 detail-sphere instances, two ways in the same run:
+//! The plume's frame-budget target (docs/PERFORMANCE.md), measured through the ECS: one 1/50 s
+//! base tick (10 plume substeps) with ≈1,000 live slices and ≈6,000 s1 spheres, plus the CPU
+//! work one rendered frame needs for its ≥500,000 detail-sphere instances, two ways in the same
+//! run:
 //!
 //! - GPU expansion (what the renderer does each frame): gather the parents, light them and plan
 //!   what each draws with the prefix sum of their instance counts ([`gather_parents`],
@@ -8,7 +9,7 @@
 //!   planned parents out as 64-byte GPU records (`volcano_render::plume::layout`, a copy of
 //!   ≈6,000 records) is the render crate's and is not measured here, where the render stack is
 //!   not built;
-//! - the old CPU build of every instance ([`update_instances`], kept as the reference).
+//! - the CPU build of every instance ([`update_instances`], the reference path).
 //!
 //! The column is grown by the simulation itself (Plinian preset with a 40 m vent; umbrella
 //! spheres removed as they form, so the counts are the target's), so slices are spread over
@@ -111,7 +112,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| light_parents(&parents, &light_settings))
     });
     group.bench_function("CPU instances only (old path)", |b| b.iter(|| update_instances(app.world_mut())));
-    // The old frame: the tick, then the CPU build of every instance.
+    // The frame on the CPU path: the tick, then the CPU build of every instance.
     group.bench_function("one tick (10 substeps) + CPU instances (old path)", |b| {
         b.iter(|| {
             app.update();

@@ -1,4 +1,4 @@
-//! Issue target: one 1/50 s tick with 50,000 pyroclastic particles on a 512² terrain,
+//! Frame-budget target: one 1/50 s tick with 50,000 pyroclastic particles on a 512² terrain,
 //! including terrain collision and clustering (≤ 5 ms). What the plugin does per tick: the
 //! particle step on the task pool in fixed chunks (`par_map_ordered`), then the grid
 //! clustering of the buoyant ones, over particles spread on the flanks of the procedural

@@ -213,11 +213,11 @@ fn plume_spot(dt_k: f32, hum: f64) -> PlumeSpot {
     r
 }
 
-/// A volcanic plume imposes hundreds of kelvin and its moisture on the cells under the column
-/// (issue 13 item 3). The layers must carry an updraft of tens of m/s above it (the old
-/// ±2 m/s clamp held it at 2), report the limiter that acts at Δt = 30 s, stay finite and
+/// A volcanic plume imposes hundreds of kelvin and its moisture on the cells under the column.
+/// The layers must carry an updraft of tens of m/s above it (a ±2 m/s clamp on the vertical
+/// speed would hold it at 2), report the limiter that acts at Δt = 30 s, stay finite and
 /// book every gram; a moist spot diluted to +30 K (the plume's edge, where the cap cloud
-/// forms) rises at more than twice the old bound and condenses a cap cloud above it.
+/// forms) rises at more than twice that 2 m/s bound and condenses a cap cloud above it.
 #[test]
 fn a_hot_moist_plume_spot_drives_a_fast_updraft_and_a_cap_cloud() {
     let hot = plume_spot(300.0, 20.0);

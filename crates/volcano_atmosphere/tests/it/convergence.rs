@@ -1,4 +1,4 @@
-//! Convergence in the time step (issue 17): the same 40 simulated minutes cut into steps of
+//! Convergence in the time step: the same 40 simulated minutes cut into steps of
 //! 120 s down to 3.75 s must approach one answer, as a consistent scheme does — a rate applied
 //! per step instead of per second (a damping factor, a relaxation, a transfer share) would make
 //! the answer depend on the number of steps and the differences would not shrink. What the
@@ -57,7 +57,7 @@ fn assert_wind_converges(halves: &[(f64, f64)], steps: &[f64], from: usize) {
 /// The `mixed` scenario (land and sea, hills, moist air, wind; 32² cells of 1.6 km), 40 minutes
 /// from the same start at each step. The difference between a step and its half shrinks with
 /// each halving (measured: wind 0.060, 0.020, 0.0072, 0.0032, 0.0015 m/s from 120 s down to
-/// 7.5 s, temperature 0.029 → 0.0027 K; with the terrain damping applied per step it was
+/// 7.5 s, temperature 0.029 → 0.0027 K; applying the terrain damping per step instead gives
 /// 0.082 → 0.009 m/s and 0.032 → 0.009 K).
 #[test]
 fn halving_the_step_converges_on_one_answer() {

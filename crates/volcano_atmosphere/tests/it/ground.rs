@@ -1,4 +1,4 @@
-//! The ground's energy budget alone (issue 17, item 7): under fixed forcing its temperature
+//! The ground's energy budget alone: under fixed forcing its temperature
 //! must not depend on how the time is cut into steps, and no clamp may hide an oscillation.
 
 use volcano_atmosphere::AtmosphereParams;
@@ -36,6 +36,6 @@ fn thin_soil_one_hour_step_matches_sixty_one_minute_steps() {
     eprintln!("start {t0:.2} K; 1 × 1 h: {one:.2} K, 60 × 1 min: {sixty:.2} K, 3600 × 1 s: {fine:.2} K");
     assert!((one - sixty).abs() < 1.0, "1 h step {one:.2} K vs 60 × 1 min {sixty:.2} K");
     assert!((sixty - fine).abs() < 0.5, "60 × 1 min {sixty:.2} K vs 3600 × 1 s {fine:.2} K");
-    // Noon sun on dry soil warms it by tens of kelvin, to well inside the old clamp band.
+    // Noon sun on dry soil warms it by tens of kelvin, to well inside the 150–400 K band.
     assert!(fine > t0 + 10.0 && fine < 380.0, "{t0:.2} → {fine:.2} K");
 }

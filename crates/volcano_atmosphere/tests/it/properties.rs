@@ -89,8 +89,8 @@ fn orographic(c: &Coefficients, dt: f64) -> volcano_atmosphere::AtmosphereSummar
     volcano_atmosphere::model::run::run(&s, Some(12), Some(dt), Some(16)).unwrap().summary
 }
 
-/// The case proptest found before the donor limiter existed: a 2,767 s step with strong
-/// uplift hit the 256-substep cap and the clamp at zero created water (drift 1.8e-9).
+/// A case proptest found with no donor limiter: a 2,767 s step with strong uplift hits the
+/// 256-substep cap, and without the limiter the clamp at zero creates water (drift 1.8e-9).
 #[test]
 fn substep_cap_regression_keeps_water_exact() {
     let c = Coefficients {
@@ -110,8 +110,8 @@ fn substep_cap_regression_keeps_water_exact() {
     assert!(summary.water_total_rel_error < 1e-12, "drift {}", summary.water_total_rel_error);
 }
 
-/// A case proptest found in CI on 2026-11-25 (one V-cycle per step, a 1,313 s step, a 1 cm
-/// soil): the ground's latent heat overshot and the state became invalid.
+/// A case proptest found (one V-cycle per step, a 1,313 s step, a 1 cm soil) where the
+/// ground's latent heat can overshoot and make the state invalid: it must stay valid.
 #[test]
 fn one_cycle_long_step_regression_keeps_the_state_valid() {
     let c = Coefficients {

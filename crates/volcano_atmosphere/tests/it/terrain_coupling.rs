@@ -1,6 +1,5 @@
-//! Terrain ↔ layer geometry (issue 17, items 5 and 6): σ is the free fraction of each
-//! layer's slab, ℓ(p) is the layer whose slab holds the ground, and the projected wind does
-//! not cross the terrain.
+//! Terrain ↔ layer geometry: σ is the free fraction of each layer's slab, ℓ(p) is the layer
+//! whose slab holds the ground, and the projected wind does not cross the terrain.
 
 use volcano_atmosphere::model::advection::apertures;
 use volcano_atmosphere::model::run::run;

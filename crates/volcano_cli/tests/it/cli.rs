@@ -33,8 +33,8 @@ fn bad_arguments_are_errors() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("unknown scene"));
     let o = volcano().args(["render", "--width", "0", "--out", "/tmp/x.png"]).output().unwrap();
     assert_eq!(o.status.code(), Some(2));
-    // A grid the atmosphere rejects is an error, not a silently uncoupled run with an empty
-    // summary (exit 0 before).
+    // A grid the atmosphere rejects is an error (exit 2), not a silently uncoupled run with an
+    // empty summary and exit 0.
     let o = volcano()
         .args([
             "eruption",

@@ -4,9 +4,9 @@
 //! The column is an entraining plume: below its umbrella it draws air in and carries its heat
 //! up, so the air it reads as its surroundings (the annulus of the air → plume transfer) must
 //! stay near the undisturbed air. Imposing the slice's temperature on whole grid cells when the
-//! column is narrower than a cell gave the layers the heat of a column `dx² / (π r²)` times too
-//! wide: in the coupled `eruption` scene the vent layer's annulus read 789 K after 2 minutes
-//! (the undisturbed air 275 K) and the column collapsed.
+//! column is narrower than a cell gives the layers the heat of a column `dx² / (π r²)` times too
+//! wide: in the coupled `eruption` scene the vent layer's annulus then reads 789 K after 2
+//! minutes (the undisturbed air 275 K) and the column collapses.
 
 use bevy::math::DVec2;
 use volcano_atmosphere::{AtmosphereState, Scenario, Workspace, step};
@@ -138,9 +138,9 @@ fn near_axis(state: &AtmosphereState, l: usize, radius: f64) -> (f64, f64) {
 #[test]
 fn a_column_that_stops_below_a_layer_does_not_heat_it() {
     // The column's heat rises in its slices; where no slice reaches (above the top, or before
-    // the column has climbed), the layers must not carry it up a second time. In the
-    // `cloud-cap` CLI run on 200 m cells the 12 km layer read 586 K around the vent after 60 s,
-    // before any slice got there, and the column then stopped at 7.3 km.
+    // the column has climbed), the layers must not carry it up a second time. Layers that do
+    // carry it put the 12 km layer of the `cloud-cap` CLI run on 200 m cells at 586 K around
+    // the vent after 60 s, before any slice gets there, and the column then stops at 7.3 km.
     let scenario = air(128);
     let mut state = scenario.build(None).unwrap();
     let mut work = Workspace::new(&state).unwrap();

@@ -315,8 +315,8 @@ fn moist_low_air_makes_cloud_near_the_column_and_dry_air_none() {
     let dry = cloud(false);
     eprintln!("condensed water (g/m³) near / far per layer, moist: {moist:?}\ndry: {dry:?}");
     // After two minutes the cap is thin (≈ 1.1e-3 g/m³ in the top layer and 4.9e-4 in layer 3 with
-    // the column's cells held during the weather step; 8e-4 and 2e-4 before, since
-    // the vertical velocity is no longer clamped to ±2 m/s; 1e-4 and 0 with the clamp), below the
+    // the column's cells held during the weather step; 8e-4 and 2e-4 without holding them;
+    // 1e-4 and 0 with the vertical velocity also clamped to ±2 m/s), below the
     // 0.05 g/m³ that counts as cloud: what is asserted is where condensation appears, not
     // that a visible cloud has formed yet.
     assert!(moist.iter().any(|&(_, near, far)| near > 0.0 && far == 0.0), "{moist:?}");

@@ -1,5 +1,5 @@
-//! Cooling under the crust (issue 17, item 1): heat leaves a lava column from the top of its
-//! crust, so the core stays hot while the crust thickens, as on real pahoehoe.
+//! Cooling under the crust: heat leaves a lava column from the top of its crust, so the core
+//! stays hot while the crust thickens, as on real pahoehoe.
 //!
 //! References:
 //! - Hon, Kauahikaua, Denlinger & Mackay (1994), "Emplacement and inflation of pahoehoe sheet
@@ -90,9 +90,9 @@ fn conduction_1d_heat_lost(p: &LavaParams, latent: f64, h: f64, t_end: f64) -> f
 
 /// A still sheet 1 m thick: after 1, 10 and 60 min the crust follows √t at the order of Hon
 /// et al. (1994), and the heat the column lost (from its depth-averaged temperature) matches
-/// the independent 1D conduction solution once scaled by the crust ratio: the crust insulates. Before the fix the
-/// top radiated at the core temperature (~320 kW/m²), so the whole metre fell below the
-/// solidus within the hour.
+/// the independent 1D conduction solution once scaled by the crust ratio: the crust insulates.
+/// A top radiating at the core temperature instead (~320 kW/m²) brings the whole metre below
+/// the solidus within the hour.
 #[test]
 fn still_sheet_cools_through_its_crust_like_hon_1994() {
     let h = 1.0;
@@ -122,8 +122,8 @@ fn still_sheet_cools_through_its_crust_like_hon_1994() {
         // Heat lost: the lumped column loses heat through eq (5.1)'s crust, 1.54 × thicker than
         // Hon's, so ~1/1.54 of what the 1D conduction reference loses (whose conductive,
         // latent-heat-releasing crust is Hon's); scaled by that crust ratio the two agree
-        // within 12 % (+ 0.2 K) at every time. Radiating at the core temperature (before the
-        // fix) loses 5–8 × more.
+        // within 12 % (+ 0.2 K) at every time. Radiating at the core temperature instead loses
+        // 5–8 × more.
         let drop = p.liquidus - tk;
         let ref_drop = p.liquidus - expect_t;
         let scaled = drop * ratio;

@@ -1,6 +1,6 @@
-//! Lava patches on the flank of a procedural volcano (issue 13 item 5): each patch is built on
-//! whichever terrain lies under it, conserves volume, and writes exactly its frozen volume
-//! into that terrain, finer or coarser than the terrain, aligned with its nodes or not.
+//! Lava patches on the flank of a procedural volcano: each patch is built on whichever terrain
+//! lies under it, conserves volume, and writes exactly its frozen volume into that terrain,
+//! finer or coarser than the terrain, aligned with its nodes or not.
 
 use std::time::Duration;
 

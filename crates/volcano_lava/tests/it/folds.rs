@@ -36,10 +36,10 @@ fn folds_pile_up_in_front_of_the_obstacle_not_on_a_free_slope() {
     assert!(sum.max_crust_m > fsum.max_crust_m);
 }
 
-/// Past 240 s the ponded lava in front of the obstacle keeps converging: particles of many
-/// folds used to pile into single cells (117 per 0.5 m cell at 240 s, 648 at 270 s) and the
-/// neighbour searches went quadratic. Chains now stop at occupied crust and overridden
-/// particles are buried, so the density stays bounded.
+/// Past 240 s the ponded lava in front of the obstacle keeps converging. Chains stop at
+/// occupied crust and overridden particles are buried, so the density stays bounded; chains
+/// that run on and particles that stay pile the particles of many folds into single cells (117
+/// per 0.5 m cell at 240 s, 648 at 270 s) and the neighbour searches go quadratic.
 #[test]
 fn folds_do_not_pile_up_as_the_pond_keeps_converging() {
     let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);

@@ -1,6 +1,6 @@
 //! The substep cap (`LavaParams::max_substeps`): when a step would need more substeps, the
 //! last one scales every face flux down so the explicit update stays stable, which slows the
-//! flow (issue 17, item 4). The shipped scenarios must never need it.
+//! flow. The shipped scenarios must never need it.
 
 use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
 

@@ -182,7 +182,7 @@ fn frozen_lava_is_written_back_into_the_terrain() {
     assert!(rise.iter().all(|&r| r >= -1e-6), "the terrain only rises");
 }
 
-/// Issue 14's despawn rule for lava: despawning a patch removes its lava (state, supply,
+/// The despawn rule for lava: despawning a patch removes its lava (state, supply,
 /// probes) and leaves what froze in the terrain; a patch built later over the same nodes starts
 /// on that raised ground.
 #[test]

@@ -1,5 +1,5 @@
 //! The view of a running pyroclastic flow carries ash clouds over its currents
-//! (`volcano_plume::view::current_clouds`, issue 18 item 2): after 14 s of the collapsing cone,
+//! (`volcano_plume::view::current_clouds`): after 14 s of the collapsing cone,
 //! the gathered parents hold clouds above the particles, swollen at the fronts, the same on
 //! every gather and at every frame rate, and none when the settings turn them off.
 

@@ -99,8 +99,8 @@ fn plinian_column_spreads_an_umbrella() {
 
 /// Under the plinian preset's wind the slices lean over near the apex, so their vortex ring is
 /// tilted. An s1 sphere detaching into the umbrella starts where it was on that ring: between
-/// two frames (5 ticks, 0.1 s) it moves by no more than its speed allows. (It used to be put
-/// back on an untilted ring at the apex altitude, a jump of hundreds of metres.)
+/// two frames (5 ticks, 0.1 s) it moves by no more than its speed allows. (Put back on an
+/// untilted ring at the apex altitude instead, it jumps by hundreds of metres.)
 #[test]
 fn umbrella_spheres_start_where_they_left_the_ring() {
     let mut app = app(Eruption::plinian(), 5);

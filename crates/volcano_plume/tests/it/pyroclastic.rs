@@ -190,7 +190,8 @@ fn clustering_is_linear_and_groups_within_the_radius() {
 
 /// A flow running down a 17° slope at 10 m/s turns buoyant: the secondary column keeps the
 /// flow's downward momentum (it first sinks), is turned round by its buoyancy, and rises well
-/// above where it formed before it spreads. (It used to start with its downward speed set to 0.)
+/// above where it formed before it spreads. (A column started with its downward speed set to 0
+/// fails the momentum and sinking checks.)
 #[test]
 fn a_secondary_column_keeps_the_flows_momentum_and_rises() {
     let p = PlumeParams::default();

@@ -105,8 +105,8 @@ fn pyroclastic_flow_is_frame_rate_independent() {
 
 /// One buoyant particle with no others near it cannot make a cluster of 19; once it has risen
 /// clear of the flows (more than r_pyr above the ground) it lifts off alone as a secondary
-/// column, so no particle hangs in the air for ever. (It used to stay a particle, rising
-/// until the simulation ended.)
+/// column, so no particle hangs in the air for ever. (Left a particle, it would rise until the
+/// simulation ended.)
 #[test]
 fn an_isolated_buoyant_particle_lifts_off_alone() {
     let mut app = app(5);

@@ -1,4 +1,4 @@
-//! Two volcanoes on two terrains share nothing (issue 14, item 2): each stands on its own
+//! Two volcanoes on two terrains share nothing: each stands on its own
 //! terrain (`OnTerrain`), its flows deposit on that terrain's `DepositMap`, its books are its
 //! own `PyroclasticBudget`, and a volcano run beside another gives what it gives alone.
 //! Despawning one removes everything it owns and leaves its deposit on the ground.

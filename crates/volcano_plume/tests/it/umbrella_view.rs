@@ -1,7 +1,7 @@
-//! The view draws each kilogram of umbrella ash once (issue 18): an umbrella sphere sheds its
-//! ash into the air as it spreads (`Eruption::umbrella_fallout_s`), and the air's ash is drawn
-//! by the renderer once coupled, so the sphere is drawn only as dense as the ash it still
-//! holds. Until 2026-11-27 it was drawn at the density it detached with until it expired.
+//! The view draws each kilogram of umbrella ash once: an umbrella sphere sheds its ash into
+//! the air as it spreads (`Eruption::umbrella_fallout_s`), and the air's ash is drawn by the
+//! renderer once coupled, so the sphere is drawn only as dense as the ash it still holds.
+//! Drawn at the density it detached with until it expires, it would draw the shed ash twice.
 
 use crate::common;
 

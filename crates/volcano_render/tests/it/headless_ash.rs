@@ -63,8 +63,8 @@ fn instanced_ash_covers_the_sky() {
     app.add_systems(Startup, scene).add_systems(PostUpdate, wall.after(update_parents));
     let (_, _, rgb) = common::run_and_read(app, &out);
     // Top eighth: covered by ash (left: expanded spheres, right: billboards); grey-brown, not
-    // sky blue (the sky there is ≈ (118, 150, 215): blue ≫ red). The ash is lit by the sun
-    // now, so it is not necessarily dark.
+    // sky blue (the sky there is ≈ (118, 150, 215): blue ≫ red). The ash is lit by the sun,
+    // so it is not necessarily dark.
     for (name, xs) in [("detail spheres", (8, W / 2 - 8)), ("billboards", (W / 2 + 8, W - 8))] {
         let m = rgb_region_mean(&rgb, W, xs, (2, H / 8));
         eprintln!("{name}: mean {m:?} ({})", out.display());

@@ -1,12 +1,11 @@
 //! A parent's detail spheres behind its centre are seen through its body: one parent with 300
 //! s2 children in front of the camera, the sun behind the camera, so the children facing the
 //! eye are sunlit and the ones on the far side are in the parent's own shadow. The children
-//! are blended in their enumeration (hash) order, not sorted; before the parent's body hid the
-//! far ones, the shadowed back children were drawn over the lit front ones and the parent's
-//! face read as a dark disc ringed with light (the umbrella of the `eruption` scene). The face
-//! must now be at least as bright as the rim: luminance 202 against 204 when written; with the
-//! body's transmittance left out of the alpha (the old shader), 136 against 201, and this
-//! fails.
+//! are blended in their enumeration (hash) order, not sorted; unless the parent's body hides
+//! the far ones, the shadowed back children are drawn over the lit front ones and the parent's
+//! face reads as a dark disc ringed with light (as on the umbrella of the `eruption` scene).
+//! The face must be at least as bright as the rim: luminance 202 against 204 when written;
+//! with the body's transmittance left out of the alpha, 136 against 201, and this fails.
 
 use crate::common;
 

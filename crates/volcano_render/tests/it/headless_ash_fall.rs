@@ -4,8 +4,8 @@
 //! eastern half. Seen from the south with the sun behind the camera, the sky above the
 //! horizon is otherwise left–right symmetric. The ash side must be clearly darker than the
 //! clear side; if the ash box, its density image or its material were missing, both sides
-//! would match. (The camera stands 25 km away: from 40 km, where it stood while the ash was a
-//! Bevy fog volume, the scene's distance fog covers the lit ash almost as much as the sky.) A second run with the same atmosphere but no ash checks
+//! would match. (The camera stands 25 km away: from 40 km the scene's distance fog covers the
+//! lit ash almost as much as the sky.) A second run with the same atmosphere but no ash checks
 //! that the two sides then do match (the asymmetry comes from the ash).
 
 use crate::common;

@@ -6,8 +6,9 @@
 //! screen to cover the puff. The frame's centre must look like the nearer of the two: like the
 //! cloud drawn alone when the cloud is in front, like the puff drawn alone when it is behind.
 //! Without the ash-depth pass every cloud box would be drawn before the ash and the puff would
-//! lie over a cloud in front of it: the first case fails so (tried by skipping the split). The whole frame with the cloud in front must also match the cloud alone:
-//! the puff's soft fringe must not show through it.
+//! lie over a cloud in front of it: the first case fails so (tried by skipping the split). The
+//! whole frame with the cloud in front must also match the cloud alone: the puff's soft fringe
+//! must not show through it.
 
 use crate::common;
 

@@ -7,14 +7,15 @@
 //!   without. If the detail pass drew nothing or ignored its setting, both frames would match.
 //! - Grazing (ground 1–3 km off seen from 150 m up: a pixel covers about 7 m across the view
 //!   and 100 m along it) the frame with detail must show far more contrast than the one
-//!   without. Faded by the footprint's long side alone (before 2026-11-27), only the coarsest
-//!   octave was left there, and the ground in front of every scene camera was a smear.
+//!   without. Fading by the footprint's long side alone leaves only the coarsest octave there
+//!   (contrast 1.75, which fails the bound), and the ground in front of every scene camera a
+//!   smear.
 //! - Far away (ground from 1.6 to 15 km off, seen from 1 km up: metres to tens of metres a pixel
 //!   across, up to hundreds along the view) the frame must match the same view rendered at
 //!   four times the size and averaged down 4 × 4 (a supersampled frame, the reference for
 //!   antialiasing): the mean luminance difference over the ground must stay small. Detail
 //!   sampled below its wavelength turns to speckle that the averaged frame does not have, and
-//!   detail faded too early (by the long side alone, before 2026-11-27) leaves a smear where
+//!   detail faded too early (by the long side alone) leaves a smear where
 //!   the averaged frame has texture: either moves the frame away from the reference.
 use crate::common;
 

@@ -20,8 +20,8 @@
 //!    through it: with one density sample per view step neighbouring pixels alternate between
 //!    seeing it and missing it (a checker); with eight (`CloudRenderSettings::substeps`) the
 //!    mean step between neighbouring pixels must drop below 0.3 of that.
-//! 5. A density image replaced in place under its handle (as the rebuilds did) is drawn as a
-//!    fresh one: its maximum levels must follow (they kept the first image's until 2026-11-27).
+//! 5. A density image replaced in place under its handle (as a game may do) is drawn as a
+//!    fresh one: its maximum levels must follow the new image, not keep the first image's.
 //! 6. The empty-step skip changes (almost) nothing: faint sparse puffs drawn with it and with
 //!    every step marched.
 
@@ -50,8 +50,7 @@ struct Setup {
     settings: CloudRenderSettings,
 }
 
-/// The box's density image and material (to replace them in place, as the rebuilds did until
-/// 2026-11-27 and a game may).
+/// The box's density image and material (to replace them in place, as a game may).
 #[derive(Resource)]
 struct BoxHandles {
     image: Handle<Image>,
@@ -298,10 +297,10 @@ fn thin_sheet(substeps: u32) -> (f64, f64) {
     (step, mean)
 }
 
-/// A sheet thinner than a view step reads as a sheet, not as a per-pixel checker (as in
-/// `skyscape_island`'s near deck until 2026-11-27): with eight
-/// samples per step the mean step between neighbouring pixels is far below the single
-/// sample's, and the sheet is still there (brighter than the sky behind it with none).
+/// A sheet thinner than a view step reads as a sheet, not as a per-pixel checker (the checker
+/// one sample per step draws on `skyscape_island`'s near deck): with eight samples per step
+/// the mean step between neighbouring pixels is far below the single sample's, and the sheet
+/// is still there (brighter than the sky behind it with none).
 #[test]
 fn a_thin_sheet_seen_grazing_is_not_a_checker() {
     let (one, one_mean) = thin_sheet(1);
@@ -321,8 +320,8 @@ fn values_differing(a: &[u8], b: &[u8]) -> usize {
 }
 
 /// At the third update, the box's density image and material are replaced in place, under
-/// their handles, by [`ball_setup`]'s ball: what the cloud and ash-fall rebuilds did every
-/// time the weather moved until 2026-11-27 (they now add a new image), and what a game may do.
+/// their handles, by [`ball_setup`]'s ball, as a game may do. (The cloud and ash-fall rebuilds
+/// add a new image each time the weather moves instead.)
 fn replace_by_the_ball(
     mut updates: Local<u32>,
     handles: Option<Res<BoxHandles>>,
@@ -339,10 +338,10 @@ fn replace_by_the_ball(
 }
 
 /// A density image replaced in place draws its new cloud: the ball put into an empty box's
-/// image after two frames looks as the ball drawn from the start. (Until 2026-11-27 Bevy
-/// reused the texture and wrote only its finest level: the maximum levels still said
-/// "empty", the pass skipped every step, and the frame stayed empty: a cloud that formed
-/// where the first volume had none was never drawn, as beside the `eruption` column.)
+/// image after two frames looks as the ball drawn from the start. (Bevy reuses the texture and
+/// writes only its finest level: maximum levels that do not follow still say "empty", the
+/// pass skips every step, and the frame stays empty: a cloud that forms where the first
+/// volume had none is never drawn, as beside the `eruption` column.)
 #[test]
 fn a_density_image_replaced_in_place_is_drawn_whole() {
     let direct = ball("headless_lit_clouds_ball_direct.png", smooth(), false);
@@ -397,10 +396,10 @@ fn faint_puffs(half: Vec3, distance: f32, steps: u32, skip: bool, empty: bool) -
 }
 
 /// The occupancy skip drops only steps that hold no density: the frame of faint, sparse puffs
-/// is (nearly) the same with it and without it. (Until 2026-11-27 the skip read the maximum
-/// levels through the linear filter, whose 8-bit result rounds a faint texel's small share to
-/// 0: it dropped faint puffs near the edges of the coarse texels. The blocks and the missing
-/// cloud of the `eruption` frame were mostly stale levels: see
+/// is (nearly) the same with it and without it. (A skip that reads the maximum levels through
+/// the linear filter, whose 8-bit result rounds a faint texel's small share to 0, drops faint
+/// puffs near the edges of the coarse texels and fails. Blocks and a missing cloud in a frame
+/// such as `eruption`'s come mostly from stale levels: see
 /// `a_density_image_replaced_in_place_is_drawn_whole`.)
 #[test]
 fn the_empty_step_skip_drops_no_faint_cloud() {
@@ -414,12 +413,12 @@ fn the_empty_step_skip_drops_no_faint_cloud() {
         eprintln!(
             "faint puffs {half} {steps}: {drawn} channel values show the puffs, {differing} differ with the skip"
         );
-        // When written, with the filtered read of the maximum levels: 641 of 24,459 and 499
-        // of 19,442 values differed (2.6 % each). With the unfiltered read of the widened
+        // When written, with a filtered read of the maximum levels: 641 of 24,459 and 499
+        // of 19,442 values differ (2.6 % each). With the unfiltered read of the widened
         // levels: 0 and 57. What the second view still loses (20 pixels in three rows near
         // the box's far top edge, where a sample reads density in a step whose texel is 0;
-        // flagged by a temporary shader switch) was not found. (A third view, 32 steps over
-        // the same box: 42 before, 21 after.)
+        // flagged by a temporary shader switch) has no known cause. (A third view, 32 steps
+        // over the same box: 42 with the filtered read, 21 with the unfiltered one.)
         assert!(drawn > 5_000, "the puffs hardly show ({drawn} channel values): the scene tests nothing");
         assert!(
             differing * 100 <= drawn,

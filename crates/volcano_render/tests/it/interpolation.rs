@@ -1,4 +1,4 @@
-//! Smooth motion between ticks (issue 15 item 6): with [`SmoothMotionPlugin`] the plume moves on
+//! Smooth motion between ticks: with [`SmoothMotionPlugin`] the plume moves on
 //! every rendered frame, and the simulation is the same as without it at any frame rate.
 
 use std::time::Duration;
