@@ -10,7 +10,8 @@ fn main() -> AppExit {
         .run()
 }
 
-fn setup(mut commands: Commands) -> Result {
+/// The world: a terrain, a volcano on it and a camera.
+pub fn setup(mut commands: Commands) -> Result {
     // The ground: a procedural stratovolcano (a game can load its own heightmap instead).
     commands.spawn(StratovolcanoParams::default().generate()?);
     // The volcano (vent radius 100 m, seed 42) and what it does: a Plinian eruption. Its vent

@@ -49,7 +49,7 @@ fn an_eruption_20_km_away_is_the_one_at_the_origin_shifted() {
     assert_eq!(v1, v0 + AWAY, "the vent sits on the moved terrain's summit");
 
     let (s0, s1) = (slices(&mut home), slices(&mut away));
-    assert!(s0.len() > 50, "{} slices after 5 s", s0.len());
+    assert!(s0.len() > 10, "{} slices after 5 s", s0.len());
     assert_eq!(s0.len(), s1.len());
     for (a, b) in s0.iter().zip(&s1) {
         assert_eq!(a.index, b.index);

@@ -440,6 +440,48 @@ mod tests {
         }
     }
 
+    /// A terrain placed by its entity's transform is drawn where the simulation has it: its
+    /// mesh vertices are the moved grid's samples and the mesh child's global transform is the
+    /// identity, whatever the parent's translation (and a rotation the simulation ignores).
+    #[test]
+    fn a_placed_terrain_is_drawn_where_the_simulation_has_it() {
+        let mut app = App::new();
+        app.add_plugins((
+            MinimalPlugins,
+            bevy::asset::AssetPlugin::default(),
+            bevy::transform::TransformPlugin,
+        ))
+        .init_asset::<Mesh>()
+        .init_asset::<StandardMaterial>()
+        .add_plugins((volcano_core::VolcanoCorePlugin, TerrainRenderPlugin));
+        app.finish();
+        app.cleanup();
+        let built =
+            StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap();
+        let moved = Vec3::new(5_000.0, 0.0, -20_000.0);
+        let placed = Transform::from_translation(moved).with_rotation(Quat::from_rotation_y(0.3));
+        let t = app.world_mut().spawn((built.clone(), placed)).id();
+        for _ in 0..3 {
+            app.update();
+        }
+        let world = app.world_mut();
+        let (mesh, global) = world
+            .query_filtered::<(&Mesh3d, &GlobalTransform), With<TerrainMesh>>()
+            .single(world)
+            .map(|(m, g)| (m.0.clone(), *g))
+            .unwrap();
+        let meshes = world.resource::<Assets<Mesh>>();
+        let pos =
+            meshes.get(&mesh).unwrap().attribute(Mesh::ATTRIBUTE_POSITION).unwrap().as_float3().unwrap();
+        let drawn = global.transform_point(Vec3::from(pos[0]));
+        let sample = built.heights().origin() + moved.xz();
+        assert!(
+            (drawn.xz() - sample).length() < 0.05,
+            "vertex 0 drawn at {drawn}, the ground is at {sample}"
+        );
+        assert_eq!(world.get::<Terrain>(t).unwrap().heights().origin(), sample);
+    }
+
     /// Terrain and volcano on a headless app (no renderer): one mesh child and one vent marker,
     /// replaced in place when the terrain changes.
     #[test]
