@@ -18,7 +18,7 @@
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
-use volcano::atmosphere::{AirLayer, Atmosphere, Scenario, air_ash_at, spawn_scenario_with};
+use volcano::atmosphere::Scenario;
 use volcano::lava::{LavaReached, LavaZone};
 use volcano::plume::{PlumeCollapsed, UmbrellaSpreading};
 use volcano::prelude::*;
@@ -104,13 +104,10 @@ fn on_terrain_loaded(
         Err(e) => log.lines.push(format!("no volcano: {e}")),
     }
     // Air over it: the built-in five-layer scenario of the `eruption` scene, over this terrain.
-    match Scenario::builtin("eruption") {
-        Ok(scenario) => {
-            if let Err(e) = spawn_scenario_with(&mut commands, &scenario, None, Some(terrain), 0) {
-                log.lines.push(format!("no atmosphere: {e}"));
-            }
-        }
-        Err(e) => log.lines.push(format!("no atmosphere: {e}")),
+    let air = Scenario::builtin("eruption")
+        .and_then(|scenario| AtmosphereSpawner::new(&scenario).over(terrain).spawn(&mut commands));
+    if let Err(e) = air {
+        log.lines.push(format!("no atmosphere: {e}"));
     }
     // A lava patch on the flank (the `eruption` scene's), and the player's house below it.
     match volcano::scenes::by_name("eruption").map(|s| s.lava) {

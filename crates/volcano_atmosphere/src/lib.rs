@@ -18,7 +18,7 @@ pub use model::run::{AtmosphereSummary, run_scenario};
 pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, Scenario};
 pub use model::step::{StepReport, Workspace, step};
 pub use plugin::{
-    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereTimeline, SharedFields, WeatherPipelineSettings,
-    WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at, atmosphere_fields,
-    flush_weather, join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, SharedFields,
+    WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at,
+    atmosphere_fields, flush_weather, join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

@@ -21,7 +21,7 @@ pub use pipeline::{
     AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,
 };
 pub use shared::SharedFields;
-pub use spawn::{spawn_atmosphere, spawn_scenario, spawn_scenario_with};
+pub use spawn::{AtmosphereSpawner, spawn_atmosphere, spawn_scenario, spawn_scenario_with};
 
 /// The layered atmosphere: systems in [`WeatherStep`] and [`WeatherSystems`], and the messages
 /// they send.

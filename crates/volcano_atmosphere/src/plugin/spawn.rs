@@ -98,3 +98,51 @@ pub fn spawn_scenario_with(
     commands.entity(entity).insert(AtmosphereTimeline(events));
     Ok(entity)
 }
+
+/// Spawns a scenario's atmosphere with named options instead of positional ones:
+///
+/// ```text
+/// let air = AtmosphereSpawner::new(&Scenario::builtin("eruption")?)
+///     .over(&terrain)      // the game's terrain under the grid (else the scenario's own)
+///     .grid(128)           // cells per side (else the scenario's)
+///     .prespin(60)         // model steps run before it appears (developed weather)
+///     .spawn(&mut commands)?;
+/// ```
+///
+/// The same as [`spawn_scenario_with`]; the atmosphere entity is returned.
+#[derive(Debug, Clone, Copy)]
+pub struct AtmosphereSpawner<'a> {
+    scenario: &'a Scenario,
+    grid: Option<usize>,
+    terrain: Option<&'a Terrain>,
+    prespin_steps: u32,
+}
+
+impl<'a> AtmosphereSpawner<'a> {
+    /// The scenario's atmosphere on its own grid and terrain, from its start.
+    pub fn new(scenario: &'a Scenario) -> Self {
+        Self { scenario, grid: None, terrain: None, prespin_steps: 0 }
+    }
+
+    /// `n × n` cells instead of the scenario's grid (validated when spawning).
+    pub fn grid(self, n: usize) -> Self {
+        Self { grid: Some(n), ..self }
+    }
+
+    /// Over the game's `terrain` (sampled at the cell centres) instead of the scenario's own.
+    pub fn over(self, terrain: &'a Terrain) -> Self {
+        Self { terrain: Some(terrain), ..self }
+    }
+
+    /// Runs `steps` model steps of the scenario's Δt (its timeline events included) before the
+    /// atmosphere appears, so a scene starts with developed weather.
+    pub fn prespin(self, steps: u32) -> Self {
+        Self { prespin_steps: steps, ..self }
+    }
+
+    /// Spawns the atmosphere and its layers; errors (spawning nothing) on an invalid grid or a
+    /// terrain the scenario cannot be built over.
+    pub fn spawn(self, commands: &mut Commands) -> Result<Entity, ConfigError> {
+        spawn_scenario_with(commands, self.scenario, self.grid, self.terrain, self.prespin_steps)
+    }
+}

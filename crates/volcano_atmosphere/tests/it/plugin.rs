@@ -96,3 +96,52 @@ fn plugin_fires_timeline_events() {
     let timeline = world.query::<&volcano_atmosphere::AtmosphereTimeline>().single(world).unwrap();
     assert!(timeline.0.is_empty(), "both events fired");
 }
+
+/// The layers' fields and the atmosphere's clock after spawning `spawn` in an empty world.
+fn spawned(spawn: impl Fn(&mut Commands) -> Result<Entity, ConfigError>) -> Vec<String> {
+    let mut world = World::new();
+    spawn(&mut world.commands()).unwrap();
+    world.flush();
+    let time =
+        world.query::<&Atmosphere>().iter(&world).map(|a| format!("t {}", a.time_s)).collect::<Vec<_>>();
+    let mut layers: Vec<(usize, String)> =
+        world.query::<&AirLayer>().iter(&world).map(|l| (l.index, format!("{:?}", l.fields))).collect();
+    layers.sort_by_key(|(i, _)| *i);
+    time.into_iter().chain(layers.into_iter().map(|(_, f)| f)).collect()
+}
+
+#[test]
+fn the_spawner_builds_what_the_positional_call_builds() {
+    let terrain =
+        StratovolcanoParams { resolution: 64, cell: 400.0, ..Default::default() }.generate().unwrap();
+    let t2 = terrain.clone();
+    let by_name = spawned(move |c| {
+        let scenario = Scenario::builtin("eruption").unwrap();
+        volcano_atmosphere::AtmosphereSpawner::new(&scenario).over(&terrain).grid(32).prespin(3).spawn(c)
+    });
+    let positional = spawned(move |c| {
+        let scenario = Scenario::builtin("eruption").unwrap();
+        volcano_atmosphere::spawn_scenario_with(c, &scenario, Some(32), Some(&t2), 3)
+    });
+    assert!(by_name.len() > 2, "an atmosphere and its layers");
+    assert_eq!(by_name, positional);
+    // The options are not ignored: no prespin starts at the scenario's time zero.
+    let fresh = spawned(|c| {
+        let scenario = Scenario::builtin("eruption").unwrap();
+        volcano_atmosphere::AtmosphereSpawner::new(&scenario).grid(32).spawn(c)
+    });
+    assert_ne!(fresh[0], by_name[0], "prespun: {} / fresh: {}", by_name[0], fresh[0]);
+    let bad = spawned_err(|c| {
+        let scenario = Scenario::builtin("eruption").unwrap();
+        volcano_atmosphere::AtmosphereSpawner::new(&scenario).grid(0).spawn(c)
+    });
+    assert!(bad.contains("grid"), "{bad}");
+}
+
+fn spawned_err(spawn: impl Fn(&mut Commands) -> Result<Entity, ConfigError>) -> String {
+    let mut world = World::new();
+    let err = spawn(&mut world.commands()).unwrap_err().to_string();
+    world.flush();
+    assert_eq!(world.query::<&Atmosphere>().iter(&world).count(), 0, "an error spawns nothing");
+    err
+}
