@@ -3,7 +3,7 @@
 //! Δt = 30 s, each beside a same-run memory sweep: one read-modify-write pass over every
 //! byte of the layers' fields (the bandwidth floor of anything that touches the whole state).
 //! Before the timings, the mean wall time of the step's phases over 10 steps is printed
-//! (`StepReport::phase_ms`) with the V-cycles and flux substeps, as the profile. First, the
+//! (`WeatherStepReport::phase_ms`) with the V-cycles and flux substeps, as the profile. First, the
 //! cloud volume a renderer rebuilds off the main thread after each weather step.
 
 use std::hint::black_box;

@@ -1,8 +1,8 @@
 //! Runs the five shipped scenarios with their own settings and prints each summary as JSON
 //! (what `volcano atmosphere --scenario NAME` will write as summary.json).
 //! `cargo run --release -p volcano_atmosphere --example summaries [GRID] [NAME]`
+use volcano_atmosphere::model::run::run_scenario;
 use volcano_atmosphere::model::scenario::BUILTIN;
-use volcano_atmosphere::run_scenario;
 
 fn main() {
     let grid: Option<usize> = std::env::args().nth(1).and_then(|s| s.parse().ok());

@@ -14,9 +14,9 @@ pub mod view;
 pub use model::fields::{AtmosphereState, GridSpec, LayerFields};
 pub use model::paint::{Brush, PaintField, PaintMode, paint};
 pub use model::params::AtmosphereParams;
-pub use model::run::{AtmosphereSummary, run_scenario};
+pub use model::run::AtmosphereSummary;
 pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, Scenario};
-pub use model::step::{StepReport, Workspace, step};
+pub use model::step::WeatherStepReport;
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, SharedFields,
     WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at,

@@ -15,7 +15,7 @@ pub mod view;
 pub use model::budget::VolumeBudget;
 pub use model::field::{CellProbe, Edge, Edges, FlowField, Placement, Source};
 pub use model::params::{LavaParams, ViscosityModel};
-pub use model::{DomainReport, LayersMut, StepReport, step, step_layers, step_under_crust};
+pub use model::{DomainReport, LavaStepReport, LayersMut};
 pub mod scenario;
 
 pub use components::{
@@ -26,4 +26,4 @@ pub use model::folds::{FoldParams, FoldSystem};
 pub use model::surface::SurfaceState;
 pub use plugin::{LavaPlugin, LavaStep};
 pub use scenario::terrains::scenario_terrain;
-pub use scenario::{LavaSummary, Scenario, ScenarioConfig, ScenarioKind, run_scenario};
+pub use scenario::{LavaSummary, Scenario, ScenarioConfig, ScenarioKind};

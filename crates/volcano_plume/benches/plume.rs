@@ -1,7 +1,7 @@
 //! The plume's hot paths (frame-budget target: one 1/50 s tick of 10 substeps with 1,000
 //! slices and 6,000 s1 spheres, plus ≥ 500,000 detail-sphere instances, ≤ 4 ms together).
 //! This bench measures the model parts alone: the slice steps, the whole plume domain step
-//! (`volcano_plume::step`: emission, slices, rings, umbrella, books) without ECS, and
+//! (`volcano_plume::model::domain::step`: emission, slices, rings, umbrella, books) without ECS, and
 //! enumerating the detail spheres of 2,500 s1 spheres × 200 children. ECS overhead is not
 //! included (`plume_ecs` measures the same tick through the plugin).
 
@@ -9,11 +9,12 @@ use bevy::math::{DQuat, DVec3};
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
 use volcano_core::VolcanoRng;
+use volcano_plume::model::domain::step;
 use volcano_plume::model::domain::{Emitter, StepCaps};
 use volcano_plume::model::params::PlumeParams;
 use volcano_plume::model::slice::{Slice, SliceEnv};
 use volcano_plume::model::spheres::{SphereParams, detail_spheres};
-use volcano_plume::{Eruption, PlumeAir, PlumeInputs, PlumeState, step};
+use volcano_plume::{Eruption, PlumeAir, PlumeInputs, PlumeState};
 
 fn bench(c: &mut Criterion) {
     let p = PlumeParams { v0: 200.0, ..Default::default() };

@@ -23,10 +23,10 @@ pub use components::{
 };
 pub use ground::{DepositMap, PyroclasticBudget};
 pub use model::ambient::{AmbientLevel, LayeredAmbient};
-pub use model::domain::{PlumeAir, PlumeInputs, PlumeReport, PlumeState, step};
+pub use model::domain::{PlumeAir, PlumeInputs, PlumeReport, PlumeState};
 pub use model::params::{Dynamics, PlumeParams, Preset};
 pub use model::pyroclastic::PyroclasticParams;
-pub use model::slice::{Phase, Slice, SliceEnv, StepReport};
+pub use model::slice::{Phase, Slice, SliceEnv, SliceStepReport};
 pub use model::timeline::{EruptionTimeline, TimelineKey, TimelineState};
 pub use model::wind::WindProfile;
 pub use plugin::{PlumePlugin, PlumeStep, PlumeSystems};

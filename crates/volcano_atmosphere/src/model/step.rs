@@ -74,7 +74,7 @@ impl Workspace {
 
 /// What one step did (diagnostics for summaries and tests).
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
-pub struct StepReport {
+pub struct WeatherStepReport {
     /// Largest |∇·V − target| after projection over all layers (1/s).
     pub max_divergence_error: f64,
     /// Largest |∇·V − target| before projection (1/s).
@@ -126,17 +126,17 @@ pub fn step(
     params: &AtmosphereParams,
     work: &mut Workspace,
     dt: f64,
-) -> Result<StepReport, ConfigError> {
+) -> Result<WeatherStepReport, ConfigError> {
     check_dt(dt)?;
     params.validate()?;
     state.check_shape()?;
     if !work.matches(state) {
         *work = Workspace::new(state)?;
     }
-    let mut report = StepReport::default();
+    let mut report = WeatherStepReport::default();
 
     let clock = std::time::Instant::now();
-    let lap = |i: usize, r: &mut StepReport| r.phase_ms[i] = clock.elapsed().as_secs_f64() * 1e3;
+    let lap = |i: usize, r: &mut WeatherStepReport| r.phase_ms[i] = clock.elapsed().as_secs_f64() * 1e3;
     // 1. Ground: sun, radiation, sensible heat, evaporation (§4.2.5).
     let sun = sun_position(state.day_now(), state.local_hour(), state.latitude_deg);
     report.ground_evaporation = ground_exchange(state, params, &sun, dt);

@@ -8,7 +8,7 @@ use super::shared::SharedFields;
 use crate::model::fields::{AtmosphereState, GridSpec, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::scenario::Event;
-use crate::model::step::StepReport;
+use crate::model::step::WeatherStepReport;
 use volcano_core::error::ConfigError;
 
 /// Schedule of the weather domain: it *starts* a step (docs/ARCHITECTURE.md §3.3).
@@ -117,7 +117,7 @@ pub struct WeatherStepped {
     /// The atmosphere entity.
     pub atmosphere: Entity,
     /// What the step did.
-    pub report: StepReport,
+    pub report: WeatherStepReport,
     /// Base tick (`SimTick`) at which the step started from a snapshot of the components.
     pub started_tick: u64,
     /// Base tick at which its result was written back: the next weather tick, k ticks after

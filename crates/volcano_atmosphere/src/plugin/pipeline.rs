@@ -29,7 +29,7 @@ use crate::model::fields::{AtmosphereState, Ground, LayerFields};
 use crate::model::params::AtmosphereParams;
 use crate::model::run::apply_event;
 use crate::model::scenario::Event;
-use crate::model::step::{StepReport, Workspace, step};
+use crate::model::step::{WeatherStepReport, Workspace, step};
 
 /// The pool the weather step's bands run on: the async compute pool, whose tasks never wait for
 /// a system (with the compute pool, `tests/pool.rs` hangs).
@@ -98,7 +98,7 @@ struct StepInput {
 struct Stepped {
     state: AtmosphereState,
     work: Option<Workspace>,
-    result: Result<StepReport, ConfigError>,
+    result: Result<WeatherStepReport, ConfigError>,
     /// `state.is_valid()` in debug builds (checked on the worker, asserted on write-back).
     valid: bool,
 }

@@ -3,7 +3,7 @@
 
 use volcano_atmosphere::model::run::run;
 use volcano_atmosphere::model::scenario::Scenario;
-use volcano_atmosphere::{Workspace, step};
+use volcano_atmosphere::model::step::{Workspace, step};
 
 #[test]
 fn water_is_conserved_over_1000_steps_and_nothing_goes_negative() {

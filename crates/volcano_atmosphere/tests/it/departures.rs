@@ -78,7 +78,7 @@ fn sensible_heat_cools_air_over_cold_ground_and_warms_it_over_warm_ground() {
 /// 4.7 would add to P is forgotten by the next projection.
 #[test]
 fn an_increment_to_the_pressure_only_changes_the_solvers_starting_guess() {
-    use volcano_atmosphere::{Workspace, step};
+    use volcano_atmosphere::model::step::{Workspace, step};
     let s = Scenario::builtin("orographic").unwrap();
     let mut a = s.build(Some(32)).unwrap();
     let mut work = Workspace::new(&a).unwrap();
@@ -122,8 +122,8 @@ fn an_increment_to_the_pressure_only_changes_the_solvers_starting_guess() {
 /// dynamics, relaxation all run), not on the phase-change function alone.
 #[test]
 fn a_supersaturated_layer_condenses_and_warms_by_the_latent_heat_in_a_full_step() {
+    use volcano_atmosphere::model::step::{Workspace, step};
     use volcano_atmosphere::model::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
-    use volcano_atmosphere::{Workspace, step};
     let s = Scenario::builtin("convection").unwrap();
     let mut st = s.build(Some(16)).unwrap();
     for l in st.layers.iter_mut() {

@@ -1,11 +1,12 @@
 //! Terrain ↔ layer geometry: σ is the free fraction of each layer's slab, ℓ(p) is the layer
 //! whose slab holds the ground, and the projected wind does not cross the terrain.
 
+use volcano_atmosphere::AtmosphereState;
 use volcano_atmosphere::model::advection::apertures;
 use volcano_atmosphere::model::run::run;
 use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_atmosphere::model::terrain::update_masks;
-use volcano_atmosphere::{AtmosphereState, Workspace, step};
 
 /// Sets the ground to `height`, recomputes σ and ℓ(p) and clears water and ash inside rock
 /// (as a scenario's build does).

@@ -9,7 +9,8 @@
 //! minutes (the undisturbed air 275 K) and the column collapses.
 
 use bevy::math::DVec2;
-use volcano_atmosphere::{AtmosphereState, Scenario, Workspace, step};
+use volcano_atmosphere::model::step::{Workspace, step};
+use volcano_atmosphere::{AtmosphereState, Scenario};
 use volcano_coupling::model::column::{
     ColumnSlice, ambient_levels, annulus_bounds, for_cells_within, impose, nearest_slice_per_layer,
     release_columns,

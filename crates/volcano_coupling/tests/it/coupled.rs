@@ -219,7 +219,7 @@ fn umbrella_drifts_with_the_upper_wind_and_ash_falls_through_the_lower_one() {
     // winds and at least 20° east of the umbrella.
     let scenario = sheared_air(40_000.0, 32);
     let mut state = scenario.build(None).unwrap();
-    let mut work = volcano_atmosphere::Workspace::new(&state).unwrap();
+    let mut work = volcano_atmosphere::model::step::Workspace::new(&state).unwrap();
     let grid = state.grid;
     let mut emitted = 0.0;
     let (mut outflow, mut deposited) = (0.0, 0.0);
@@ -235,7 +235,7 @@ fn umbrella_drifts_with_the_upper_wind_and_ash_falls_through_the_lower_one() {
             );
             emitted += 1e6;
         }
-        let r = volcano_atmosphere::step(&mut state, &scenario.params, &mut work, 1.0).unwrap();
+        let r = volcano_atmosphere::model::step::step(&mut state, &scenario.params, &mut work, 1.0).unwrap();
         outflow += r.ash.outflow;
         deposited += r.ash.deposited;
     }

@@ -42,7 +42,7 @@ pub struct LayersMut<'a> {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct DomainReport {
     /// The flow layer's step.
-    pub flow: StepReport,
+    pub flow: LavaStepReport,
     /// Where the crust tore and lava broke out this step.
     pub breakouts: Vec<Breakout>,
 }
@@ -70,7 +70,7 @@ pub fn step_layers(
 
 /// What one [`step`] did.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StepReport {
+pub struct LavaStepReport {
     /// Flow substeps taken (CFL-limited).
     pub substeps: u32,
     /// Whether the substep cap slowed the flow this step.
@@ -85,7 +85,7 @@ pub struct StepReport {
 
 /// Advances `field` by `dt` seconds with no crust (bare lava radiates at its temperature):
 /// [`step_under_crust`] with an empty crust.
-pub fn step(field: &mut FlowField, params: &LavaParams, sources: &[Source], dt: f64) -> StepReport {
+pub fn step(field: &mut FlowField, params: &LavaParams, sources: &[Source], dt: f64) -> LavaStepReport {
     step_under_crust(field, params, sources, &[], dt)
 }
 
@@ -100,8 +100,8 @@ pub fn step_under_crust(
     sources: &[Source],
     crust: &[f64],
     dt: f64,
-) -> StepReport {
-    let mut report = StepReport::default();
+) -> LavaStepReport {
+    let mut report = LavaStepReport::default();
     if !(dt.is_finite() && dt > 0.0) {
         return report;
     }

@@ -2,7 +2,8 @@
 
 use bevy::math::Vec2;
 use volcano_core::Grid2;
-use volcano_lava::{Edge, Edges, FlowField, LavaParams, ViscosityModel, step};
+use volcano_lava::model::step;
+use volcano_lava::{Edge, Edges, FlowField, LavaParams, ViscosityModel};
 
 /// A bumpy 3° slope (descending toward +y) so fluxes go every way.
 fn bumpy_ground(n: usize, cell: f64) -> Grid2<f64> {

@@ -3,8 +3,9 @@
 use bevy::math::Vec2;
 use proptest::prelude::*;
 use volcano_core::{Grid2, Terrain};
+use volcano_lava::model::step;
 use volcano_lava::scenario::{ScenarioConfig, ScenarioKind};
-use volcano_lava::{Edge, Edges, FlowField, LavaParams, Placement, ViscosityModel, step};
+use volcano_lava::{Edge, Edges, FlowField, LavaParams, Placement, ViscosityModel};
 
 fn random_ground(n: usize, heights: &[f64]) -> Grid2<f64> {
     let mut g = Grid2::new(n, n, 0.5, Vec2::ZERO, 0.0).unwrap();

@@ -33,7 +33,7 @@ use bevy::math::DVec3;
 use volcano_core::units::{G0, R_AIR};
 
 use super::params::{PlumeParams, R_VAPOUR};
-use super::slice::{MIN_DENSITY, Slice, SliceEnv, StepReport};
+use super::slice::{MIN_DENSITY, Slice, SliceEnv, SliceStepReport};
 
 /// Specific heat of dry air at constant pressure (J/kg/K).
 pub const CP_AIR: f64 = 1_004.0;
@@ -43,7 +43,7 @@ pub const CP_VAPOUR: f64 = 1_850.0;
 pub const CP_SOLID: f64 = 1_100.0;
 /// Smallest speed (m/s) used for a slice's length `|v| Δt_e`: at the apex the speed tends to 0
 /// and the steady column's radius to infinity; the floor keeps it finite (a few times the
-/// radius at the neutral level) and is reported ([`StepReport::length_speed_floored`]). It
+/// radius at the neutral level) and is reported ([`SliceStepReport::length_speed_floored`]). It
 /// acts only in the last seconds below the apex: tops with 0.1, 1 and 2 m/s agree to the
 /// metre (10⁴–10⁹ kg/s).
 pub const MIN_LENGTH_SPEED: f64 = 1.0;
@@ -61,8 +61,8 @@ pub fn mixture_volume(solid: f64, water: f64, dry_air: f64, t: f64, p: f64, rho_
 
 /// Advances a column slice by `dt` (see the module doc). The caller (`Slice::step`) has
 /// checked the phase and `dt`.
-pub(crate) fn step(s: &mut Slice, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
-    let mut report = StepReport::default();
+pub(crate) fn step(s: &mut Slice, p: &PlumeParams, env: &SliceEnv, dt: f64) -> SliceStepReport {
+    let mut report = SliceStepReport::default();
     let z_abs = env.vent_altitude + s.position.z;
     let air = env.air.sample(z_abs);
     let (rho_a, t_a) = (air.density, air.temperature);

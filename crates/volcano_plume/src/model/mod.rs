@@ -20,7 +20,7 @@ pub mod wind;
 
 use bevy::math::{DVec3, Vec3};
 use params::{Dynamics, PlumeParams};
-use slice::{Phase, Slice, SliceEnv, StepReport};
+use slice::{Phase, Slice, SliceEnv, SliceStepReport};
 
 impl Slice {
     /// Advances the slice by `dt` seconds (`p.dt` in stand-alone runs, the plume domain's step
@@ -28,9 +28,9 @@ impl Slice {
     /// ([`Dynamics::Thesis`]) or the physical column ([`Dynamics::Column`], [`column`](mod@column)).
     /// Umbrella and collapsed slices are left to the umbrella and pyroclastic models and are
     /// not changed here. A non-finite or non-positive `dt` does nothing.
-    pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
+    pub fn step(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> SliceStepReport {
         if matches!(self.phase, Phase::Umbrella | Phase::Collapsed) || !(dt.is_finite() && dt > 0.0) {
-            return StepReport::default();
+            return SliceStepReport::default();
         }
         match p.dynamics {
             Dynamics::Column => column::step(self, p, env, dt),

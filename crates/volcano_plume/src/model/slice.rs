@@ -78,7 +78,7 @@ pub struct Slice {
 
 /// What one step changed, for budgets and messages.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct StepReport {
+pub struct SliceStepReport {
     /// Air mass entrained during the step (kg).
     pub entrained: f64,
     /// Mass sedimented during the step (kg).
@@ -153,8 +153,8 @@ impl Slice {
     /// One step of the thesis' slice ([`Dynamics::Thesis`], eqs 3.1–3.10) of a rising slice;
     /// [`Slice::step`] (in [`super`]) chooses it or the physical column and filters the
     /// phases and `dt` first.
-    pub(crate) fn step_thesis(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> StepReport {
-        let mut report = StepReport::default();
+    pub(crate) fn step_thesis(&mut self, p: &PlumeParams, env: &SliceEnv, dt: f64) -> SliceStepReport {
+        let mut report = SliceStepReport::default();
         let air = env.air.sample(env.vent_altitude + self.position.z);
         let (rho_a, t_a) = (air.density, air.temperature);
         let wind = (env.wind)(self.position.z);
@@ -234,7 +234,7 @@ impl Slice {
     /// turns negative before the slice was ever buoyant. A buoyant slice that starts out
     /// sinking (a secondary column carrying a flow's downward momentum) is not at an apex: it
     /// sinks until its buoyancy turns it round.
-    pub(crate) fn update_phase(&mut self, env: &SliceEnv, report: &mut StepReport, rising: bool) {
+    pub(crate) fn update_phase(&mut self, env: &SliceEnv, report: &mut SliceStepReport, rising: bool) {
         // The air is sampled only when the comparison can change a phase: before the slice
         // was ever buoyant, or while buoyant below its neutral altitude (a slice past its
         // neutral altitude, most secondary columns' long tail, skips one whole air sample).

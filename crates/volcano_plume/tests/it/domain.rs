@@ -1,4 +1,4 @@
-//! The plume domain step (`volcano_plume::step`) alone, without an App, does what the plugin
+//! The plume domain step (`volcano_plume::model::domain::step`) alone, without an App, does what the plugin
 //! does: the same slices bit for bit after 60 s of the thesis preset at the thesis' 50 Hz tick;
 //! and a game system ordered after `PlumeSystems::Step` sees each step's result.
 
