@@ -2,7 +2,7 @@
 //! entrainment, forces of weight, buoyancy, friction and wind, and the phases jet → buoyant
 //! plume → umbrella, or collapse.
 //!
-//! [`model`] holds plain data and functions, testable without ECS; its [`step`]
+//! [`model`] holds plain data and functions, testable without ECS; its [`model::domain::step`]
 //! (`model::domain::step`) advances one volcano's whole plume by one step. [`plugin`] runs it in
 //! the `PlumeStep` domain ([`PlumeSystems`]): add an [`Eruption`] next to a `Volcano` and
 //! slices, s1 spheres and the umbrella appear as entities.

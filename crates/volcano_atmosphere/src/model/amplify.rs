@@ -94,7 +94,7 @@ pub const BREAKUP: f64 = 1.5;
 
 /// Density multiplier of the detail noise `u` (the fBm divided by its [`detail_sd`]: unit
 /// spread) for a form of noise amplitude `amp` holding `w` g/m³:
-/// max(0, 1 + amp · (u − [`BREAKUP`] · (1 − [`extent_fraction`](w)))). A wet cloud (whole
+/// max(0, 1 + amp · (u − [`BREAKUP`] · (1 − `extent_fraction(w)`))). A wet cloud (whole
 /// extent) varies by ± `amp` around its water; a thin one is shifted down so that only the
 /// noise's crests keep density: thin cumulus break up into separate cells, wet ones stay
 /// whole, and stratiform forms (small `amp`) stay sheets. Coverage is read from the water,

@@ -2,7 +2,7 @@
 //! ridges on the flanks and a rolling fBm landscape around it, all from the `noise` crate and
 //! seeded, so the same parameters and seed give the same terrain bit for bit.
 //!
-//! The gully law ([`Gullies`]) is this crate's own, for the look; it is not from the thesis.
+//! The gully law (`Gullies`) is this crate's own, for the look; it is not from the thesis.
 
 use bevy::reflect::Reflect;
 use noise::{Fbm, MultiFractal, NoiseFn, Perlin};
@@ -90,9 +90,9 @@ impl StratovolcanoParams {
 
     /// Generates the terrain, centred on world (0, 0) with the crater at the centre.
     ///
-    /// Height = plain + concave cone ([`Self::cone_profile`]) + `ridge_amplitude` × the gully
+    /// Height = plain + concave cone (`Self::cone_profile`) + `ridge_amplitude` × the gully
     /// field + `hills_amplitude` × a rolling fBm faded in from 0.6 `cone_radius` outwards.
-    /// The gully field is described at [`Gullies`]: radial ridged noise whose cross-slope
+    /// The gully field is described at `Gullies`: radial ridged noise whose cross-slope
     /// wavelengths never go below a few cells, so a 40 m grid draws gullies, not hairlines.
     pub fn generate(&self) -> Result<Terrain, ConfigError> {
         self.validate()?;

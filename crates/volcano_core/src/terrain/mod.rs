@@ -153,7 +153,7 @@ impl Terrain {
     }
 
     /// How far the terrain was moved from where it was built (world x, z; m): its entity's
-    /// `Transform` translation, applied by the core plugin ([`place_terrains`]).
+    /// `Transform` translation, applied by the core plugin (`place_terrains`).
     pub fn placement(&self) -> Vec2 {
         self.placement
     }

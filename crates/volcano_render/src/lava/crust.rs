@@ -41,7 +41,7 @@ const WAVELENGTHS: [f64; 3] = [610e-9, 550e-9, 465e-9];
 pub const REFERENCE_TEMPERATURE: f64 = 1500.0;
 
 /// Relative spectral radiance of a black body at temperature `t` (K) in the red, green and
-/// blue channels (Planck's law at [`WAVELENGTHS`]), scaled so the red channel of a body at
+/// blue channels (Planck's law at `WAVELENGTHS`), scaled so the red channel of a body at
 /// [`REFERENCE_TEMPERATURE`] is 1. Linear RGB; 0 at or below 0 K or for non-finite input.
 /// Each channel rises monotonically with temperature, and the colour shifts from deep red
 /// (1000 K) to orange (1400 K) to yellow-white (well above 2000 K).

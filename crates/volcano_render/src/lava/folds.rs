@@ -61,8 +61,8 @@ fn fold_material(mode: LavaRenderMode) -> StandardMaterial {
 
 /// Transform of the rope segment of particle `p` (length `length`) on `flow`: centred on its
 /// position at the lava surface raised by its vertical offset (−ℓ/2 when created, 0 once
-/// risen), its rolling height (eq 5.5) and [`ROPE_RISE`] × ℓ, axis along its tangent, rolled
-/// by its roll angle, [`ROPE_WIDTH`] × ℓ thick and [`ROPE_LENGTH`] × `length` long.
+/// risen), its rolling height (eq 5.5) and `ROPE_RISE` × ℓ, axis along its tangent, rolled
+/// by its roll angle, `ROPE_WIDTH` × ℓ thick and `ROPE_LENGTH` × `length` long.
 pub fn fold_transform(flow: &FlowField, p: &FoldParticle, length: f32) -> Transform {
     let xz = Vec2::new(p.pos.x as f32, p.pos.y as f32);
     let surface = flow.ground().sample(xz, Boundary::Clamp) + flow.thickness().sample(xz, Boundary::Clamp);

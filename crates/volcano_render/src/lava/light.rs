@@ -6,7 +6,7 @@
 //! [`LavaRenderSettings::emissive_nits`](super::LavaRenderSettings) in its material, which
 //! lights nothing else. [`glow_light`] sums what that emission gives out, as a Lambertian
 //! emitter (`Φ = π L A` lumens for luminance `L` in nits over area `A`), and
-//! [`update_glow_lights`] puts point lights of that power and mean colour, without shadows,
+//! `update_glow_lights` puts point lights of that power and mean colour, without shadows,
 //! along the flow ([`glow_lights`]: one per stretch about twice as long as the flow is wide, up
 //! to [`LavaRenderSettings::glow_light_count`](super::LavaRenderSettings)). An extended flow
 //! is not a point, so each light sits above its stretch's centroid by half the radius of the
@@ -123,10 +123,10 @@ pub fn glow_light(
 }
 
 /// What the lava's surface gives out as light, as up to `max_lights` point lights strung
-/// along the flow: the glowing blocks ([`emitters`]) are ordered along the principal axis of
+/// along the flow: the glowing blocks (`emitters`) are ordered along the principal axis of
 /// their power-weighted positions and cut into runs of equal power, as many as the glowing
 /// area is about twice as long as wide (a compact lobe gets one light, a 250 × 15 m tongue
-/// eight), each run one light ([`light_of`]). The lights' powers add up to the whole
+/// eight), each run one light (`light_of`). The lights' powers add up to the whole
 /// emission. One light at the centroid of a long tongue would leave the ground beside its ends
 /// nearly dark: the ground there is lit by the lava next to it, not by the lava 100 m away.
 /// Empty when nothing glows (under a lumen in all) or `max_lights` is 0.
@@ -177,7 +177,7 @@ pub fn glow_lights(
     lights
 }
 
-/// Distance (m) at which a point of `lumens` gives [`RANGE_LUX`]: `√(Φ / (4π E))`.
+/// Distance (m) at which a point of `lumens` gives `RANGE_LUX`: `√(Φ / (4π E))`.
 pub fn glow_range(lumens: f32) -> f32 {
     (lumens.max(0.0) / (4.0 * std::f32::consts::PI * RANGE_LUX)).sqrt()
 }

@@ -117,7 +117,7 @@ pub struct LavaSurface {
 }
 
 impl LavaSurface {
-    /// Whether [`update_surfaces`] rebuilt this surface (mesh and glow) in the current frame.
+    /// Whether `update_surfaces` rebuilt this surface (mesh and glow) in the current frame.
     pub fn rebuilt_this_frame(&self) -> bool {
         self.frames == 0 && !self.dirty
     }

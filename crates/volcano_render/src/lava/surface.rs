@@ -55,9 +55,9 @@ enum Cover {
 
 /// Mesh of the lava surface of `flow`. The first `nx · ny` vertices are the cell centres (world
 /// `x`, altitude, world `z`; cell `(i, j)` at `j · nx + i`) at the lava surface (ground +
-/// frozen + liquid lava, lifted by [`LIFT`]); the rest are quad centres and the outline
+/// frozen + liquid lava, lifted by `LIFT`); the rest are quad centres and the outline
 /// ([`margin`](super::margin)): the surface is clipped where the lava's [`coverage`] crosses
-/// ½, inside the cells, and comes down to the ground (+ [`LIFT`]) there, or stays level with
+/// ½, inside the cells, and comes down to the ground (+ `LIFT`) there, or stays level with
 /// the lava where the ground rises above it (a wall), so the outline is smooth instead of a
 /// cell staircase. An empty field has no indices. Vertex colours: the
 /// albedo (with [`albedo_variation`]) for [`LavaRenderMode::Lit`], the debug colours otherwise,
@@ -174,7 +174,7 @@ fn scaled(c: LinearRgba, s: f32) -> LinearRgba {
 const DETAIL_GRAIN: f32 = 0.85;
 
 /// Keeps a [`surface_mesh`] on the right side of the drawn terrain, whose altitude at world
-/// `(x, z)` is `terrain(x, z)`: every vertex at least [`LIFT`] above it. The field's ground is
+/// `(x, z)` is `terrain(x, z)`: every vertex at least `LIFT` above it. The field's ground is
 /// the terrain's bilinear surface, while the terrain mesh is made of triangles; on a 40 m grid
 /// the two differ by decimetres, enough to hide a lava sheet. Returns how many vertices moved.
 pub fn keep_over_terrain(mesh: &mut Mesh, terrain: impl Fn(f32, f32) -> f32) -> usize {
