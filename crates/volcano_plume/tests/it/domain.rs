@@ -7,7 +7,7 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
-use volcano_plume::model::domain::{Emitter, LiveSlice, StepCaps};
+use volcano_plume::model::domain::{Emitter, LiveSlice, StepCaps, step};
 use volcano_plume::*;
 
 fn app(eruption: Eruption, ticks_per_update: u32) -> App {
