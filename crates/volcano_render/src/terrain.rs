@@ -440,11 +440,9 @@ mod tests {
         }
     }
 
-    /// A terrain placed by its entity's transform is drawn where the simulation has it: its
-    /// mesh vertices are the moved grid's samples and the mesh child's global transform is the
-    /// identity, whatever the parent's translation (and a rotation the simulation ignores).
-    #[test]
-    fn a_placed_terrain_is_drawn_where_the_simulation_has_it() {
+    /// The terrain plugin on a headless app without a renderer (meshes are only assets),
+    /// transforms propagated.
+    fn mesh_app() -> App {
         let mut app = App::new();
         app.add_plugins((
             MinimalPlugins,
@@ -456,8 +454,21 @@ mod tests {
         .add_plugins((volcano_core::VolcanoCorePlugin, TerrainRenderPlugin));
         app.finish();
         app.cleanup();
-        let built =
-            StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap();
+        app
+    }
+
+    /// A 33² stratovolcano of 500 m cells.
+    fn small_terrain() -> Terrain {
+        StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap()
+    }
+
+    /// A terrain placed by its entity's transform is drawn where the simulation has it: its
+    /// mesh vertices are the moved grid's samples and the mesh child's global transform is the
+    /// identity, whatever the parent's translation (and a rotation the simulation ignores).
+    #[test]
+    fn a_placed_terrain_is_drawn_where_the_simulation_has_it() {
+        let mut app = mesh_app();
+        let built = small_terrain();
         let moved = Vec3::new(5_000.0, 0.0, -20_000.0);
         let placed = Transform::from_translation(moved).with_rotation(Quat::from_rotation_y(0.3));
         let t = app.world_mut().spawn((built.clone(), placed)).id();
@@ -486,16 +497,8 @@ mod tests {
     /// replaced in place when the terrain changes.
     #[test]
     fn mesh_child_and_vent_marker_follow_the_entities() {
-        let mut app = App::new();
-        app.add_plugins((MinimalPlugins, bevy::asset::AssetPlugin::default()))
-            .init_asset::<Mesh>()
-            .init_asset::<StandardMaterial>()
-            .add_plugins((volcano_core::VolcanoCorePlugin, TerrainRenderPlugin));
-        app.finish();
-        app.cleanup();
-        let terrain =
-            StratovolcanoParams { resolution: 33, cell: 500.0, ..Default::default() }.generate().unwrap();
-        let t = app.world_mut().spawn(terrain).id();
+        let mut app = mesh_app();
+        let t = app.world_mut().spawn(small_terrain()).id();
         let v = app.world_mut().spawn((Volcano::default(), Transform::from_xyz(100.0, 0.0, -50.0))).id();
         for _ in 0..3 {
             app.update();
