@@ -1,6 +1,5 @@
 //! What several of this crate's app tests share: a headless app with the plume plugins at the
 //! thesis' 50 Hz tick, the collapsing-cone world of the pyroclastic tests, and a runner.
-#![allow(dead_code)]
 
 use std::time::Duration;
 

@@ -1,6 +1,5 @@
 //! The stages and scenes the headless render tests share; the capture app and the PNG
 //! read-back are `volcano_test_support`'s.
-#![allow(dead_code, reason = "each test crate uses its own part")]
 
 use std::path::{Path, PathBuf};
 
