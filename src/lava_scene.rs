@@ -70,11 +70,10 @@ impl LavaSceneSpec {
         self.sources
             .iter()
             .map(|s| {
-                let mut src =
-                    LavaSource::new(Vec3::new(s.position.0, 0.0, s.position.1), s.rate, s.temperature)?;
-                src.radius = s.radius;
-                src.validate()?;
-                Ok(src)
+                LavaSource::new(s.rate)?
+                    .at(Vec3::new(s.position.0, 0.0, s.position.1))?
+                    .with_temperature(s.temperature)?
+                    .with_radius(s.radius)
             })
             .collect()
     }

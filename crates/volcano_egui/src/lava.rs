@@ -392,8 +392,7 @@ fn place_source_on_click(
     let xz = Vec2::new(hit.x, hit.z);
     let (n, cell, rate) = (panel.new_patch_cells as usize, panel.new_patch_cell, panel.new_source_rate);
     if fields.iter().any(|s| s.flow.cell_at(xz).is_some()) {
-        if let Ok(mut src) = LavaSource::new(hit, rate, LavaParams::default().liquidus) {
-            src.radius = 0.75;
+        if let Ok(src) = LavaSource::new(rate).and_then(|s| s.at(hit)).and_then(|s| s.with_radius(0.75)) {
             commands.spawn((Name::new("Lava source"), src));
         }
     } else if let Err(e) = start_patch(&mut commands, [terrain], xz, (n, cell, rate)) {
@@ -416,9 +415,10 @@ fn start_patch<'a>(
     let placement = Placement::downslope_of(terrain, xz, n, cell).map_err(|e| e.to_string())?;
     let field = LavaField::new(placement, LavaParams::default()).map_err(|e| e.to_string())?;
     let position = Vec3::new(xz.x, terrain.height_at(xz.x, xz.y), xz.y);
-    let mut src =
-        LavaSource::new(position, rate, LavaParams::default().liquidus).map_err(|e| e.to_string())?;
-    src.radius = 0.75;
+    let src = LavaSource::new(rate)
+        .and_then(|s| s.at(position))
+        .and_then(|s| s.with_radius(0.75))
+        .map_err(|e| e.to_string())?;
     commands.spawn((Name::new("Lava field"), field));
     commands.spawn((Name::new("Lava source"), src));
     Ok(())

@@ -3,7 +3,7 @@
 use bevy::ecs::entity::{Entity, MapEntities};
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::ecs::system::SystemParam;
-use bevy::prelude::{Component, Message, Query, Vec2, Vec3};
+use bevy::prelude::{Component, Message, Query, Transform, Vec2, Vec3, Vec3Swizzles};
 use bevy::reflect::Reflect;
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
@@ -15,12 +15,17 @@ use crate::model::params::LavaParams;
 use crate::model::surface::SurfaceState;
 use crate::model::thermal::surface_temperature;
 
-/// A lava field (a *patch*): a local grid placed on a terrain (world x, z), with its edges and
-/// lava parameters. The plugin builds its [`LavaState`] at the next lava step by resampling
-/// the `Terrain` whose grid contains the whole patch (the finest if several do; flat
-/// ground at altitude 0 if the world has no terrain at all; rejected if terrains exist but
-/// none contains it), and writes the lava that freezes back into that terrain. Parameter
-/// edits apply live (re-validated each step; an invalid edit freezes the field until fixed).
+/// A lava field (a *patch*): a local grid placed on a terrain, with its edges and lava
+/// parameters. The grid is centred on `placement.centre` (x, z) moved by the x and z of the
+/// entity's `Transform` translation, so `(LavaField::square(256, 2.0)?,
+/// Transform::from_xyz(x, 0.0, z))` puts a 512 m patch centred on (x, z); without a
+/// `Transform` the centre is a world position ([`field_placement`]). The plugin builds its
+/// [`LavaState`] at the next lava step by resampling the `Terrain` whose grid contains the
+/// whole patch (the finest if several do; flat ground at altitude 0 if the world has no
+/// terrain at all; rejected if terrains exist but none contains it), and writes the lava that
+/// freezes back into that terrain. Moving the entity rebuilds the field where it now is (its
+/// lava is lost). Parameter edits apply live (re-validated each step; an invalid edit freezes
+/// the field until fixed).
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct LavaField {
@@ -45,6 +50,24 @@ impl LavaField {
         let edges = Edges { west: open, east: open, south: open, north: open };
         Ok(Self { placement, edges, params, folds: FoldParams::default(), seed: 0 })
     }
+
+    /// A validated square field of `cells × cells` cells of `cell` m, centred on its entity's
+    /// `Transform`, with the default lava parameters and open edges.
+    pub fn square(cells: usize, cell: f64) -> Result<Self, ConfigError> {
+        Self::new(Placement { centre: Vec2::ZERO, nx: cells, ny: cells, cell }, LavaParams::default())
+    }
+}
+
+/// The world placement of `field` on an entity with `transform` (if any): its centre moved by
+/// the translation's x and z. A lava grid lies on the ground, so the translation's y, a
+/// rotation and a scale do not apply to it (the same for sources and zones).
+pub fn field_placement(field: &LavaField, transform: Option<&Transform>) -> Placement {
+    Placement { centre: field.placement.centre + offset(transform), ..field.placement }
+}
+
+/// The x and z of a transform's translation (zero without one).
+fn offset(transform: Option<&Transform>) -> Vec2 {
+    transform.map_or(Vec2::ZERO, |t| t.translation.xz())
 }
 
 /// Built state of a [`LavaField`] (flow and surface layers). Reflected as one opaque value
@@ -94,13 +117,15 @@ pub enum LavaFieldStatus {
     Rejected(String),
 }
 
-/// A lava source at a world position emitting `rate` m³/s at `temperature` K over the
-/// cells within `radius` m. Add and remove it live. A source whose position is on no lava
-/// field, or whose values were edited out of range, gets [`LavaSourceStatus::Rejected`].
+/// A lava source emitting `rate` m³/s at `temperature` K over the cells within `radius` m of
+/// `position` moved by its entity's `Transform` translation (x, z; a world position without
+/// a `Transform`): `(LavaSource::new(5.0)?, Transform::from_xyz(x, 0.0, z))`. Add, move and
+/// remove it live. A source that is on no lava field, or whose values were edited out of
+/// range, gets [`LavaSourceStatus::Rejected`].
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct LavaSource {
-    /// World position (only x and z are used).
+    /// Position (only x and z are used), added to the entity's `Transform` translation.
     pub position: Vec3,
     /// Volume rate (m³/s), ≥ 0.
     pub rate: f64,
@@ -111,11 +136,38 @@ pub struct LavaSource {
 }
 
 impl LavaSource {
-    /// A validated source over one cell.
-    pub fn new(position: Vec3, rate: f64, temperature: f64) -> Result<Self, ConfigError> {
-        let s = Self { position, rate, temperature, radius: 0.0 };
+    /// A validated source of `rate` m³/s over one cell at its entity's `Transform`, at the
+    /// default liquidus (1473 K, thesis Table 5.2).
+    pub fn new(rate: f64) -> Result<Self, ConfigError> {
+        let s = Self { position: Vec3::ZERO, rate, temperature: LavaParams::default().liquidus, radius: 0.0 };
         s.validate()?;
         Ok(s)
+    }
+
+    /// The same source at `temperature` K, validated.
+    pub fn with_temperature(self, temperature: f64) -> Result<Self, ConfigError> {
+        let s = Self { temperature, ..self };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// The same source over the cells within `radius` m, validated.
+    pub fn with_radius(self, radius: f64) -> Result<Self, ConfigError> {
+        let s = Self { radius, ..self };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// The same source at `position` (added to its entity's `Transform` translation), validated.
+    pub fn at(self, position: Vec3) -> Result<Self, ConfigError> {
+        let s = Self { position, ..self };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Where the source is (x, z) on an entity with `transform` (if any).
+    pub fn world_xz(&self, transform: Option<&Transform>) -> Vec2 {
+        self.position.xz() + offset(transform)
     }
 
     /// Checks the values (position is checked against the fields at each step).
@@ -145,11 +197,12 @@ pub enum LavaSourceStatus {
 }
 
 /// A marked area: when lava (thicker than the field's `min_thickness`) covers any cell within
-/// `radius` of `centre` (world x, z), a [`LavaReached`] message is written once.
+/// `radius` of `centre` (x, z, moved by the entity's `Transform` translation as for a
+/// [`LavaSource`]), a [`LavaReached`] message is written once.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[reflect(Component)]
 pub struct LavaZone {
-    /// World (x, z) centre.
+    /// Centre (x, z), added to the entity's `Transform` translation.
     pub centre: Vec2,
     /// Radius (m), > 0.
     pub radius: f32,
@@ -169,6 +222,11 @@ impl LavaZone {
             });
         }
         Ok(Self { centre, radius, reached: false })
+    }
+
+    /// Where the zone is centred (x, z) on an entity with `transform` (if any).
+    pub fn world_centre(&self, transform: Option<&Transform>) -> Vec2 {
+        self.centre + offset(transform)
     }
 }
 

@@ -20,7 +20,7 @@ pub mod scenario;
 
 pub use components::{
     LavaBreakout, LavaField, LavaFieldStatus, LavaProbe, LavaQuery, LavaReached, LavaSource,
-    LavaSourceStatus, LavaState, LavaZone, TerrainLink,
+    LavaSourceStatus, LavaState, LavaZone, TerrainLink, field_placement,
 };
 pub use model::folds::{FoldParams, FoldSystem};
 pub use model::surface::SurfaceState;

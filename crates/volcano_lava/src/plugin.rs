@@ -87,10 +87,10 @@ fn terrain_under(
 fn build_fields(
     mut commands: Commands,
     terrains: Query<(Entity, &Terrain)>,
-    fields: Query<(Entity, &LavaField, Option<&BuiltFor>)>,
+    fields: Query<(Entity, &LavaField, Option<&Transform>, Option<&BuiltFor>)>,
 ) {
-    for (entity, field, built) in &fields {
-        let p = field.placement;
+    for (entity, field, transform, built) in &fields {
+        let p = field_placement(field, transform);
         let under = p.validate().and_then(|_| terrain_under(&terrains, &p, built.and_then(|b| b.2)));
         let key = BuiltFor(p, field.edges, under.as_ref().ok().copied().flatten());
         // Built (or rejected) for this placement and terrain already: nothing to do.
@@ -108,6 +108,7 @@ fn build_fields(
                 Ok((FlowField::new(g, field.edges, field.params.air_temperature)?, None))
             }
         });
+        warn_ignored_parts(entity, transform);
         let mut e = commands.entity(entity);
         match result {
             Ok((flow, imprint)) => {
@@ -133,21 +134,43 @@ fn build_fields(
     }
 }
 
+/// Warns that a lava field's `Transform` has a rotation or scale, which a grid lying on the
+/// ground cannot take (its translation's y is ignored without a word: the ground sets it).
+fn warn_ignored_parts(entity: Entity, transform: Option<&Transform>) {
+    let ignored: Vec<_> = transform
+        .map(volcano_core::terrain::ignored_transform_parts)
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|p| *p != "y translation")
+        .collect();
+    if !ignored.is_empty() {
+        warn!(
+            "lava field {entity}: a grid on the ground cannot take its Transform's {} (only the x \
+             and z translation place it)",
+            ignored.join(", ")
+        );
+    }
+}
+
+/// A source: its entity, the source, its `Transform` if any, its last status.
+type SourceItem =
+    (Entity, &'static LavaSource, Option<&'static Transform>, Option<&'static LavaSourceStatus>);
+
 fn step_fields(
     time: Res<Time>,
     mut commands: Commands,
     mut fields: Query<(Entity, &LavaField, &mut LavaState)>,
-    sources: Query<(Entity, &LavaSource, Option<&LavaSourceStatus>)>,
+    sources: Query<SourceItem>,
     mut breakouts: MessageWriter<LavaBreakout>,
 ) {
     let dt = time.delta_secs_f64();
     // Gather: each source feeds the first field whose grid contains it.
     let mut feeds: Vec<(Entity, Source)> = Vec::new();
-    for (entity, src, status) in &sources {
+    for (entity, src, transform, status) in &sources {
         let new_status = match src.validate() {
             Err(e) => LavaSourceStatus::Rejected(e.to_string()),
             Ok(()) => {
-                let xz = Vec2::new(src.position.x, src.position.z);
+                let xz = src.world_xz(transform);
                 let found = fields.iter().find(|(_, _, s)| s.flow.cell_at(xz).is_some());
                 match found {
                     None => LavaSourceStatus::Rejected(format!("({}, {}) is on no lava field", xz.x, xz.y)),
@@ -247,16 +270,17 @@ fn imprint_terrain(
 }
 
 fn check_zones(
-    mut zones: Query<(Entity, &mut LavaZone)>,
+    mut zones: Query<(Entity, &mut LavaZone, Option<&Transform>)>,
     fields: Query<(Entity, &LavaField, &LavaState)>,
     mut reached: MessageWriter<LavaReached>,
 ) {
-    for (zone_entity, mut zone) in &mut zones {
+    for (zone_entity, mut zone, transform) in &mut zones {
         if zone.reached {
             continue;
         }
+        let centre = zone.world_centre(transform);
         for (field_entity, field, state) in &fields {
-            if covered(&state.flow, zone.centre, zone.radius, field.params.min_thickness) {
+            if covered(&state.flow, centre, zone.radius, field.params.min_thickness) {
                 zone.reached = true;
                 reached.write(LavaReached { entity: zone_entity, field: field_entity });
                 break;

@@ -12,6 +12,7 @@
 
 pub mod generate;
 mod placement;
+pub use placement::ignored_parts as ignored_transform_parts;
 pub mod png_io;
 pub mod remap;
 

@@ -32,8 +32,9 @@ pub(crate) fn place_terrains(mut terrains: Query<(Entity, &mut Terrain, Ref<Tran
     }
 }
 
-/// The parts of `transform` a terrain cannot take.
-fn ignored_parts(transform: &Transform) -> Vec<&'static str> {
+/// The parts of `transform` a heightfield-bound entity (a terrain, a lava field) cannot take:
+/// its translation's y, a rotation, a scale.
+pub fn ignored_parts(transform: &Transform) -> Vec<&'static str> {
     let mut parts = Vec::new();
     if transform.translation.y != 0.0 {
         parts.push("y translation");

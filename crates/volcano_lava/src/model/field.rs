@@ -49,10 +49,11 @@ impl Edges {
     }
 }
 
-/// Where a lava grid sits on a terrain: centre (world x, z), size and cell (thesis: 0.5 m).
+/// Where a lava grid sits on a terrain: centre (x, z), size and cell (thesis: 0.5 m). On a
+/// [`crate::LavaField`] the centre is relative to the entity's `Transform` translation.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
 pub struct Placement {
-    /// World (x, z) of the grid centre.
+    /// (x, z) of the grid centre (world, or relative to a field entity's `Transform`).
     pub centre: Vec2,
     /// Cells along x.
     pub nx: usize,

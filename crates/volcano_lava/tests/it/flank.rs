@@ -44,7 +44,7 @@ fn patch(app: &mut App, centre: Vec2, n: usize, cell: f64, (rate, kelvin): (f64,
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
     let half = 0.5 * (n - 1) as f32 * cell as f32;
     let vent = centre - centre.normalize() * 0.4 * half;
-    let mut src = LavaSource::new(Vec3::new(vent.x, 0.0, vent.y), rate, kelvin).unwrap();
+    let mut src = crate::plugin::source(Vec3::new(vent.x, 0.0, vent.y), rate, kelvin).unwrap();
     src.radius = cell.max(1.5);
     app.world_mut().spawn(src);
     field
@@ -175,7 +175,7 @@ fn eruption_scene_patch_numbers() {
     let t = app.world_mut().spawn(terrain).id();
     let placement = Placement { centre: Vec2::new(1721.0, 2457.0), nx: 256, ny: 256, cell: 1.0 };
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
-    let mut src = LavaSource::new(Vec3::new(1666.0, 0.0, 2379.0), 3.0, kelvin).unwrap();
+    let mut src = crate::plugin::source(Vec3::new(1666.0, 0.0, 2379.0), 3.0, kelvin).unwrap();
     src.radius = 2.0;
     app.world_mut().spawn(src);
     run(&mut app, ticks);

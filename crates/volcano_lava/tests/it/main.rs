@@ -7,5 +7,6 @@ mod cooling;
 mod flank;
 mod folds;
 mod mobility_cap;
+mod placement;
 mod plugin;
 mod robustness;

@@ -23,6 +23,11 @@ fn probe(mut out: ResMut<Probe>, lava: LavaQuery) {
     out.0 = lava.at(Vec2::new(0.0, 0.0));
 }
 
+/// A source of `rate` m³/s at `kelvin` K at the world position `at` (no `Transform`).
+pub(crate) fn source(at: Vec3, rate: f64, kelvin: f64) -> Result<LavaSource, ConfigError> {
+    LavaSource::new(rate)?.at(at)?.with_temperature(kelvin)
+}
+
 fn app() -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
@@ -54,8 +59,7 @@ fn live_source_fills_the_field_and_reaches_a_zone() {
     let mut app = app();
     let placement = Placement { centre: Vec2::ZERO, nx: 64, ny: 64, cell: 0.5 };
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
-    let source =
-        app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.3, 1473.0).unwrap()).id();
+    let source = app.world_mut().spawn(source(Vec3::new(0.0, 10.0, -6.0), 0.3, 1473.0).unwrap()).id();
     let zone = app.world_mut().spawn(LavaZone::new(Vec2::new(0.0, 2.0), 1.0).unwrap()).id();
     let far = app.world_mut().spawn(LavaZone::new(Vec2::new(-14.0, -14.0), 0.5).unwrap()).id();
     run(&mut app, 50 * 40);
@@ -87,9 +91,9 @@ fn live_source_fills_the_field_and_reaches_a_zone() {
 
 #[test]
 fn bad_sources_and_fields_are_rejected_not_panicking() {
-    assert!(LavaSource::new(Vec3::ZERO, -1.0, 1400.0).is_err());
-    assert!(LavaSource::new(Vec3::ZERO, 1.0, f64::NAN).is_err());
-    assert!(LavaSource::new(Vec3::new(f32::NAN, 0.0, 0.0), 1.0, 1400.0).is_err());
+    assert!(source(Vec3::ZERO, -1.0, 1400.0).is_err());
+    assert!(source(Vec3::ZERO, 1.0, f64::NAN).is_err());
+    assert!(source(Vec3::new(f32::NAN, 0.0, 0.0), 1.0, 1400.0).is_err());
     let bad_params = LavaParams { emissivity: 2.0, ..Default::default() };
     assert!(LavaField::new(Placement::default(), bad_params).is_err());
 
@@ -97,9 +101,9 @@ fn bad_sources_and_fields_are_rejected_not_panicking() {
     let placement = Placement { centre: Vec2::ZERO, nx: 32, ny: 32, cell: 0.5 };
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
     // Off the field (and off the terrain).
-    let off = app.world_mut().spawn(LavaSource::new(Vec3::new(100.0, 0.0, 0.0), 1.0, 1400.0).unwrap()).id();
+    let off = app.world_mut().spawn(source(Vec3::new(100.0, 0.0, 0.0), 1.0, 1400.0).unwrap()).id();
     // A valid source later edited to a negative rate (as a panel or reflection could do).
-    let edited = app.world_mut().spawn(LavaSource::new(Vec3::ZERO, 1.0, 1400.0).unwrap()).id();
+    let edited = app.world_mut().spawn(source(Vec3::ZERO, 1.0, 1400.0).unwrap()).id();
     // A field placed off the terrain.
     let outside = Placement { centre: Vec2::new(500.0, 0.0), ..placement };
     let bad_field = app.world_mut().spawn(LavaField::new(outside, LavaParams::default()).unwrap()).id();
@@ -129,7 +133,7 @@ fn run_with_frame(ms: u64, ticks: u64) -> (Vec<f64>, usize) {
     app.world_mut().spawn(terrain);
     let placement = Placement { centre: Vec2::ZERO, nx: 48, ny: 48, cell: 0.5 };
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
-    app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.5, 1473.0).unwrap());
+    app.world_mut().spawn(source(Vec3::new(0.0, 10.0, -6.0), 0.5, 1473.0).unwrap());
     run(&mut app, ticks);
     let state = app.world().get::<LavaState>(field).unwrap();
     (state.flow.thickness().data().to_vec(), state.folds.particle_count())
@@ -190,8 +194,7 @@ fn despawning_a_patch_removes_its_lava_and_keeps_what_froze_in_the_terrain() {
     let mut app = app();
     let placement = Placement { centre: Vec2::ZERO, nx: 64, ny: 64, cell: 0.5 };
     let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
-    let source =
-        app.world_mut().spawn(LavaSource::new(Vec3::new(0.0, 10.0, -6.0), 0.1, 1473.0).unwrap()).id();
+    let source = app.world_mut().spawn(source(Vec3::new(0.0, 10.0, -6.0), 0.1, 1473.0).unwrap()).id();
     run(&mut app, 1);
     let ground_before: Vec<f64> = app.world().get::<LavaState>(field).unwrap().flow.ground().data().to_vec();
     // 3 m³ just above the solidus beside the live source: it freezes within seconds.

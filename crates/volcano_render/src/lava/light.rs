@@ -197,12 +197,15 @@ pub(super) fn update_glow_lights(
     mut commands: Commands,
     mode: Res<LavaRenderMode>,
     settings: Res<LavaRenderSettings>,
-    fields: Query<(Entity, &LavaState, &volcano_lava::LavaField, &Children)>,
+    fields: Query<(Entity, &LavaState, &volcano_lava::LavaField, Option<&Transform>, &Children)>,
     surfaces: Query<&LavaSurface>,
-    mut lights: Query<(&mut PointLight, &mut Transform, &mut Visibility), With<LavaGlow>>,
+    mut lights: Query<
+        (&mut PointLight, &mut Transform, &mut Visibility),
+        (With<LavaGlow>, Without<LavaState>),
+    >,
 ) {
     let on = settings.glow_light && *mode == LavaRenderMode::Lit;
-    for (entity, state, field, children) in &fields {
+    for (entity, state, field, frame, children) in &fields {
         let rebuilt =
             children.iter().filter_map(|c| surfaces.get(c).ok()).any(LavaSurface::rebuilt_this_frame);
         let existing: Vec<Entity> = children.iter().filter(|c| lights.contains(*c)).collect();
@@ -234,7 +237,8 @@ pub(super) fn update_glow_lights(
             match existing.get(i).and_then(|&c| lights.get_mut(c).ok()) {
                 Some((mut light, mut transform, mut visibility)) => {
                     *light = point_light(g);
-                    transform.translation = g.position;
+                    transform
+                        .set_if_neq(super::in_world_space(frame, Transform::from_translation(g.position)));
                     visibility.set_if_neq(Visibility::Inherited);
                 }
                 None => {
@@ -242,7 +246,7 @@ pub(super) fn update_glow_lights(
                         Name::new("Lava glow"),
                         LavaGlow,
                         point_light(g),
-                        Transform::from_translation(g.position),
+                        super::in_world_space(frame, Transform::from_translation(g.position)),
                         Visibility::Inherited,
                         ChildOf(entity),
                     ));

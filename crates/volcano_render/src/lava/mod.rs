@@ -155,6 +155,7 @@ impl Plugin for LavaRenderPlugin {
                 PostUpdate,
                 (
                     update_surfaces,
+                    keep_surfaces_in_world_space.after(update_surfaces),
                     folds::update_fold_instances,
                     light::update_glow_lights.after(update_surfaces),
                 )
@@ -208,7 +209,41 @@ fn style_material(
 }
 
 /// What [`update_surfaces`] reads of a field.
-type FieldItem = (Entity, &'static LavaField, Ref<'static, LavaState>, Option<&'static Children>);
+type FieldItem = (
+    Entity,
+    &'static LavaField,
+    Ref<'static, LavaState>,
+    Option<&'static Transform>,
+    Option<&'static Children>,
+);
+
+/// The local transform that draws a child at `world` under a parent at `parent`. A field's
+/// lava is simulated in world coordinates (its grid already moved by the entity's
+/// translation), so its surface and lights, children of the entity, cancel the entity's
+/// transform (a rotation or scale the simulation ignores is ignored here too).
+pub(crate) fn in_world_space(parent: Option<&Transform>, world: Transform) -> Transform {
+    match parent {
+        Some(p) if *p != Transform::IDENTITY => {
+            Transform::from_matrix(p.to_matrix().inverse() * world.to_matrix())
+        }
+        _ => world,
+    }
+}
+
+/// Keeps the surface child of every moved field where the simulation has the lava.
+fn keep_surfaces_in_world_space(
+    fields: Query<(&Transform, &Children), (With<LavaState>, Or<(Changed<Transform>, Changed<Children>)>)>,
+    mut surfaces: Query<&mut Transform, (With<LavaSurface>, Without<LavaState>)>,
+) {
+    for (parent, children) in &fields {
+        let local = in_world_space(Some(parent), Transform::IDENTITY);
+        for child in children.iter() {
+            if let Ok(mut t) = surfaces.get_mut(child) {
+                t.set_if_neq(local);
+            }
+        }
+    }
+}
 
 /// Creates, restyles and rebuilds the surface child of every lava field.
 #[allow(clippy::too_many_arguments)]
@@ -232,7 +267,7 @@ fn update_surfaces(
         return;
     };
     let restyle = mode.is_changed() || settings.is_changed();
-    for (entity, field, state, children) in &fields {
+    for (entity, field, state, frame, children) in &fields {
         let existing = children.and_then(|c| c.iter().find(|c| surfaces.contains(*c)));
         let Some(child) = existing else {
             let pattern = GlowPattern::new(&state.flow);
@@ -263,7 +298,7 @@ fn update_surfaces(
                 },
                 Mesh3d(meshes.add(mesh)),
                 MeshMaterial3d(material),
-                Transform::IDENTITY,
+                in_world_space(frame, Transform::IDENTITY),
                 Visibility::Hidden,
                 // A sheet centimetres to decimetres thick: its own shadows are negligible (one
                 // less shadow pass). It still receives shadows (ropes, obstacles).

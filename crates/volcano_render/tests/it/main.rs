@@ -17,4 +17,5 @@ mod headless_lit_clouds;
 mod headless_smoke;
 mod headless_write_error;
 mod interpolation;
+mod lava_placement;
 mod unrendered;
