@@ -99,8 +99,8 @@ pub mod prelude {
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_atmosphere::{
-        AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, WeatherStepped,
-        WeatherSystems, air_ash_at, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+        AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, WeatherScenario,
+        WeatherStepped, WeatherSystems, air_ash_at, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
     };
     pub use volcano_core::prelude::*;
     pub use volcano_coupling::{CouplingBudget, CouplingPlugin, CouplingSettings, CouplingSystems};

@@ -10,7 +10,7 @@ use bevy::asset::io::Reader;
 use bevy::asset::{Asset, AssetLoader, LoadContext};
 use bevy::reflect::TypePath;
 use serde::{Deserialize, Serialize};
-use volcano_atmosphere::Scenario;
+use volcano_atmosphere::WeatherScenario;
 use volcano_core::terrain::png_io::HeightmapScale;
 use volcano_core::{ConfigError, Terrain};
 use volcano_plume::{EruptionTimeline, PlumeParams};
@@ -106,15 +106,15 @@ impl RonAsset for SceneAsset {
     }
 }
 
-/// A layered-atmosphere scenario (`*.atmosphere.ron`, [`Scenario`], the format of
+/// A layered-atmosphere scenario (`*.atmosphere.ron`, [`WeatherScenario`], the format of
 /// `crates/volcano_atmosphere/scenarios/`).
 #[derive(Asset, TypePath, Debug, Clone)]
-pub struct AtmosphereScenarioAsset(pub Scenario);
+pub struct AtmosphereScenarioAsset(pub WeatherScenario);
 
 impl RonAsset for AtmosphereScenarioAsset {
     const EXTENSIONS: &'static [&'static str] = &["atmosphere.ron"];
     fn parse(text: &str) -> Result<Self, ConfigError> {
-        Scenario::from_ron(text).map(Self)
+        WeatherScenario::from_ron(text).map(Self)
     }
 }
 

@@ -5,7 +5,7 @@
 
 use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
-use volcano_atmosphere::{GridSpec, Scenario, WeatherStep, spawn_scenario_with};
+use volcano_atmosphere::{GridSpec, WeatherScenario, WeatherStep, spawn_scenario_with};
 use volcano_core::error::{ConfigError, in_range};
 use volcano_core::{DomainClock, Terrain};
 
@@ -34,7 +34,7 @@ fn default_time_scale() -> f64 {
 impl SceneAtmosphere {
     /// Checks the scenario name and the numbers.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        let scenario = Scenario::builtin(&self.scenario)?;
+        let scenario = WeatherScenario::builtin(&self.scenario)?;
         if let Some(n) = self.grid {
             GridSpec::new(n, scenario.extent_m / n.max(1) as f64)?;
         }
@@ -74,7 +74,7 @@ pub(crate) fn spawn(
     if let Some(clock) = clock {
         clock.context_mut().set_time_scale(spec.time_scale)?;
     }
-    let s = Scenario::builtin(&spec.scenario)?;
+    let s = WeatherScenario::builtin(&spec.scenario)?;
     // A quality level scales the scene's grid (read here only: a restart applies it).
     let grid = match quality {
         Some(q) => Some(q.atmosphere_cells(spec.grid.unwrap_or(s.grid))),

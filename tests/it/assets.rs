@@ -170,7 +170,7 @@ fn the_built_ins_load_from_embedded() {
     );
     assert_eq!(
         world.resource::<Assets<AtmosphereScenarioAsset>>().get(&scenario).unwrap().0,
-        volcano::atmosphere::Scenario::builtin("sea-breeze").unwrap()
+        volcano::atmosphere::WeatherScenario::builtin("sea-breeze").unwrap()
     );
     let story = &world.resource::<Assets<EruptionTimelineAsset>>().get(&timeline).unwrap().0;
     assert_eq!(story.sample(75.0).v0, Some(135.0), "halfway down the 60–90 s ramp");

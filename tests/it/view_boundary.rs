@@ -189,7 +189,7 @@ fn the_checker_sees_planted_internal_paths() {
          const S: &str = \"volcano_lava::model::x\";\n\
          const R: &str = r#\"scenario::y\"#;\n\
          const Q: [char; 3] = ['\\'', '\\\\', '\"'];\n\
-         fn f(model: u32, scenario: &Scenario) -> u32 { Scenario::builtin(); model }\n",
+         fn f(model: u32, scenario: &WeatherScenario) -> u32 { WeatherScenario::builtin(); model }\n",
     )
     .unwrap();
     assert_eq!(report(std::slice::from_ref(&dir)), Vec::<String>::new());

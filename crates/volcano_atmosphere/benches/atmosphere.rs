@@ -13,7 +13,7 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_atmosphere::model::fields::AtmosphereState;
 use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_atmosphere::view::{ClusterMemory, VolumeSpec, cloud_density};
-use volcano_atmosphere::{AtmosphereParams, Scenario};
+use volcano_atmosphere::{AtmosphereParams, WeatherScenario};
 
 /// One read-modify-write pass over every field of every layer (f32 and f64 grids alike).
 fn sweep(state: &mut AtmosphereState) {
@@ -65,7 +65,7 @@ fn profile(state: &mut AtmosphereState, params: &AtmosphereParams, work: &mut Wo
 }
 
 fn bench_step(c: &mut Criterion, scenario: &str, label: &str) {
-    let sc = Scenario::builtin(scenario).unwrap();
+    let sc = WeatherScenario::builtin(scenario).unwrap();
     let mut state = sc.build(Some(512)).unwrap();
     let mut work = Workspace::new(&state).unwrap();
     // A few steps so the fields are not trivially uniform.
@@ -84,7 +84,7 @@ fn bench_step(c: &mut Criterion, scenario: &str, label: &str) {
 /// k-means coherence, amplification): the `mixed` scenario on 128² cells after one hour of
 /// weather, onto the renderer's default 256 × 256 × 96 voxels.
 fn bench_clouds(c: &mut Criterion) {
-    let sc = Scenario::builtin("mixed").unwrap();
+    let sc = WeatherScenario::builtin("mixed").unwrap();
     let mut state = sc.build(Some(128)).unwrap();
     let mut work = Workspace::new(&state).unwrap();
     for _ in 0..120 {

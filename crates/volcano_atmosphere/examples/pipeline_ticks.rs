@@ -10,7 +10,7 @@ use std::time::{Duration, Instant};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_atmosphere::{
-    AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, spawn_scenario,
+    AtmospherePlugin, WeatherPipelineSettings, WeatherPipelineStatus, WeatherScenario, spawn_scenario,
 };
 use volcano_core::prelude::*;
 
@@ -20,7 +20,7 @@ fn run(grid: usize, seconds: u64, off_thread: bool) {
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
         .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
         .insert_resource(WeatherPipelineSettings { off_thread, ..default() });
-    let scenario = Scenario::builtin("convection").expect("built-in scenario");
+    let scenario = WeatherScenario::builtin("convection").expect("built-in scenario");
     app.add_systems(Startup, move |mut commands: Commands| {
         spawn_scenario(&mut commands, &scenario, Some(grid)).expect("valid scenario");
     });

@@ -1,6 +1,6 @@
 //! Development probe: prints time series and x-profiles of a scenario (not a test).
 //! `cargo run -p volcano_atmosphere --example probe -- NAME STEPS GRID EVERY`
-use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::scenario::WeatherScenario;
 use volcano_atmosphere::model::step::{Workspace, step};
 
 fn main() {
@@ -9,7 +9,7 @@ fn main() {
     let steps: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(100);
     let grid: usize = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(64);
     let every: u32 = args.get(4).and_then(|s| s.parse().ok()).unwrap_or(10);
-    let sc = Scenario::builtin(name).unwrap();
+    let sc = WeatherScenario::builtin(name).unwrap();
     let mut st = sc.build(Some(grid)).unwrap();
     let mut w = Workspace::new(&st).unwrap();
     let n = st.grid.n;

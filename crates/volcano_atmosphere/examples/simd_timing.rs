@@ -3,7 +3,7 @@
 //! rounds between the AVX2 and the scalar loops (the same bits either way, `tests/simd.rs`),
 //! thread CPU time per step; prints the minimum and median of each.
 //! `cargo run --release -p volcano_atmosphere --example simd_timing -- [GRID] [ROUNDS]`
-use volcano_atmosphere::Scenario;
+use volcano_atmosphere::WeatherScenario;
 use volcano_atmosphere::model::multigrid::use_simd;
 use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_core::parallel;
@@ -21,7 +21,7 @@ fn main() {
     let n: usize = args.get(1).and_then(|a| a.parse().ok()).unwrap_or(512);
     let rounds: usize = args.get(2).and_then(|a| a.parse().ok()).unwrap_or(4);
     for name in ["convection", "mixed"] {
-        let sc = Scenario::builtin(name).unwrap();
+        let sc = WeatherScenario::builtin(name).unwrap();
         let mut state = sc.build(Some(n)).unwrap();
         let mut work = Workspace::new(&state).unwrap();
         let steps = 3;

@@ -15,7 +15,7 @@ pub use model::fields::{AtmosphereState, GridSpec, LayerFields};
 pub use model::paint::{Brush, PaintField, PaintMode, paint};
 pub use model::params::AtmosphereParams;
 pub use model::run::AtmosphereSummary;
-pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, Scenario};
+pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, WeatherScenario};
 pub use model::step::WeatherStepReport;
 pub use plugin::{
     AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, SharedFields,

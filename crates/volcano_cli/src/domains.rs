@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use volcano_atmosphere::view::{MapField, field_values, png_bytes};
-use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
+use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind};
 
 /// Options of `volcano lava`.
 #[derive(clap::Args, Debug)]
@@ -75,7 +75,7 @@ pub fn lava(a: &LavaArgs) -> ExitCode {
     c.slope_deg = a.slope_deg.unwrap_or(c.slope_deg);
     c.grid = a.grid.unwrap_or(c.grid);
     c.cell = a.cell.unwrap_or(c.cell);
-    let mut s = match Scenario::build(&c) {
+    let mut s = match LavaScenario::build(&c) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");
@@ -113,7 +113,7 @@ pub struct AtmosphereArgs {
 
 /// Runs an atmosphere scenario; maps of every field of every layer as `layerK_FIELD.png`.
 pub fn atmosphere(a: &AtmosphereArgs) -> ExitCode {
-    let scenario = match volcano_atmosphere::Scenario::builtin(&a.scenario) {
+    let scenario = match volcano_atmosphere::WeatherScenario::builtin(&a.scenario) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("error: {e}");

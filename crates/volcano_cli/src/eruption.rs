@@ -15,7 +15,7 @@ use volcano::plume::{DepositMap, Eruption, PlumeAmbient, PlumeSlice, Preset, Umb
 use volcano::prelude::*;
 use volcano_atmosphere::view::LayerFields;
 use volcano_atmosphere::view::png_bytes;
-use volcano_atmosphere::{AirLayer, Atmosphere, Scenario, spawn_scenario_with};
+use volcano_atmosphere::{AirLayer, Atmosphere, WeatherScenario, spawn_scenario_with};
 
 /// The atmospheres of the three scenarios.
 #[derive(clap::ValueEnum, Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,7 +29,7 @@ pub enum EruptionScenario {
 }
 
 impl EruptionScenario {
-    fn scenario(self, grid: usize) -> Result<Scenario, String> {
+    fn scenario(self, grid: usize) -> Result<WeatherScenario, String> {
         let (rh, winds, settling) = match self {
             Self::CloudCap => ([0.95, 0.9, 0.8, 0.6, 0.4], [(2.0, 0.0); 5], 0.5),
             Self::AshRain => ([0.6, 0.5, 0.4, 0.3, 0.2], [(12.0, 0.0); 5], 10.0),
@@ -55,7 +55,7 @@ impl EruptionScenario {
              layers: [{}])",
             layers.join(", ")
         );
-        ron::from_str::<Scenario>(&text).map_err(|e| e.to_string())
+        ron::from_str::<WeatherScenario>(&text).map_err(|e| e.to_string())
     }
 }
 

@@ -11,8 +11,8 @@ use bevy::prelude::*;
 use bevy_egui::{EguiContexts, egui};
 use volcano_atmosphere::view::{GridSpec, MapField, field_values};
 use volcano_atmosphere::{
-    AirLayer, Atmosphere, BUILTIN_SCENARIOS, Brush, PaintField, PaintMode, Scenario, WeatherStep, paint,
-    spawn_scenario_with,
+    AirLayer, Atmosphere, BUILTIN_SCENARIOS, Brush, PaintField, PaintMode, WeatherScenario, WeatherStep,
+    paint, spawn_scenario_with,
 };
 use volcano_core::{ConfigError, DomainClock, Terrain};
 
@@ -148,7 +148,7 @@ fn switch_scenario(
     terrain: Option<(Entity, &Terrain)>,
     panel: &AtmospherePanel,
 ) -> Result<(), ConfigError> {
-    let scenario = Scenario::builtin(name)?;
+    let scenario = WeatherScenario::builtin(name)?;
     let own = if panel.scenario_terrain || terrain.is_none() {
         let state = scenario.build(None)?;
         Some(Terrain::new(state.ground.height.clone(), state.ground.cover.clone(), 0.0)?)

@@ -13,7 +13,7 @@ use volcano_core::parallel::run_inline;
 use volcano_lava::model::flow::advance_flow;
 use volcano_lava::model::folds::{Fold, FoldParams, FoldParticle, FoldSystem, update_folds};
 use volcano_lava::model::surface::{SurfaceState, update_surface};
-use volcano_lava::{Edges, FlowField, LavaParams, Scenario, ScenarioConfig, ScenarioKind};
+use volcano_lava::{Edges, FlowField, LavaParams, LavaScenario, ScenarioConfig, ScenarioKind};
 
 const N: usize = 512;
 
@@ -115,7 +115,7 @@ fn benches(c: &mut Criterion) {
 /// keeps evolving over the samples (a few hundred steps), as in a game.
 fn late_obstacle(c: &mut Criterion) {
     let config = ScenarioConfig::new(ScenarioKind::Obstacle);
-    let mut s = Scenario::build(&config).unwrap();
+    let mut s = LavaScenario::build(&config).unwrap();
     s.run_until(320.0);
     let mut g = c.benchmark_group("obstacle_320s");
     g.sample_size(20).measurement_time(Duration::from_secs(8)).warm_up_time(Duration::from_secs(2));

@@ -4,7 +4,7 @@
 //! time of that slice and the fold counts (how the fold layer's cost grows). `LAVA_ROLLING=1`
 //! switches the folds to rolling collisions (thesis §5.5.2.3).
 
-use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
+use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind};
 
 fn main() {
     let mut args = std::env::args().skip(1);
@@ -19,7 +19,7 @@ fn main() {
     if let Some(s) = args.next().and_then(|s| s.parse().ok()) {
         config.seconds = s;
     }
-    let mut scenario = match Scenario::build(&config) {
+    let mut scenario = match LavaScenario::build(&config) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("{e}");

@@ -26,4 +26,4 @@ pub use model::folds::{FoldParams, FoldSystem};
 pub use model::surface::SurfaceState;
 pub use plugin::{LavaPlugin, LavaStep};
 pub use scenario::terrains::scenario_terrain;
-pub use scenario::{LavaSummary, Scenario, ScenarioConfig, ScenarioKind};
+pub use scenario::{LavaScenario, LavaSummary, ScenarioConfig, ScenarioKind};

@@ -17,7 +17,7 @@ use bevy::asset::AssetPlugin;
 use bevy::prelude::*;
 use criterion::{Criterion, criterion_group, criterion_main};
 use volcano_atmosphere::view::{GridSpec, LayerFields};
-use volcano_atmosphere::{AirLayer, Atmosphere, AtmosphereParams, Scenario, spawn_atmosphere};
+use volcano_atmosphere::{AirLayer, Atmosphere, AtmosphereParams, WeatherScenario, spawn_atmosphere};
 use volcano_render::ash_fall::volume::{AshVolumeSpec, ash_density_volume, meander_offsets};
 use volcano_render::{AshFallRenderPlugin, AshFallSettings, CloudRenderPlugin, CloudRenderSettings};
 
@@ -96,7 +96,7 @@ fn app(off_thread: bool) -> App {
         .insert_resource(CloudRenderSettings { enabled: false, ..default() })
         .insert_resource(AshFallSettings { off_thread, ..default() })
         .add_systems(Startup, |mut commands: Commands| {
-            let mut state = Scenario::builtin("eruption").unwrap().build(Some(128)).unwrap();
+            let mut state = WeatherScenario::builtin("eruption").unwrap().build(Some(128)).unwrap();
             for layer in &mut state.layers {
                 for k in 0..state.grid.n * state.grid.n {
                     let (x, y) = state.grid.centre(k);

@@ -269,12 +269,12 @@ pub fn density_volume(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::scenario::Scenario;
+    use crate::model::scenario::WeatherScenario;
     use crate::model::volume::coherent_forms;
 
     /// The `convection` scenario on 16² cells (layer 1 at 1.5 km) with no cloud anywhere.
     fn clear() -> AtmosphereState {
-        let mut st = Scenario::builtin("convection").unwrap().build(Some(16)).unwrap();
+        let mut st = WeatherScenario::builtin("convection").unwrap().build(Some(16)).unwrap();
         for layer in &mut st.layers {
             layer.w.data_mut().fill(0.0);
         }
@@ -307,7 +307,7 @@ mod tests {
 
     #[test]
     fn density_follows_clouds_and_form_placement() {
-        let s = Scenario::builtin("convection").unwrap();
+        let s = WeatherScenario::builtin("convection").unwrap();
         let mut st = s.build(Some(16)).unwrap();
         // A 2 × 2 cumulus-like block in layer 1 (1500 m), strong updraft.
         let block = [5, 6, 21, 22];

@@ -443,7 +443,7 @@ mod tests {
         assert_eq!(g.centre(0), (-75.0, -75.0));
         // A hand-assembled state with a mismatched layer is rejected, not indexed out of range.
         let mut st =
-            crate::model::scenario::Scenario::builtin("convection").unwrap().build(Some(16)).unwrap();
+            crate::model::scenario::WeatherScenario::builtin("convection").unwrap().build(Some(16)).unwrap();
         st.check_shape().unwrap();
         st.layers[1] = LayerFields::default();
         assert!(st.check_shape().is_err());

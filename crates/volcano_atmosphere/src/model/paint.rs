@@ -177,10 +177,10 @@ fn set32(x: &mut f32, f: impl Fn(f64) -> f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::scenario::Scenario;
+    use crate::model::scenario::WeatherScenario;
 
     fn state() -> crate::AtmosphereState {
-        Scenario::builtin("orographic").unwrap().build(Some(32)).unwrap()
+        WeatherScenario::builtin("orographic").unwrap().build(Some(32)).unwrap()
     }
 
     fn brush(field: PaintField, mode: PaintMode, value: f64) -> Brush {

@@ -11,7 +11,7 @@ use volcano_core::{ConfigError, LandCover};
 use super::clouds::{CloudForm, cloud_cover};
 use super::fields::AtmosphereState;
 use super::params::AtmosphereParams;
-use super::scenario::{Diagnostic, Event, EventAction, FieldKind, Scenario, add_noise, add_spot};
+use super::scenario::{Diagnostic, Event, EventAction, FieldKind, WeatherScenario, add_noise, add_spot};
 use super::step::{Workspace, check_dt, step};
 use super::volume::coherent_forms;
 
@@ -99,7 +99,7 @@ pub fn run_scenario(
     dt: Option<f64>,
     grid: Option<usize>,
 ) -> Result<AtmosphereSummary, ConfigError> {
-    Ok(run(&Scenario::builtin(name)?, steps, dt, grid)?.summary)
+    Ok(run(&WeatherScenario::builtin(name)?, steps, dt, grid)?.summary)
 }
 
 /// Applies one timeline event to the state.
@@ -163,7 +163,7 @@ fn apply_delta(layer: &mut super::fields::LayerFields, field: FieldKind, delta: 
 
 /// Runs a scenario (validated) with optional overrides.
 pub fn run(
-    scenario: &Scenario,
+    scenario: &WeatherScenario,
     steps: Option<u32>,
     dt: Option<f64>,
     grid: Option<usize>,

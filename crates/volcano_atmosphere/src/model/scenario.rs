@@ -81,7 +81,7 @@ pub struct LayerSpec {
 /// Terrain generators, sampled at the atmosphere's cell centres (sea level 0).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub enum TerrainSpec {
+pub enum WeatherTerrain {
     /// Flat land at a height.
     Flat {
         /// Height (m).
@@ -180,8 +180,8 @@ pub enum Diagnostic {
 
 /// A whole scenario.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
+#[serde(deny_unknown_fields, rename = "Scenario")]
+pub struct WeatherScenario {
     /// Name.
     pub name: String,
     /// Cells per side (power of two).
@@ -202,7 +202,7 @@ pub struct Scenario {
     #[serde(default)]
     pub profile: AtmosphereModel,
     /// Terrain.
-    pub terrain: TerrainSpec,
+    pub terrain: WeatherTerrain,
     /// Initial water in land ground (g/m²).
     #[serde(default = "default_ground_water")]
     pub ground_water_g_m2: f64,
@@ -261,10 +261,10 @@ fn check_field(f: &FieldInit) -> Result<(), ConfigError> {
     f.spots.iter().try_for_each(check_spot)
 }
 
-impl Scenario {
+impl WeatherScenario {
     /// Parses and validates a RON scenario.
     pub fn from_ron(text: &str) -> Result<Self, ConfigError> {
-        let s: Scenario = ron::from_str(text)?;
+        let s: WeatherScenario = ron::from_str(text)?;
         s.validate()?;
         Ok(s)
     }
@@ -300,26 +300,26 @@ impl Scenario {
         in_range("sea_water_g_m2", self.sea_water_g_m2, 0.0, 1e9)?;
         self.params.validate()?;
         match &self.terrain {
-            TerrainSpec::Flat { height_m, .. } => {
+            WeatherTerrain::Flat { height_m, .. } => {
                 in_range("terrain height_m", *height_m, -500.0, 9000.0).map(|_| ())?
             }
-            TerrainSpec::Ridge { height_m, half_width_m, half_length_m } => {
+            WeatherTerrain::Ridge { height_m, half_width_m, half_length_m } => {
                 in_range("terrain height_m", *height_m, 0.0, 9000.0)?;
                 positive("terrain half_width_m", *half_width_m)?;
                 positive("terrain half_length_m", *half_length_m)?;
             }
-            TerrainSpec::Coast { width_m, height_m } => {
+            WeatherTerrain::Coast { width_m, height_m } => {
                 positive("terrain width_m", *width_m)?;
                 in_range("terrain height_m", *height_m, 0.0, 9000.0)?;
             }
-            TerrainSpec::Stratovolcano(_) => {}
-            TerrainSpec::Archipelago { count, radius_m, height_m, .. } => {
+            WeatherTerrain::Stratovolcano(_) => {}
+            WeatherTerrain::Archipelago { count, radius_m, height_m, .. } => {
                 in_range("terrain count", *count as f64, 1.0, 1000.0)?;
                 positive("terrain radius_m", *radius_m)?;
                 in_range("terrain height_m", *height_m, 0.0, 9000.0)?;
             }
         }
-        if let TerrainSpec::Stratovolcano(p) = &self.terrain {
+        if let WeatherTerrain::Stratovolcano(p) = &self.terrain {
             p.validate()?;
         }
         let alts: Vec<f64> = self.layers.iter().map(|l| l.altitude_m).collect();
@@ -377,7 +377,7 @@ impl Scenario {
         let n = grid.unwrap_or(self.grid);
         let g = GridSpec::new(n, self.extent_m / n as f64)?;
         let (height, cover) = match &self.terrain {
-            TerrainSpec::Stratovolcano(p) => sample_terrain(&p.generate()?, g),
+            WeatherTerrain::Stratovolcano(p) => sample_terrain(&p.generate()?, g),
             _ => self.terrain_fields(g),
         };
         self.build_on(g, height, cover)
@@ -483,20 +483,20 @@ impl Scenario {
         for k in 0..g.cells() {
             let (x, y) = g.centre(k);
             let (h, c) = match &self.terrain {
-                TerrainSpec::Flat { height_m, cover } => (*height_m, *cover),
-                TerrainSpec::Ridge { height_m, half_width_m, half_length_m } => {
+                WeatherTerrain::Flat { height_m, cover } => (*height_m, *cover),
+                WeatherTerrain::Ridge { height_m, half_width_m, half_length_m } => {
                     let r = wrap(x) / half_width_m;
                     let beyond = ((wrap(y).abs() - half_length_m) / half_width_m).max(0.0);
                     (height_m * (-r * r - beyond * beyond).exp() + 10.0, LandCover::Vegetation)
                 }
-                TerrainSpec::Coast { width_m, height_m } => {
+                WeatherTerrain::Coast { width_m, height_m } => {
                     // Smooth plateau: 0 in the sea, height_m on land, shores 1 km wide.
                     let inland = 0.5 * width_m - wrap(x).abs();
                     let s = 0.5 * (1.0 + (inland / 500.0).tanh());
                     (height_m * s, if inland > 0.0 { LandCover::Ground } else { LandCover::Water })
                 }
-                TerrainSpec::Stratovolcano(_) => (0.0, LandCover::Water), // sampled in `build`
-                TerrainSpec::Archipelago { count, radius_m, height_m, seed } => {
+                WeatherTerrain::Stratovolcano(_) => (0.0, LandCover::Water), // sampled in `build`
+                WeatherTerrain::Archipelago { count, radius_m, height_m, seed } => {
                     let mut best = 0.0f64;
                     for c in 0..*count as u64 {
                         let (cx, cy) = island_centre(*seed, c, l);

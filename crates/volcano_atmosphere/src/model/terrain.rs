@@ -471,7 +471,7 @@ mod tests {
 
     #[test]
     fn a_cloud_column_heats_its_ground_less_at_noon() {
-        let sc = crate::model::scenario::Scenario::builtin("convection").unwrap();
+        let sc = crate::model::scenario::WeatherScenario::builtin("convection").unwrap();
         let mut st = sc.build(Some(16)).unwrap();
         st.layers[1].w.data_mut()[5] = 0.5;
         let t0 = st.ground.t.data().to_vec();

@@ -283,7 +283,7 @@ pub struct VolumeSpec {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::scenario::Scenario;
+    use crate::model::scenario::WeatherScenario;
 
     #[test]
     fn k_means_pp_separates_clear_groups_deterministically() {
@@ -307,7 +307,7 @@ mod tests {
     /// convection, so the cell is cumuliform. (Classified on |D| it would be stratus.)
     #[test]
     fn first_pass_reads_convection_not_the_total_vertical_velocity() {
-        let s = Scenario::builtin("convection").unwrap();
+        let s = WeatherScenario::builtin("convection").unwrap();
         let mut st = s.build(Some(16)).unwrap();
         st.layers[1].w.data_mut()[5] = 1.0;
         for li in [0, 1] {
@@ -324,7 +324,7 @@ mod tests {
     /// runs, and each cluster takes the form of its mean convection, 0.45 m/s: stratocumulus.
     #[test]
     fn a_fragmented_deck_is_clustered_into_one_form() {
-        let s = Scenario::builtin("convection").unwrap();
+        let s = WeatherScenario::builtin("convection").unwrap();
         let mut st = s.build(Some(16)).unwrap();
         let n = st.grid.n;
         let block: Vec<usize> = (2..10).flat_map(|j| (2..10).map(move |i| j * n + i)).collect();
@@ -353,7 +353,7 @@ mod tests {
     /// it keeps one form.
     #[test]
     fn a_deck_wavering_at_a_threshold_does_not_flicker() {
-        let s = Scenario::builtin("convection").unwrap();
+        let s = WeatherScenario::builtin("convection").unwrap();
         let base = s.build(Some(16)).unwrap();
         let n = base.grid.n;
         let block: Vec<usize> = (2..10).flat_map(|j| (2..10).map(move |i| j * n + i)).collect();

@@ -117,11 +117,11 @@ pub(crate) fn merge_ground(current: &mut Ground, result: &mut Ground) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::scenario::Scenario;
+    use crate::model::scenario::WeatherScenario;
 
     #[test]
     fn snapshot_into_spare_buffers_equals_a_clone_except_the_ash() {
-        let a = Scenario::builtin("island").unwrap().build(Some(16)).unwrap();
+        let a = WeatherScenario::builtin("island").unwrap().build(Some(16)).unwrap();
         // Spare buffers of the same shape holding other values.
         let mut b = a.clone();
         for l in b.layers.iter_mut() {
@@ -145,8 +145,8 @@ mod tests {
 
     #[test]
     fn snapshot_into_spare_buffers_of_another_grid_equals_a_clone_except_the_ash() {
-        let a = Scenario::builtin("island").unwrap().build(Some(32)).unwrap();
-        let b = Scenario::builtin("island").unwrap().build(Some(16)).unwrap();
+        let a = WeatherScenario::builtin("island").unwrap().build(Some(32)).unwrap();
+        let b = WeatherScenario::builtin("island").unwrap().build(Some(16)).unwrap();
         let refs: Vec<&LayerFields> = a.layers.iter().collect();
         assert_eq!(snapshot_layers(Some(b.layers), &refs), a.layers);
         assert_eq!(snapshot_layers(Some(Vec::new()), &refs), a.layers);
@@ -158,7 +158,7 @@ mod tests {
 
     #[test]
     fn merging_keeps_uncollected_ash_and_adds_the_fallen() {
-        let s = Scenario::builtin("island").unwrap().build(Some(16)).unwrap();
+        let s = WeatherScenario::builtin("island").unwrap().build(Some(16)).unwrap();
         let mut current = s.ground.clone();
         current.ash.data_mut()[3] = 1.5;
         let mut result = s.ground.clone();

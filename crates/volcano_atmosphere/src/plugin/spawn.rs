@@ -8,10 +8,10 @@ use super::pipeline::{AtmosphereWork, WeatherPipelineStatus};
 use crate::model::fields::AtmosphereState;
 use crate::model::params::AtmosphereParams;
 use crate::model::run::apply_event;
-use crate::model::scenario::Scenario;
+use crate::model::scenario::WeatherScenario;
 use crate::model::step::{Workspace, step};
 
-/// Spawns an atmosphere from a model state (e.g. `Scenario::build`): one [`Atmosphere`]
+/// Spawns an atmosphere from a model state (e.g. `WeatherScenario::build`): one [`Atmosphere`]
 /// entity and one [`AirLayer`] entity per layer (children of it). Returns the atmosphere.
 pub fn spawn_atmosphere(
     commands: &mut Commands,
@@ -54,7 +54,7 @@ pub fn spawn_atmosphere(
 /// timeline) as in [`spawn_atmosphere`]. Returns the atmosphere entity.
 pub fn spawn_scenario(
     commands: &mut Commands,
-    scenario: &Scenario,
+    scenario: &WeatherScenario,
     grid: Option<usize>,
 ) -> Result<Entity, ConfigError> {
     let state = scenario.build(grid)?;
@@ -66,12 +66,12 @@ pub fn spawn_scenario(
 }
 
 /// Spawns a scenario as in [`spawn_scenario`], over a game's own `terrain` if given (sampled
-/// at the cell centres, `Scenario::build_with_terrain`), after running `prespin_steps` model
+/// at the cell centres, `WeatherScenario::build_with_terrain`), after running `prespin_steps` model
 /// steps of the scenario's Δt (timeline events included) so a scene starts with developed
 /// weather. Returns the atmosphere entity.
 pub fn spawn_scenario_with(
     commands: &mut Commands,
-    scenario: &Scenario,
+    scenario: &WeatherScenario,
     grid: Option<usize>,
     terrain: Option<&Terrain>,
     prespin_steps: u32,
@@ -102,7 +102,7 @@ pub fn spawn_scenario_with(
 /// Spawns a scenario's atmosphere with named options instead of positional ones:
 ///
 /// ```text
-/// let air = AtmosphereSpawner::new(&Scenario::builtin("eruption")?)
+/// let air = AtmosphereSpawner::new(&WeatherScenario::builtin("eruption")?)
 ///     .over(&terrain)      // the game's terrain under the grid (else the scenario's own)
 ///     .grid(128)           // cells per side (else the scenario's)
 ///     .prespin(60)         // model steps run before it appears (developed weather)
@@ -112,7 +112,7 @@ pub fn spawn_scenario_with(
 /// The same as [`spawn_scenario_with`]; the atmosphere entity is returned.
 #[derive(Debug, Clone, Copy)]
 pub struct AtmosphereSpawner<'a> {
-    scenario: &'a Scenario,
+    scenario: &'a WeatherScenario,
     grid: Option<usize>,
     terrain: Option<&'a Terrain>,
     prespin_steps: u32,
@@ -120,7 +120,7 @@ pub struct AtmosphereSpawner<'a> {
 
 impl<'a> AtmosphereSpawner<'a> {
     /// The scenario's atmosphere on its own grid and terrain, from its start.
-    pub fn new(scenario: &'a Scenario) -> Self {
+    pub fn new(scenario: &'a WeatherScenario) -> Self {
         Self { scenario, grid: None, terrain: None, prespin_steps: 0 }
     }
 

@@ -2,14 +2,14 @@
 //! tests stay fast.
 
 use volcano_atmosphere::model::run::run;
-use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::scenario::WeatherScenario;
 use volcano_atmosphere::model::step::{Workspace, step};
 
 #[test]
 fn water_is_conserved_over_1000_steps_and_nothing_goes_negative() {
     // Island scenario: sea evaporation, land ground water, condensation, convection, wind,
     // terrain cutting layers; a low precipitation threshold so rain really falls.
-    let mut s = Scenario::builtin("island").unwrap();
+    let mut s = WeatherScenario::builtin("island").unwrap();
     s.params.precipitation_threshold = 0.05;
     s.params.precipitation_rate = 5e-3;
     let r = run(&s, Some(1000), Some(30.0), Some(32)).unwrap();
@@ -25,7 +25,7 @@ fn water_is_conserved_over_1000_steps_and_nothing_goes_negative() {
 
 #[test]
 fn painted_hot_spot_makes_an_updraft_above_it() {
-    let s = Scenario::builtin("convection").unwrap();
+    let s = WeatherScenario::builtin("convection").unwrap();
     let r = run(&s, Some(20), None, Some(64)).unwrap();
     let st = &r.state;
     let n = st.grid.n;
@@ -62,7 +62,7 @@ fn painted_hot_spot_makes_an_updraft_above_it() {
 
 #[test]
 fn orographic_lift_is_windward_only() {
-    let s = Scenario::builtin("orographic").unwrap();
+    let s = WeatherScenario::builtin("orographic").unwrap();
     let r = run(&s, None, None, Some(64)).unwrap();
     let m = &r.summary;
     eprintln!("{}", serde_json::to_string_pretty(m).unwrap());
@@ -76,7 +76,7 @@ fn orographic_lift_is_windward_only() {
 
 #[test]
 fn shore_breeze_turns_between_day_and_night() {
-    let s = Scenario::builtin("sea-breeze").unwrap();
+    let s = WeatherScenario::builtin("sea-breeze").unwrap();
     let r = run(&s, None, None, Some(64)).unwrap();
     let m = &r.summary;
     eprintln!("{}", serde_json::to_string_pretty(m).unwrap());
@@ -88,37 +88,40 @@ fn shore_breeze_turns_between_day_and_night() {
 #[test]
 fn bad_scenario_files_give_clear_errors() {
     let good = include_str!("../../scenarios/convection.ron");
-    Scenario::from_ron(good).unwrap();
+    WeatherScenario::from_ron(good).unwrap();
     // Unknown field.
-    let e = Scenario::from_ron(&good.replace("latitude_deg", "latitude")).unwrap_err().to_string();
+    let e = WeatherScenario::from_ron(&good.replace("latitude_deg", "latitude")).unwrap_err().to_string();
     assert!(e.contains("latitude"), "{e}");
     // Layers out of order.
-    let e =
-        Scenario::from_ron(&good.replace("altitude_m: 1500.0", "altitude_m: 100.0")).unwrap_err().to_string();
+    let e = WeatherScenario::from_ron(&good.replace("altitude_m: 1500.0", "altitude_m: 100.0"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("increasing order"), "{e}");
     // NaN.
-    let e = Scenario::from_ron(&good.replace("extent_m: 51200.0", "extent_m: NaN")).unwrap_err().to_string();
+    let e = WeatherScenario::from_ron(&good.replace("extent_m: 51200.0", "extent_m: NaN"))
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("extent_m"), "{e}");
-    let e = Scenario::from_ron(&good.replace("amount: 4.0", "amount: NaN")).unwrap_err().to_string();
+    let e = WeatherScenario::from_ron(&good.replace("amount: 4.0", "amount: NaN")).unwrap_err().to_string();
     assert!(e.contains("spot amount"), "{e}");
     // Grid not a power of two; unknown built-in.
-    let e = Scenario::from_ron(&good.replace("grid: 128", "grid: 100")).unwrap_err().to_string();
+    let e = WeatherScenario::from_ron(&good.replace("grid: 128", "grid: 100")).unwrap_err().to_string();
     assert!(e.contains("power of two"), "{e}");
-    let e = Scenario::builtin("tornado").unwrap_err().to_string();
+    let e = WeatherScenario::builtin("tornado").unwrap_err().to_string();
     assert!(e.contains("sea-breeze"), "{e}");
     // Unknown field inside a terrain variant.
-    let e = Scenario::from_ron(&good.replace(
+    let e = WeatherScenario::from_ron(&good.replace(
         "terrain: Flat(height_m: 0.0, cover: Ground)",
         "terrain: Flat(height_m: 0.0, cover: Ground, slope: 1.0)",
     ))
     .unwrap_err()
     .to_string();
     assert!(e.contains("slope"), "{e}");
-    let e = Scenario::load(std::path::Path::new("/nonexistent/storm.ron")).unwrap_err().to_string();
+    let e = WeatherScenario::load(std::path::Path::new("/nonexistent/storm.ron")).unwrap_err().to_string();
     assert!(e.contains("storm.ron"), "{e}");
     // Every shipped scenario parses.
     for (name, _) in volcano_atmosphere::model::scenario::BUILTIN {
-        Scenario::builtin(name).unwrap();
+        WeatherScenario::builtin(name).unwrap();
     }
 }
 
@@ -127,7 +130,7 @@ fn results_do_not_depend_on_the_thread_count() {
     // The loops run in fixed row bands (volcano_core::parallel): one thread running every band
     // in order gives what the task pool's threads give. 128² has 4 bands of 32 rows and runs
     // the multigrid's sweeps in parallel too.
-    let s = Scenario::builtin("mixed").unwrap();
+    let s = WeatherScenario::builtin("mixed").unwrap();
     let a = volcano_core::parallel::run_inline(|| run(&s, Some(40), None, Some(128)).unwrap());
     let b = run(&s, Some(40), None, Some(128)).unwrap();
     assert_eq!(a.state, b.state, "parallel loops must be deterministic");
@@ -140,7 +143,7 @@ fn a_stratovolcano_from_the_foundation_cuts_through_the_low_layers() {
         "terrain: Flat(height_m: 0.0, cover: Ground),",
         "terrain: Stratovolcano((resolution: 257, cell: 100.0, summit_height: 2500.0)),",
     );
-    let s = Scenario::from_ron(&text).unwrap();
+    let s = WeatherScenario::from_ron(&text).unwrap();
     let st = s.build(Some(32)).unwrap();
     // The cone (2.5 km) closes the 500 m layer (slab 0–1000 m) near the summit and leaves it
     // open far away, where the foot of the cone (≈ 120 m) fills the bottom of the slab.
@@ -156,7 +159,7 @@ fn a_stratovolcano_from_the_foundation_cuts_through_the_low_layers() {
     // A bad generator parameter is reported by name.
     let bad = include_str!("../../scenarios/convection.ron")
         .replace("terrain: Flat(height_m: 0.0, cover: Ground),", "terrain: Stratovolcano((cell: -1.0)),");
-    let e = Scenario::from_ron(&bad).unwrap_err().to_string();
+    let e = WeatherScenario::from_ron(&bad).unwrap_err().to_string();
     assert!(e.contains("cell"), "{e}");
 }
 
@@ -175,7 +178,7 @@ struct PlumeSpot {
 /// Imposes `dt_k` kelvin above the layer's reference and `hum` g/m³ on a 3 × 3-cell spot of the
 /// lowest layer before every step, as crates/volcano_coupling does under a plume column.
 fn plume_spot(dt_k: f32, hum: f64) -> PlumeSpot {
-    let s = Scenario::builtin("convection").unwrap();
+    let s = WeatherScenario::builtin("convection").unwrap();
     let mut st = s.build(Some(32)).unwrap();
     let n = st.grid.n;
     let area = st.grid.dx * st.grid.dx;

@@ -5,12 +5,12 @@
 //! shipped scenarios show is written in docs/physics/atmosphere.md §5.4 ("Time step").
 
 use volcano_atmosphere::model::fields::AtmosphereState;
-use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::scenario::WeatherScenario;
 use volcano_atmosphere::model::step::{Workspace, step};
 
 const STEPS_S: [f64; 6] = [120.0, 60.0, 30.0, 15.0, 7.5, 3.75];
 
-fn run(s: &Scenario, st: &AtmosphereState, dt: f64, seconds: f64) -> AtmosphereState {
+fn run(s: &WeatherScenario, st: &AtmosphereState, dt: f64, seconds: f64) -> AtmosphereState {
     let mut st = st.clone();
     let mut work = Workspace::new(&st).unwrap();
     for _ in 0..(seconds / dt).round() as usize {
@@ -36,7 +36,7 @@ fn rms(a: &AtmosphereState, b: &AtmosphereState) -> (f64, f64) {
 
 /// 40 simulated minutes from `st` at each step of `steps`; the RMS difference (T, wind) of each
 /// step's result to its half step's, printed.
-fn half_step_differences(s: &Scenario, st: &AtmosphereState, steps: &[f64]) -> Vec<(f64, f64)> {
+fn half_step_differences(s: &WeatherScenario, st: &AtmosphereState, steps: &[f64]) -> Vec<(f64, f64)> {
     let runs: Vec<_> = steps.iter().map(|&dt| run(s, st, dt, 2400.0)).collect();
     let halves: Vec<(f64, f64)> = runs.windows(2).map(|w| rms(&w[0], &w[1])).collect();
     for (dt, (t, w)) in steps.iter().zip(&halves) {
@@ -61,7 +61,7 @@ fn assert_wind_converges(halves: &[(f64, f64)], steps: &[f64], from: usize) {
 /// 0.082 → 0.009 m/s and 0.032 → 0.009 K).
 #[test]
 fn halving_the_step_converges_on_one_answer() {
-    let s = Scenario::builtin("mixed").unwrap();
+    let s = WeatherScenario::builtin("mixed").unwrap();
     let st = s.build(Some(32)).unwrap();
     let halves = half_step_differences(&s, &st, &STEPS_S);
     assert_wind_converges(&halves, &STEPS_S, 1);
@@ -78,7 +78,7 @@ fn halving_the_step_converges_on_one_answer() {
 /// (60 s down to 7.5 s); as a rate it halves with each halving: 0.078, 0.036, 0.017, 0.008.
 #[test]
 fn halving_the_step_converges_over_a_ridge() {
-    let s = Scenario::builtin("orographic").unwrap();
+    let s = WeatherScenario::builtin("orographic").unwrap();
     let mut st = s.build(Some(32)).unwrap();
     for l in st.layers.iter_mut() {
         l.h.data_mut().fill(0.0);

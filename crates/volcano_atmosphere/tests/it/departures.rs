@@ -4,7 +4,7 @@
 //! pressure coupling (4.7) left out, and the printed non-convective uplift replaced by the
 //! upslope law.
 
-use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::scenario::WeatherScenario;
 use volcano_atmosphere::model::terrain::ground_heat_step;
 use volcano_atmosphere::model::thermo::moist_static_energy;
 use volcano_atmosphere::model::vertical::vertical_velocity;
@@ -18,7 +18,7 @@ use volcano_atmosphere::model::vertical::vertical_velocity;
 /// rises over the hot cell only.
 #[test]
 fn convection_rises_over_a_hot_cell_and_has_no_net_flux_where_the_printed_law_does_neither() {
-    let s = Scenario::builtin("convection").unwrap();
+    let s = WeatherScenario::builtin("convection").unwrap();
     let mut st = s.build(Some(16)).unwrap();
     let hot = 5 * 16 + 7;
     for l in st.layers.iter_mut() {
@@ -79,7 +79,7 @@ fn sensible_heat_cools_air_over_cold_ground_and_warms_it_over_warm_ground() {
 #[test]
 fn an_increment_to_the_pressure_only_changes_the_solvers_starting_guess() {
     use volcano_atmosphere::model::step::{Workspace, step};
-    let s = Scenario::builtin("orographic").unwrap();
+    let s = WeatherScenario::builtin("orographic").unwrap();
     let mut a = s.build(Some(32)).unwrap();
     let mut work = Workspace::new(&a).unwrap();
     let mut params = s.params.clone();
@@ -124,7 +124,7 @@ fn an_increment_to_the_pressure_only_changes_the_solvers_starting_guess() {
 fn a_supersaturated_layer_condenses_and_warms_by_the_latent_heat_in_a_full_step() {
     use volcano_atmosphere::model::step::{Workspace, step};
     use volcano_atmosphere::model::thermo::{CP_AIR, L_V_PER_G, air_density, saturation_humidity};
-    let s = Scenario::builtin("convection").unwrap();
+    let s = WeatherScenario::builtin("convection").unwrap();
     let mut st = s.build(Some(16)).unwrap();
     for l in st.layers.iter_mut() {
         let t = l.t.data()[0];
@@ -168,7 +168,7 @@ fn a_supersaturated_layer_condenses_and_warms_by_the_latent_heat_in_a_full_step(
 fn the_printed_uplift_feeds_itself_through_the_projection_the_upslope_law_cannot() {
     use volcano_atmosphere::model::projection::{ProjectionWork, project};
     use volcano_atmosphere::model::vertical::divergence_target;
-    let s = Scenario::builtin("orographic").unwrap();
+    let s = WeatherScenario::builtin("orographic").unwrap();
     let st = s.build(Some(32)).unwrap();
     let (n, dx) = (st.grid.n, st.grid.dx);
     let nu = 1e-3;

@@ -2,7 +2,7 @@
 //! must not depend on how the time is cut into steps, and no clamp may hide an oscillation.
 
 use volcano_atmosphere::AtmosphereParams;
-use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::scenario::WeatherScenario;
 use volcano_atmosphere::model::sun::sun_position;
 use volcano_atmosphere::model::terrain::ground_exchange;
 
@@ -12,7 +12,7 @@ use volcano_atmosphere::model::terrain::ground_exchange;
 /// ground ends between its start and the 150–400 K band's inside (no clamp reached).
 #[test]
 fn thin_soil_one_hour_step_matches_sixty_one_minute_steps() {
-    let s = Scenario::builtin("convection").unwrap();
+    let s = WeatherScenario::builtin("convection").unwrap();
     let mut st = s.build(Some(16)).unwrap();
     for l in st.layers.iter_mut() {
         l.h.data_mut().fill(0.0);

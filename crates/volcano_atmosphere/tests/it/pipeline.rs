@@ -9,8 +9,8 @@ use bevy::time::TimeUpdateStrategy;
 use volcano_atmosphere::model::fields::{Ground, LayerFields};
 use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_atmosphere::{
-    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereState, Scenario, WeatherPipelineSettings,
-    WeatherPipelineStatus, WeatherStep, WeatherStepped, flush_weather, join_weather, spawn_atmosphere,
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereState, WeatherPipelineSettings, WeatherPipelineStatus,
+    WeatherScenario, WeatherStep, WeatherStepped, flush_weather, join_weather, spawn_atmosphere,
     spawn_scenario,
 };
 use volcano_core::prelude::*;
@@ -70,7 +70,7 @@ fn direct(
 
 #[test]
 fn components_hold_the_state_one_weather_step_behind_the_clock() {
-    let scenario = Scenario::builtin("convection").unwrap();
+    let scenario = WeatherScenario::builtin("convection").unwrap();
     let state = scenario.build(Some(16)).unwrap();
     let mut app = app(5, 1, true);
     let (s2, params) = (state.clone(), scenario.params.clone());
@@ -124,7 +124,7 @@ fn snapshot_of(app: &mut App) -> Full {
 fn off_thread_equals_on_the_spot_at_any_frame_rate() {
     // The mixed scenario (7 layers, terrain, timeline events at 1800 s and later) with 300 s
     // weather steps every 2 ticks, so the events fire inside the run.
-    let scenario = Scenario::builtin("mixed").unwrap();
+    let scenario = WeatherScenario::builtin("mixed").unwrap();
     let runs: Vec<_> = [(true, 1), (true, 5), (false, 1), (false, 5)]
         .into_iter()
         .map(|(off_thread, per_update)| {
@@ -155,7 +155,7 @@ fn off_thread_equals_on_the_spot_at_any_frame_rate() {
 
 #[test]
 fn pausing_the_weather_writes_back_so_edits_while_paused_stay() {
-    let scenario = Scenario::builtin("convection").unwrap();
+    let scenario = WeatherScenario::builtin("convection").unwrap();
     let state = scenario.build(Some(16)).unwrap();
     let mut app = app(5, 1, true);
     let (s2, params) = (state.clone(), scenario.params.clone());

@@ -7,7 +7,7 @@ use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_atmosphere::{
-    AirLayer, Atmosphere, AtmospherePlugin, Scenario, WeatherStepped, spawn_atmosphere,
+    AirLayer, Atmosphere, AtmospherePlugin, WeatherScenario, WeatherStepped, spawn_atmosphere,
 };
 use volcano_core::prelude::*;
 
@@ -20,7 +20,7 @@ fn count(mut reader: MessageReader<WeatherStepped>, mut steps: ResMut<Steps>) {
 
 #[test]
 fn plugin_steps_layers_like_the_model() {
-    let scenario = Scenario::builtin("convection").unwrap();
+    let scenario = WeatherScenario::builtin("convection").unwrap();
     let state = scenario.build(Some(16)).unwrap();
     let mut app = App::new();
     app.add_plugins((
@@ -66,7 +66,7 @@ fn plugin_steps_layers_like_the_model() {
 fn plugin_fires_timeline_events() {
     // The mixed scenario turns layer 2's wind to (−4, 6) m/s at 1800 s: run the weather with
     // 300 s steps (time scale) and check the event fired.
-    let scenario = Scenario::builtin("mixed").unwrap();
+    let scenario = WeatherScenario::builtin("mixed").unwrap();
     let mut app = App::new();
     app.add_plugins((
         MinimalPlugins,
@@ -116,23 +116,23 @@ fn the_spawner_builds_what_the_positional_call_builds() {
         StratovolcanoParams { resolution: 64, cell: 400.0, ..Default::default() }.generate().unwrap();
     let t2 = terrain.clone();
     let by_name = spawned(move |c| {
-        let scenario = Scenario::builtin("eruption").unwrap();
+        let scenario = WeatherScenario::builtin("eruption").unwrap();
         volcano_atmosphere::AtmosphereSpawner::new(&scenario).over(&terrain).grid(32).prespin(3).spawn(c)
     });
     let positional = spawned(move |c| {
-        let scenario = Scenario::builtin("eruption").unwrap();
+        let scenario = WeatherScenario::builtin("eruption").unwrap();
         volcano_atmosphere::spawn_scenario_with(c, &scenario, Some(32), Some(&t2), 3)
     });
     assert!(by_name.len() > 2, "an atmosphere and its layers");
     assert_eq!(by_name, positional);
     // The options are not ignored: no prespin starts at the scenario's time zero.
     let fresh = spawned(|c| {
-        let scenario = Scenario::builtin("eruption").unwrap();
+        let scenario = WeatherScenario::builtin("eruption").unwrap();
         volcano_atmosphere::AtmosphereSpawner::new(&scenario).grid(32).spawn(c)
     });
     assert_ne!(fresh[0], by_name[0], "prespun: {} / fresh: {}", by_name[0], fresh[0]);
     let bad = spawned_err(|c| {
-        let scenario = Scenario::builtin("eruption").unwrap();
+        let scenario = WeatherScenario::builtin("eruption").unwrap();
         volcano_atmosphere::AtmosphereSpawner::new(&scenario).grid(0).spawn(c)
     });
     assert!(bad.contains("grid"), "{bad}");

@@ -16,7 +16,8 @@ use bevy::app::{TaskPoolOptions, TaskPoolPlugin};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_atmosphere::{
-    AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, join_weather, spawn_scenario,
+    AtmospherePlugin, WeatherPipelineSettings, WeatherPipelineStatus, WeatherScenario, join_weather,
+    spawn_scenario,
 };
 use volcano_core::parallel::{self, Bands};
 use volcano_core::prelude::*;
@@ -49,7 +50,7 @@ fn run_app() -> WeatherPipelineStatus {
     // step before) ends the delay at once.
     .insert_resource(WeatherPipelineSettings { off_thread: true, start_delay: Duration::from_secs(3600) })
     .add_systems(FixedUpdate, (busy, busy, busy));
-    let scenario = Scenario::builtin("mixed").unwrap();
+    let scenario = WeatherScenario::builtin("mixed").unwrap();
     app.add_systems(Startup, move |mut commands: Commands| {
         spawn_scenario(&mut commands, &scenario, Some(64)).unwrap();
     });

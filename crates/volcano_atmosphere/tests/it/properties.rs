@@ -74,7 +74,7 @@ struct Coefficients {
 
 /// The orographic scenario with `c` (validated), 12 steps of `dt` s on a 16² grid.
 fn orographic(c: &Coefficients, dt: f64) -> volcano_atmosphere::AtmosphereSummary {
-    let mut s = volcano_atmosphere::Scenario::builtin("orographic").unwrap();
+    let mut s = volcano_atmosphere::WeatherScenario::builtin("orographic").unwrap();
     s.params.convective_coupling = c.lambda;
     s.params.uplift_coupling = c.nu;
     s.params.phase_rate = c.gamma;

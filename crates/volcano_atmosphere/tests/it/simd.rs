@@ -3,7 +3,7 @@
 //! (and the same V-cycles); one at 256², where the sweeps run in parallel bands, 8 steps.
 //! On a CPU without AVX2 both runs take the scalar loops.
 
-use volcano_atmosphere::Scenario;
+use volcano_atmosphere::WeatherScenario;
 use volcano_atmosphere::model::fields::AtmosphereState;
 use volcano_atmosphere::model::multigrid::use_simd;
 use volcano_atmosphere::model::scenario::BUILTIN;
@@ -28,7 +28,7 @@ fn bits(state: &AtmosphereState) -> Vec<u64> {
 /// The state's bits and the V-cycles after `steps` steps of scenario `name` on an `n²` grid.
 fn run(name: &str, n: usize, steps: usize, simd: bool) -> (Vec<u64>, u32) {
     use_simd(simd);
-    let sc = Scenario::builtin(name).unwrap();
+    let sc = WeatherScenario::builtin(name).unwrap();
     let mut state = sc.build(Some(n)).unwrap();
     let mut work = Workspace::new(&state).unwrap();
     let mut cycles = 0;

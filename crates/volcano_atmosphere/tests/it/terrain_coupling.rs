@@ -4,7 +4,7 @@
 use volcano_atmosphere::AtmosphereState;
 use volcano_atmosphere::model::advection::apertures;
 use volcano_atmosphere::model::run::run;
-use volcano_atmosphere::model::scenario::Scenario;
+use volcano_atmosphere::model::scenario::WeatherScenario;
 use volcano_atmosphere::model::step::{Workspace, step};
 use volcano_atmosphere::model::terrain::update_masks;
 
@@ -31,7 +31,7 @@ fn reshape_ground(st: &mut AtmosphereState, height: impl Fn(usize, usize) -> f32
 /// layer whose slab contains the ground.
 #[test]
 fn free_fraction_is_the_slab_above_the_ground_and_lowest_layer_holds_the_ground() {
-    let s = Scenario::builtin("orographic").unwrap();
+    let s = WeatherScenario::builtin("orographic").unwrap();
     let st = s.build(Some(64)).unwrap();
     let heights = st.ground.height.data();
     let (bottom, last) = (st.layers[0].bottom, st.layers.last().unwrap());
@@ -80,7 +80,7 @@ fn free_fraction_is_the_slab_above_the_ground_and_lowest_layer_holds_the_ground(
 /// torus requires) — computed here independently of the model's own diagnostics.
 #[test]
 fn projected_wind_does_not_blow_into_a_block_of_terrain() {
-    let s = Scenario::builtin("orographic").unwrap();
+    let s = WeatherScenario::builtin("orographic").unwrap();
     let mut st = s.build(Some(32)).unwrap();
     reshape_ground(&mut st, |i, j| if (12..18).contains(&i) && (10..22).contains(&j) { 2000.0 } else { 0.0 });
     let mut work = Workspace::new(&st).unwrap();

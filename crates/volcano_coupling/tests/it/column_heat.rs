@@ -10,14 +10,14 @@
 
 use bevy::math::DVec2;
 use volcano_atmosphere::model::step::{Workspace, step};
-use volcano_atmosphere::{AtmosphereState, Scenario};
+use volcano_atmosphere::{AtmosphereState, WeatherScenario};
 use volcano_coupling::model::column::{
     ColumnSlice, ambient_levels, annulus_bounds, for_cells_within, impose, nearest_slice_per_layer,
     release_columns,
 };
 
 /// Light wind, moist low layers, flat ground at sea level, `n`² cells over 25.6 km.
-fn air(n: usize) -> Scenario {
+fn air(n: usize) -> WeatherScenario {
     let text = format!(
         "Scenario(name: \"column\", grid: {n}, extent_m: 25600.0, dt: 1.0, steps: 1, start_hour: 12.0, \
          day_of_year: 172.0, latitude_deg: 43.0, profile: UsStandard1976, terrain: Flat(height_m: 0.0, cover: Ground), \

@@ -10,7 +10,7 @@ use std::time::Duration;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano_atmosphere::{
-    AirLayer, AtmospherePlugin, Scenario, WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep,
+    AirLayer, AtmospherePlugin, WeatherPipelineSettings, WeatherPipelineStatus, WeatherScenario, WeatherStep,
     spawn_scenario,
 };
 use volcano_core::prelude::*;
@@ -19,7 +19,7 @@ use volcano_coupling::{CouplingBudget, CouplingPlugin, CouplingSettings};
 use volcano_plume::{Eruption, PlumeAmbient, PlumePlugin, PlumeSlice, PlumeStep, UmbrellaSpreading};
 
 /// A windless, dry, flat atmosphere on the thesis' printed profile (the Plinian preset's).
-fn still_air(extent_m: f64, grid: usize) -> Scenario {
+fn still_air(extent_m: f64, grid: usize) -> WeatherScenario {
     let text = format!(
         "Scenario(name: \"still\", grid: {grid}, extent_m: {extent_m}, dt: 1.0, steps: 1, start_hour: 12.0, \
          day_of_year: 172.0, latitude_deg: 0.0, profile: Thesis, terrain: Flat(height_m: 0.0, cover: Ground), \
@@ -30,7 +30,7 @@ fn still_air(extent_m: f64, grid: usize) -> Scenario {
 }
 
 /// West wind below, south wind aloft, moist low layers, over flat ground.
-fn sheared_air(extent_m: f64, grid: usize) -> Scenario {
+fn sheared_air(extent_m: f64, grid: usize) -> WeatherScenario {
     let text = format!(
         "Scenario(name: \"sheared\", grid: {grid}, extent_m: {extent_m}, dt: 1.0, steps: 1, start_hour: 12.0, \
          day_of_year: 172.0, latitude_deg: 0.0, profile: Thesis, terrain: Flat(height_m: 0.0, cover: Ground), \
@@ -55,7 +55,7 @@ fn record(mut seen: ResMut<Apexes>, tick: Res<SimTick>, mut u: MessageReader<Umb
 
 fn app(
     eruption: Eruption,
-    atmosphere: Option<Scenario>,
+    atmosphere: Option<WeatherScenario>,
     settings: CouplingSettings,
     ticks_per_update: u32,
 ) -> App {

@@ -213,7 +213,7 @@ pub struct LavaSummary {
 
 /// A built scenario: state, sources and parameters, ready to step.
 #[derive(Debug, Clone)]
-pub struct Scenario {
+pub struct LavaScenario {
     /// The configuration it was built from.
     pub config: ScenarioConfig,
     /// Lava parameters.
@@ -240,7 +240,7 @@ pub struct Scenario {
     capped: u64,
 }
 
-impl Scenario {
+impl LavaScenario {
     /// Builds the terrain, field, sources and parameters of `config`.
     pub fn build(config: &ScenarioConfig) -> Result<Self, ConfigError> {
         config.validate()?;
@@ -432,7 +432,7 @@ pub fn huppert_radius(rho_g: f64, eta: f64, volume: f64, t: f64) -> f64 {
 
 /// Builds and runs `config` for its `seconds`, returning the summary.
 pub fn run_scenario(config: &ScenarioConfig) -> Result<LavaSummary, ConfigError> {
-    let mut s = Scenario::build(config)?;
+    let mut s = LavaScenario::build(config)?;
     s.run_until(config.seconds);
     Ok(s.summary())
 }

@@ -1,6 +1,6 @@
 //! Isothermal constant-viscosity checks against analytic solutions (within 10 %).
 
-use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind, huppert_radius};
+use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind, huppert_radius};
 
 #[test]
 fn steady_sheet_on_incline_matches_jeffreys() {
@@ -10,7 +10,7 @@ fn steady_sheet_on_incline_matches_jeffreys() {
     c.slope_deg = 5.0;
     c.rate = 0.05;
     c.grid = 128;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     s.run_until(600.0);
     let sum = s.summary();
     let u_an = sum.analytic.mean_velocity_m_s.unwrap();
@@ -36,7 +36,7 @@ fn spreading_volume_matches_huppert_1982() {
     c.volume = 20.0;
     c.initial_radius = 2.0;
     c.grid = 64;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     for t in [100.0, 300.0, 900.0] {
         s.run_until(t);
         let sum = s.summary();

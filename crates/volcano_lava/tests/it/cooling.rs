@@ -12,7 +12,7 @@
 
 use volcano_lava::model::breakout::BreakoutState;
 use volcano_lava::model::params::STEFAN_BOLTZMANN;
-use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
+use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind};
 use volcano_lava::{FlowField, LavaParams, SurfaceState};
 
 /// Hon et al. (1994) crust thickness (m) after `t` seconds.
@@ -22,11 +22,11 @@ fn hon_1994(t: f64) -> f64 {
 
 /// A still, walled sheet of lava `h` m thick at the liquidus on an 8 × 8 grid, stepped with
 /// the scenario's full step (flow, cooling, crust, breakouts, folds) at `dt` s.
-fn still_sheet(h: f64, dt: f64) -> Scenario {
+fn still_sheet(h: f64, dt: f64) -> LavaScenario {
     let mut c = ScenarioConfig::new(ScenarioKind::Spread);
     c.grid = 8;
     c.dt = dt;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     let mut f = FlowField::flat(8, 8, 0.5).unwrap();
     let p = &s.params;
     f.place_volume(bevy::math::Vec2::new(1.75, 1.75), 100.0, h * 16.0, p.liquidus).unwrap();

@@ -1,12 +1,12 @@
 //! Folds form in front of the obstacle of thesis Fig 5.10 (left) and not on the same free
 //! slope.
 
-use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
+use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind};
 
-fn run(kind: ScenarioKind) -> Scenario {
+fn run(kind: ScenarioKind) -> LavaScenario {
     let mut c = ScenarioConfig::new(kind);
     c.seconds = 200.0;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     s.run_until(c.seconds);
     s
 }
@@ -44,7 +44,7 @@ fn folds_pile_up_in_front_of_the_obstacle_not_on_a_free_slope() {
 fn folds_do_not_pile_up_as_the_pond_keeps_converging() {
     let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);
     c.seconds = 320.0;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     s.run_until(c.seconds);
     let sum = s.summary();
     println!(
@@ -83,11 +83,11 @@ fn breakouts_tear_the_crust_where_lava_inflates_in_front_of_the_obstacle() {
     let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);
     c.rate = 3.0;
     c.seconds = 130.0;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     s.fold_params.enabled = false;
     s.run_until(c.seconds);
     let with_drag = s.summary();
-    let mut s2 = Scenario::build(&c).unwrap();
+    let mut s2 = LavaScenario::build(&c).unwrap();
     s2.fold_params.enabled = false;
     s2.params.crust_drag = false;
     s2.run_until(c.seconds);
@@ -133,7 +133,7 @@ fn a_fold_thickens_and_stiffens_the_crust_under_it() {
     use volcano_lava::{FlowField, SurfaceState};
     let mut c = ScenarioConfig::new(ScenarioKind::Spread);
     c.grid = 16;
-    let mut s = Scenario::build(&c).unwrap();
+    let mut s = LavaScenario::build(&c).unwrap();
     let mut f = FlowField::flat(16, 16, 0.5).unwrap();
     f.place_volume(bevy::math::Vec2::new(3.75, 3.75), 100.0, 64.0, 1400.0).unwrap(); // 1 m
     s.field = f;

@@ -2,7 +2,7 @@
 //! last one scales every face flux down so the explicit update stays stable, which slows the
 //! flow. The shipped scenarios must never need it.
 
-use volcano_lava::scenario::{Scenario, ScenarioConfig, ScenarioKind};
+use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind};
 
 /// The hottest, thickest lava of each shipped scenario: `spread` releases its 20 m³ as a
 /// 1.6 m cylinder at the liquidus (53 Pa·s), the most mobile lava any scenario holds; the
@@ -17,7 +17,7 @@ fn shipped_scenarios_never_hit_the_substep_cap() {
     ] {
         let mut c = ScenarioConfig::new(kind);
         c.grid = grid;
-        let mut s = Scenario::build(&c).unwrap();
+        let mut s = LavaScenario::build(&c).unwrap();
         s.run_until(seconds);
         let sum = s.summary();
         println!(

@@ -4,7 +4,7 @@ use super::*;
 use crate::clouds::{CloudRenderPlugin, CloudRenderSettings};
 use crate::{AshFallRenderPlugin, AshFallSettings};
 use bevy::asset::AssetPlugin;
-use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
+use volcano_atmosphere::{AtmosphereParams, WeatherScenario, spawn_atmosphere};
 
 /// An atmosphere with a disc of ash in every layer (none with `ash` false), drawn on a coarse
 /// volume; the clouds are off so that only the ash is built.
@@ -17,7 +17,7 @@ fn app(off_thread: bool, ash: bool) -> App {
         .insert_resource(CloudRenderSettings { enabled: false, ..default() })
         .insert_resource(AshFallSettings { voxels_xy: 24, voxels_z: 12, off_thread, ..default() })
         .add_systems(Startup, move |mut commands: Commands| {
-            let mut state = Scenario::builtin("eruption").unwrap().build(Some(16)).unwrap();
+            let mut state = WeatherScenario::builtin("eruption").unwrap().build(Some(16)).unwrap();
             for layer in &mut state.layers {
                 for k in 0..state.grid.n * state.grid.n {
                     let (x, y) = state.grid.centre(k);

@@ -245,7 +245,7 @@ mod tests {
     use super::*;
     use crate::clouds::CloudRenderPlugin;
     use bevy::asset::AssetPlugin;
-    use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
+    use volcano_atmosphere::{AtmosphereParams, WeatherScenario, spawn_atmosphere};
 
     /// A convection atmosphere with a cloud wall over its western half, on a coarse volume.
     fn app(off_thread: bool) -> App {
@@ -256,7 +256,7 @@ mod tests {
             .add_plugins(CloudRenderPlugin)
             .insert_resource(CloudRenderSettings { voxels_xy: 24, voxels_z: 8, off_thread, ..default() })
             .add_systems(Startup, |mut commands: Commands| {
-                let mut state = Scenario::builtin("convection").unwrap().build(Some(16)).unwrap();
+                let mut state = WeatherScenario::builtin("convection").unwrap().build(Some(16)).unwrap();
                 let n = state.grid.n;
                 for layer in &mut state.layers {
                     for k in 0..n * n {

@@ -13,7 +13,7 @@ use crate::common;
 use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
-use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
+use volcano_atmosphere::{AtmosphereParams, WeatherScenario, spawn_atmosphere};
 use volcano_render::{
     AshFallSettings, AshFallVolume, OrbitCamera, Sun, camera_bundle, headless_default_plugins, sun_bundle,
 };
@@ -25,7 +25,7 @@ const H: u32 = 180;
 fn scene(with_ash: bool) -> impl Fn(Commands) {
     move |mut commands: Commands| {
         // Dry: no clouds, so only the ash can break the symmetry.
-        let mut state = Scenario::builtin("eruption").unwrap().build(Some(32)).unwrap();
+        let mut state = WeatherScenario::builtin("eruption").unwrap().build(Some(32)).unwrap();
         let n = state.grid.n;
         let nl = state.layers.len();
         for (i, layer) in state.layers.iter_mut().enumerate() {

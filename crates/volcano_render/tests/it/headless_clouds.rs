@@ -9,7 +9,7 @@ use crate::common;
 use std::sync::{Arc, Mutex};
 
 use bevy::prelude::*;
-use volcano_atmosphere::{AtmosphereParams, Scenario, spawn_atmosphere};
+use volcano_atmosphere::{AtmosphereParams, WeatherScenario, spawn_atmosphere};
 use volcano_render::{
     CloudRenderSettings, CloudVolume, OrbitCamera, Sun, camera_bundle, headless_default_plugins, sun_bundle,
 };
@@ -19,7 +19,7 @@ const W: u32 = 256;
 const H: u32 = 160;
 
 fn scene(mut commands: Commands) {
-    let mut state = Scenario::builtin("convection").unwrap().build(Some(16)).unwrap();
+    let mut state = WeatherScenario::builtin("convection").unwrap().build(Some(16)).unwrap();
     let n = state.grid.n;
     for layer in &mut state.layers {
         for k in 0..n * n {
