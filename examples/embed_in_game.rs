@@ -18,8 +18,7 @@
 
 use bevy::prelude::*;
 use bevy_egui::{EguiContexts, EguiPlugin, EguiPrimaryContextPass, egui};
-use volcano::atmosphere::Scenario;
-use volcano::lava::{LavaReached, LavaZone};
+use volcano::atmosphere::WeatherScenario;
 use volcano::plume::{PlumeCollapsed, UmbrellaSpreading};
 use volcano::prelude::*;
 use volcano::render::VolcanoViewer;
@@ -104,21 +103,24 @@ fn on_terrain_loaded(
         Err(e) => log.lines.push(format!("no volcano: {e}")),
     }
     // Air over it: the built-in five-layer scenario of the `eruption` scene, over this terrain.
-    let air = Scenario::builtin("eruption")
+    let air = WeatherScenario::builtin("eruption")
         .and_then(|scenario| AtmosphereSpawner::new(&scenario).over(terrain).spawn(&mut commands));
     if let Err(e) = air {
         log.lines.push(format!("no atmosphere: {e}"));
     }
-    // A lava patch on the flank (the `eruption` scene's), and the player's house below it.
-    match volcano::scenes::by_name("eruption").map(|s| s.lava) {
-        Ok(Some(lava)) => {
-            lava.spawn(&mut commands);
-            if let Ok(zone) = LavaZone::new(Vec2::new(1_721.0, 2_520.0), 15.0) {
-                commands.spawn((Name::new("Player's house"), zone));
-            }
-        }
-        Ok(None) => {}
-        Err(e) => log.lines.push(format!("no lava: {e}")),
+    // A lava patch on the flank facing the camera (256 × 256 cells of 1 m), fed 3 m³/s near its
+    // upslope edge, and a zone around the player's house below it, each placed by its Transform.
+    let mut lava = || -> Result<(), ConfigError> {
+        let field = LavaField::square(256, 1.0)?;
+        commands.spawn((Name::new("Lava field"), field, Transform::from_xyz(1_721.0, 0.0, 2_457.0)));
+        let vent = LavaSource::new(3.0)?.with_radius(2.0)?;
+        commands.spawn((Name::new("Lava vent"), vent, Transform::from_xyz(1_666.0, 0.0, 2_379.0)));
+        let house = LavaZone::new(Vec2::ZERO, 15.0)?;
+        commands.spawn((Name::new("Player's house"), house, Transform::from_xyz(1_721.0, 0.0, 2_520.0)));
+        Ok(())
+    };
+    if let Err(e) = lava() {
+        log.lines.push(format!("no lava: {e}"));
     }
 }
 
