@@ -58,6 +58,56 @@ impl Plugin for AtmospherePlugin {
                 pipeline::apply_weather.run_if(pipeline::weather_due).in_set(WeatherSystems::Apply),
             )
             .add_systems(WeatherStep, pipeline::start_weather)
+            .add_systems(Update, warn_unplaced_atmospheres)
             .add_systems(Last, pipeline::join_on_exit);
+    }
+}
+
+/// What of `transform` an atmosphere ignores: its grid is centred on the world origin, so any
+/// translation, rotation or scale. Empty for the identity.
+fn ignored_by_atmosphere(transform: &Transform) -> Vec<&'static str> {
+    let mut parts = Vec::new();
+    if transform.translation != Vec3::ZERO {
+        parts.push("translation");
+    }
+    if !transform.rotation.is_near_identity() {
+        parts.push("rotation");
+    }
+    if transform.scale != Vec3::ONE {
+        parts.push("scale");
+    }
+    parts
+}
+
+/// Warns once per change about an atmosphere entity whose `Transform` would move it: the grid
+/// stays centred on the world origin (spawn the terrain and volcano so that the air covers
+/// them, e.g. with `AtmosphereSpawner::over`).
+fn warn_unplaced_atmospheres(atmospheres: Query<(Entity, Ref<Transform>), With<Atmosphere>>) {
+    for (entity, transform) in &atmospheres {
+        if !transform.is_changed() {
+            continue;
+        }
+        let ignored = ignored_by_atmosphere(&transform);
+        if !ignored.is_empty() {
+            warn!(
+                "atmosphere {entity}: its grid is centred on the world origin, so its Transform's \
+                 {} is ignored",
+                ignored.join(", ")
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_atmosphere_names_what_of_its_transform_it_ignores() {
+        assert!(ignored_by_atmosphere(&Transform::IDENTITY).is_empty());
+        let moved = Transform::from_xyz(0.0, 0.0, -20_000.0).with_scale(Vec3::splat(2.0));
+        assert_eq!(ignored_by_atmosphere(&moved), ["translation", "scale"]);
+        let turned = Transform::from_rotation(Quat::from_rotation_y(0.3));
+        assert_eq!(ignored_by_atmosphere(&turned), ["rotation"]);
     }
 }

@@ -48,10 +48,10 @@ impl Plugin for VolcanoCorePlugin {
             // Vents snap in Update (visible at once) and again before each tick, so a volcano
             // spawned or moved between ticks is on the ground when its domains step.
             // Terrains move to their entity's translation first, so the vents land on them.
-            .add_systems(Update, (crate::terrain::place_terrains, volcano::snap_vents).chain())
+            .add_systems(Update, (crate::terrain::place_terrains::<true>, volcano::snap_vents).chain())
             .add_systems(
                 FixedUpdate,
-                (crate::terrain::place_terrains, volcano::snap_vents)
+                (crate::terrain::place_terrains::<false>, volcano::snap_vents)
                     .chain()
                     .in_set(SimSystems::Begin)
                     .after(begin_tick),

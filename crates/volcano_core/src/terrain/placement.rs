@@ -9,8 +9,8 @@ use super::Terrain;
 
 /// Moves each new terrain, and each whose `Transform` changed, to the translation's x and z
 /// ([`Terrain::set_placement`]). Runs before the vents snap, in `Update` and at the start of
-/// each base tick.
-pub(crate) fn place_terrains(mut terrains: Query<(Entity, &mut Terrain, Ref<Transform>)>) {
+/// each base tick; only the `Update` instance (`WARN`) logs, so a change is reported once.
+pub(crate) fn place_terrains<const WARN: bool>(mut terrains: Query<(Entity, &mut Terrain, Ref<Transform>)>) {
     for (entity, mut terrain, transform) in &mut terrains {
         if !(transform.is_changed() || terrain.is_added()) {
             continue;
@@ -18,11 +18,12 @@ pub(crate) fn place_terrains(mut terrains: Query<(Entity, &mut Terrain, Ref<Tran
         let offset = transform.translation.xz();
         if terrain.placement() != offset
             && let Err(e) = terrain.set_placement(offset)
+            && WARN
         {
             warn!("terrain {entity}: its Transform cannot place it: {e}");
         }
         let ignored = ignored_parts(&transform);
-        if !ignored.is_empty() {
+        if WARN && !ignored.is_empty() {
             warn!(
                 "terrain {entity}: a heightfield's heights are altitudes, so its Transform's {} \
                  is ignored (only the x and z translation place it)",
@@ -55,7 +56,7 @@ mod tests {
 
     fn app_with(terrain: Terrain, transform: Transform) -> (App, Entity) {
         let mut app = App::new();
-        app.add_systems(Update, place_terrains);
+        app.add_systems(Update, place_terrains::<true>);
         let e = app.world_mut().spawn((terrain, transform)).id();
         app.update();
         (app, e)
