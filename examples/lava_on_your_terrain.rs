@@ -30,11 +30,11 @@ fn main() -> AppExit {
         .run()
 }
 
-/// The valley: 120 m at its head (z = -128 m) falling 0.25 m per metre toward +z, with a
-/// rounded channel 40 m wide along x = 0 that guides the flow.
+/// The valley: 120 m at its head (z = -128 m) falling 0.25 m per metre toward +z, its sides
+/// rising 33 m at x = ±128 m, with a rounded channel 40 m wide along x = 0 that guides the flow.
 fn valley_height(x: f32, z: f32) -> f32 {
     let channel = 6.0 * (1.0 - (-(x / 20.0).powi(2)).exp());
-    120.0 - 0.25 * (z + 128.0) + channel + 0.01 * x * x
+    120.0 - 0.25 * (z + 128.0) + channel + 0.002 * x * x
 }
 
 fn setup(mut commands: Commands) -> Result {
@@ -66,7 +66,7 @@ fn setup(mut commands: Commands) -> Result {
         // The lava glows: an HDR camera with bloom shows it (`GlowCamera` sets both up).
         GlowCamera,
         VolcanoSkyCamera,
-        Transform::from_xyz(120.0, 160.0, 160.0).looking_at(Vec3::new(0.0, 100.0, -20.0), Vec3::Y),
+        Transform::from_xyz(60.0, 140.0, -20.0).looking_at(Vec3::new(0.0, 104.0, -70.0), Vec3::Y),
     ));
     Ok(())
 }
@@ -80,18 +80,23 @@ fn update_collider(
     for m in changed.read() {
         let Ok(terrain) = terrains.get(m.terrain) else { continue };
         let (r, heights) = (m.region, terrain.heights());
-        let mut highest_rise = 0.0f32;
+        let mut frozen = 0.0f64;
         for j in r.j0..r.j0 + r.nj {
             for i in r.i0..r.i0 + r.ni {
-                let (new, at) = (heights.get(i, j), heights.position(i, j));
-                highest_rise = highest_rise.max(new - valley_height(at.x, at.y));
-                collider.heights[j * N + i] = new;
+                let (new, old) = (heights.get(i, j), &mut collider.heights[j * N + i]);
+                frozen += (new - *old) as f64 * CELL * CELL;
+                *old = new;
             }
         }
         collider.updates += 1;
         info!(
-            "collider update {}: {} × {} nodes from ({}, {}); frozen lava up to {:.2} m thick",
-            collider.updates, r.ni, r.nj, r.i0, r.j0, highest_rise
+            "collider update {}: {} × {} nodes from node ({}, {}); {:.1} L of lava froze onto them",
+            collider.updates,
+            r.ni,
+            r.nj,
+            r.i0,
+            r.j0,
+            1_000.0 * frozen
         );
     }
 }
