@@ -301,14 +301,15 @@ fn air_to_plume(
     let bulk = volcanoes.iter().next().map_or(1_000.0, |(_, _, e, ..)| e.pyroclastic.deposit_density);
     for (atmo, grid) in grids.iter().copied() {
         let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
-        // Ash fallen this step: onto the deposit of the terrain under the cell (the first that
-        // holds it).
+        // Ash fallen this step: spread over the cell's footprint on the deposit of the terrain
+        // under the cell's centre (the first that holds it).
+        let half = (0.5 * grid.dx) as f32;
         let mut deposit = |x: f64, z: f64, kg: f64| {
             let (x, z) = (x as f32, z as f32);
             grounds
                 .iter_mut()
                 .find(|(t, _)| t.contains(x, z))
-                .is_some_and(|(t, mut deposit)| deposit.add_on(t, Vec2::new(x, z), kg, bulk))
+                .is_some_and(|(t, mut deposit)| deposit.add_over(t, Vec2::new(x, z), half, kg, bulk))
         };
         let mine: Vec<Entity> = by_atmo.iter().filter(|(a, _)| *a == atmo).map(|(_, v)| *v).collect();
         let gathered = if mine.is_empty() { None } else { layers_read(atmo, &layer_query, grid.n) };

@@ -132,6 +132,58 @@ impl DepositMap {
         moved > 0.0
     }
     /// Adds mass to the nearest node and raises the surface there.
+    /// Adds `mass` kg spread evenly over the terrain nodes in the square of half-side `half` m
+    /// around world `(x, z)` = `centre` (nodes on its west and south edges included, on its
+    /// east and north edges not, so the squares of neighbouring cells share no node): ash fall
+    /// from an atmosphere cell lands uniformly over the cell's footprint, not on the one node
+    /// nearest its centre. Where no node lies in the square (a terrain coarser than the cell),
+    /// the nearest node takes it all. Grids and bulk density as in [`Self::add_on`]; returns
+    /// false, adding nothing, where `centre` is off the terrain.
+    pub fn add_over(
+        &mut self,
+        terrain: &Terrain,
+        centre: Vec2,
+        half: f32,
+        mass: f64,
+        bulk_density: f64,
+    ) -> bool {
+        if !half.is_finite() || half <= 0.0 {
+            return self.add_on(terrain, centre, mass, bulk_density);
+        }
+        if mass.is_nan() || mass <= 0.0 || !terrain.contains(centre.x, centre.y) {
+            return false;
+        }
+        self.ensure(terrain);
+        if self.bulk_density <= 0.0 {
+            self.bulk_density = bulk_density;
+        }
+        let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return false };
+        // Node indices whose positions lie in [centre - half, centre + half).
+        let span = |lo: f64, n: usize| {
+            let first = lo.ceil().max(0.0);
+            let last = (lo + 2.0 * half as f64 / g.cell()).ceil() - 1.0;
+            let last = last.min(n as f64 - 1.0);
+            (first <= last).then_some((first as usize, last as usize))
+        };
+        let (gx, gy) = g.to_grid(centre);
+        let half_cells = half as f64 / g.cell();
+        let (Some((i0, i1)), Some((j0, j1))) = (span(gx - half_cells, g.nx()), span(gy - half_cells, g.ny()))
+        else {
+            self.add(centre, mass);
+            return true;
+        };
+        let share = mass / ((i1 - i0 + 1) * (j1 - j0 + 1)) as f64;
+        let rise = deposit::thickness(share, g.cell(), self.bulk_density) as f32;
+        for j in j0..=j1 {
+            for i in i0..=i1 {
+                g.set(i, j, g.get(i, j) + share);
+                s.set(i, j, s.get(i, j) + rise);
+            }
+        }
+        self.revision += 1;
+        true
+    }
+
     pub(crate) fn add(&mut self, p: Vec2, mass: f64) {
         let (Some(g), Some(s)) = (self.mass.as_mut(), self.surface.as_mut()) else { return };
         let (fx, fy) = g.to_grid(p);
@@ -189,5 +241,54 @@ impl std::ops::AddAssign for PyroclasticBudget {
         self.secondary_columns += o.secondary_columns;
         self.capped += o.capped;
         self.capped_particles += o.capped_particles;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A flat 2 km terrain of 10 m cells, its first node at (-1000, -1000).
+    fn flat() -> Terrain {
+        Terrain::flat(201, 10.0, 0.0).unwrap()
+    }
+
+    #[test]
+    fn ash_from_a_cell_lands_evenly_over_its_footprint() {
+        let (terrain, mut map) = (flat(), DepositMap::default());
+        // The ash of one 200 m atmosphere cell centred on (100, 100): 10⁶ kg at 1,000 kg/m³ is a
+        // uniform layer of 10⁶ / (200² · 1,000) = 2.5 cm over the cell, nothing beside it.
+        assert!(map.add_over(&terrain, Vec2::new(100.0, 100.0), 100.0, 1e6, 1_000.0));
+        for (x, z) in [(100.0, 100.0), (10.0, 190.0), (0.0, 0.0), (190.0, 5.0)] {
+            assert!((map.thickness_at(x, z) - 0.025).abs() < 1e-12, "({x}, {z}): {}", map.thickness_at(x, z));
+        }
+        for (x, z) in [(200.0, 100.0), (-10.0, 100.0), (100.0, 200.0), (100.0, -10.0)] {
+            assert_eq!(map.thickness_at(x, z), 0.0, "({x}, {z}) is in the neighbouring cells");
+        }
+        assert!((map.total() - 1e6).abs() <= 1e-9, "mass kept: {}", map.total());
+        // The neighbouring cell's footprint shares no node with this one: a second cell beside
+        // it doubles no node.
+        assert!(map.add_over(&terrain, Vec2::new(300.0, 100.0), 100.0, 1e6, 1_000.0));
+        assert!((map.thickness_at(190.0, 100.0) - 0.025).abs() < 1e-12);
+        assert!((map.thickness_at(200.0, 100.0) - 0.025).abs() < 1e-12);
+        let surface = map.surface.as_ref().unwrap();
+        assert!((surface.nearest(Vec2::new(250.0, 50.0), Boundary::Clamp) - 0.025).abs() < 1e-6);
+    }
+
+    #[test]
+    fn at_the_terrain_edge_and_below_its_resolution_no_ash_is_lost() {
+        let (terrain, mut map) = (flat(), DepositMap::default());
+        // A cell hanging over the east edge: all of its ash lands on the nodes it covers.
+        assert!(map.add_over(&terrain, Vec2::new(950.0, 0.0), 100.0, 5e5, 1_000.0));
+        assert!((map.total() - 5e5).abs() <= 1e-9);
+        assert!(map.thickness_at(1_000.0, 0.0) > 0.0 && map.thickness_at(840.0, 0.0) == 0.0);
+        // A cell smaller than the terrain's spacing with no node inside: the nearest node.
+        let mut fine = DepositMap::default();
+        assert!(fine.add_over(&terrain, Vec2::new(4.0, 4.0), 0.5, 100.0, 1_000.0));
+        assert_eq!(fine.mass.as_ref().unwrap().nearest(Vec2::ZERO, Boundary::Clamp), 100.0);
+        // Off the terrain or not a mass: nothing.
+        assert!(!fine.add_over(&terrain, Vec2::new(5_000.0, 0.0), 100.0, 1.0, 1_000.0));
+        assert!(!fine.add_over(&terrain, Vec2::ZERO, 100.0, f64::NAN, 1_000.0));
+        assert_eq!(fine.total(), 100.0);
     }
 }
