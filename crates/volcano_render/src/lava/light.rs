@@ -187,6 +187,9 @@ pub fn glow_range(lumens: f32) -> f32 {
 #[reflect(Component)]
 pub struct LavaGlow;
 
+/// What [`update_glow_lights`] writes of a glow light.
+type GlowLightItem = (&'static mut PointLight, &'static mut Transform, &'static mut Visibility);
+
 /// Keeps the [`LavaGlow`] point lights ([`glow_lights`], at most
 /// [`LavaRenderSettings::glow_light_count`]) under every lava field whose surface glows (lit
 /// view, [`LavaRenderSettings::glow_light`] on), moved and re-powered on the frames its
@@ -199,10 +202,7 @@ pub(super) fn update_glow_lights(
     settings: Res<LavaRenderSettings>,
     fields: Query<(Entity, &LavaState, &volcano_lava::LavaField, Option<&Transform>, &Children)>,
     surfaces: Query<&LavaSurface>,
-    mut lights: Query<
-        (&mut PointLight, &mut Transform, &mut Visibility),
-        (With<LavaGlow>, Without<LavaState>),
-    >,
+    mut lights: Query<GlowLightItem, (With<LavaGlow>, Without<LavaState>)>,
 ) {
     let on = settings.glow_light && *mode == LavaRenderMode::Lit;
     for (entity, state, field, frame, children) in &fields {

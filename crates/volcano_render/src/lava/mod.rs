@@ -230,9 +230,12 @@ pub(crate) fn in_world_space(parent: Option<&Transform>, world: Transform) -> Tr
     }
 }
 
+/// A field whose transform or children changed.
+type MovedOrNewChildren = Or<(Changed<Transform>, Changed<Children>)>;
+
 /// Keeps the surface child of every moved field where the simulation has the lava.
 fn keep_surfaces_in_world_space(
-    fields: Query<(&Transform, &Children), (With<LavaState>, Or<(Changed<Transform>, Changed<Children>)>)>,
+    fields: Query<(&Transform, &Children), (With<LavaState>, MovedOrNewChildren)>,
     mut surfaces: Query<&mut Transform, (With<LavaSurface>, Without<LavaState>)>,
 ) {
     for (parent, children) in &fields {
