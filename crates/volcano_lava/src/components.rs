@@ -3,7 +3,7 @@
 use bevy::ecs::entity::{Entity, MapEntities};
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::ecs::system::SystemParam;
-use bevy::prelude::{Component, Message, Query, Vec2, Vec3};
+use bevy::prelude::{Component, Message, Query, ReflectDefault, Vec2, Vec3};
 use bevy::reflect::Reflect;
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
@@ -21,8 +21,11 @@ use crate::model::thermal::surface_temperature;
 /// ground at altitude 0 if the world has no terrain at all; rejected if terrains exist but
 /// none contains it), and writes the lava that freezes back into that terrain. Parameter
 /// edits apply live (re-validated each step; an invalid edit freezes the field until fixed).
+/// The default is [`LavaField::new`] of the default [`Placement`] and [`LavaParams`], so a
+/// scene (`bsn!`) patches only the fields it sets: `LavaField { placement: Placement { centre:
+/// Vec2::new(1_700.0, 2_400.0), nx: 256, ny: 256, cell: 1.0 } }`.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
-#[reflect(Component)]
+#[reflect(Component, Default)]
 pub struct LavaField {
     /// Grid placement and size.
     pub placement: Placement,
@@ -36,14 +39,27 @@ pub struct LavaField {
     pub seed: u64,
 }
 
+impl Default for LavaField {
+    /// 512² cells of 0.5 m centred on the world origin ([`Placement::default`]), thesis Table
+    /// 5.2 parameters, open edges, seed 0: what [`LavaField::new`] gives for the defaults.
+    fn default() -> Self {
+        Self::unchecked(Placement::default(), LavaParams::default())
+    }
+}
+
 impl LavaField {
     /// A validated field with open edges (lava leaving the grid is booked as outflow).
     pub fn new(placement: Placement, params: LavaParams) -> Result<Self, ConfigError> {
         placement.validate()?;
         params.validate()?;
+        Ok(Self::unchecked(placement, params))
+    }
+
+    /// The field with open edges, default folds and seed 0, without checking the values.
+    fn unchecked(placement: Placement, params: LavaParams) -> Self {
         let open = crate::model::field::Edge::Open;
         let edges = Edges { west: open, east: open, south: open, north: open };
-        Ok(Self { placement, edges, params, folds: FoldParams::default(), seed: 0 })
+        Self { placement, edges, params, folds: FoldParams::default(), seed: 0 }
     }
 }
 
@@ -96,9 +112,11 @@ pub enum LavaFieldStatus {
 
 /// A lava source at a world position emitting `rate` m³/s at `temperature` K over the
 /// cells within `radius` m. Add and remove it live. A source whose position is on no lava
-/// field, or whose values were edited out of range, gets [`LavaSourceStatus::Rejected`].
+/// field, or whose values were edited out of range, gets [`LavaSourceStatus::Rejected`]. A
+/// scene (`bsn!`) patches the default: `LavaSource { position: Vec3::new(1_660.0, 0.0,
+/// 2_380.0), rate: 3.0 }`.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
-#[reflect(Component)]
+#[reflect(Component, Default)]
 pub struct LavaSource {
     /// World position (only x and z are used).
     pub position: Vec3,
@@ -108,6 +126,13 @@ pub struct LavaSource {
     pub temperature: f64,
     /// Radius of the fed disc (m), ≥ 0 (0 = one cell).
     pub radius: f64,
+}
+
+impl Default for LavaSource {
+    /// 1 m³/s at the default liquidus (1,473 K) over one cell, at the world origin.
+    fn default() -> Self {
+        Self { position: Vec3::ZERO, rate: 1.0, temperature: LavaParams::default().liquidus, radius: 0.0 }
+    }
 }
 
 impl LavaSource {
@@ -246,5 +271,19 @@ impl LavaQuery<'_, '_> {
             .iter()
             .filter_map(|(e, f, s)| s.probe(e, &f.params, xz))
             .max_by(|a, b| a.thickness.total_cmp(&b.thickness))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_are_the_validated_values() {
+        let field = LavaField::new(Placement::default(), LavaParams::default()).unwrap();
+        assert_eq!(LavaField::default(), field);
+        let source = LavaSource::default();
+        assert!(source.validate().is_ok());
+        assert_eq!(source, LavaSource::new(Vec3::ZERO, 1.0, 1_473.0).unwrap());
     }
 }
