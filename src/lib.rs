@@ -25,6 +25,12 @@
 //!     .run();
 //! ```
 //!
+//! A game can also write the volcano as a Bevy scene, `bsn!` (feature `bsn`, default): a
+//! terrain and a volcano are built from their templates ([`TerrainTemplate`](volcano_core::TerrainTemplate),
+//! [`VolcanoTemplate`](volcano_core::VolcanoTemplate)) when the scene spawns, an
+//! [`AtmosphereScenario`](volcano_atmosphere::AtmosphereScenario) becomes an atmosphere at the
+//! next tick, and the other components patch their defaults (`examples/bsn_volcano.rs`).
+//!
 //! Crates: [`volcano_core`] (units, atmosphere profiles, grids, terrain, RNG, multi-rate
 //! clock), [`volcano_plume`] (eruption columns), [`volcano_atmosphere`] (layered atmosphere),
 //! [`volcano_coupling`] (plume ↔ atmosphere, ash), [`volcano_lava`] (pahoehoe lava),
@@ -90,7 +96,8 @@ impl PluginGroup for VolcanoPlugins {
 
 /// What a game usually imports: the plugins, the volcano and its eruption, terrains and their
 /// generators, lava sources and zones, the atmosphere, every gameplay message and point query,
-/// quality levels, and (feature `render`) the camera markers and the opt-in sky.
+/// quality levels, the templates a scene (`bsn!`) builds them with, and (feature `render`) the
+/// camera markers and the opt-in sky.
 pub mod prelude {
     pub use crate::assets::{
         EruptionTimelineSource, HeightmapSource, PlumePresetSource, VolcanoAssetPlugin, VolcanoSceneSource,
@@ -99,8 +106,9 @@ pub mod prelude {
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_atmosphere::{
-        AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, WeatherScenario,
-        WeatherStepped, WeatherSystems, air_ash_at, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+        AirLayer, Atmosphere, AtmospherePlugin, AtmosphereScenario, AtmosphereScenarioStatus,
+        AtmosphereSpawner, AtmosphereTimeline, WeatherScenario, WeatherStepped, WeatherSystems, air_ash_at,
+        spawn_atmosphere, spawn_scenario, spawn_scenario_with,
     };
     pub use volcano_core::prelude::*;
     pub use volcano_coupling::{CouplingBudget, CouplingPlugin, CouplingSettings, CouplingSystems};

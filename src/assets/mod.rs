@@ -22,6 +22,10 @@
 //!
 //! [`VolcanoAssetPlugin`] is in [`crate::VolcanoPlugins`]; it needs Bevy's `AssetPlugin`
 //! (in `DefaultPlugins`) and does nothing, with a warning, without it.
+//!
+//! In a scene (`bsn!`) each component takes the asset's path, which Bevy loads when the scene
+//! spawns (their templates, from `FromTemplate`, hold the path):
+//! `HeightmapSource("embedded://volcano/terrain/stratovolcano.height.png")`.
 
 mod loaders;
 mod scene_source;
@@ -48,18 +52,18 @@ const STRATOVOLCANO_PNG: &[u8] = include_bytes!("../../assets/terrain/stratovolc
 
 /// Sets the [`Eruption`] on this entity to a loaded [`PlumePresetAsset`] (its whole
 /// `params`), when it loads and whenever it is reloaded.
-#[derive(Component, Debug, Clone, Reflect)]
+#[derive(Component, Debug, Clone, Reflect, FromTemplate)]
 #[reflect(Component, Debug)]
 pub struct PlumePresetSource(pub Handle<PlumePresetAsset>);
 
 /// Drives the [`Eruption`] on this entity with a loaded [`EruptionTimelineAsset`]: inserts an
 /// [`EruptionScript`] when it loads; a reload replaces the keys and keeps the script's clock.
-#[derive(Component, Debug, Clone, Reflect)]
+#[derive(Component, Debug, Clone, Reflect, FromTemplate)]
 #[reflect(Component, Debug)]
 pub struct EruptionTimelineSource(pub Handle<EruptionTimelineAsset>);
 
 /// Inserts the loaded [`HeightmapAsset`]'s [`Terrain`] on this entity (replaced on reload).
-#[derive(Component, Debug, Clone, Reflect)]
+#[derive(Component, Debug, Clone, Reflect, FromTemplate)]
 #[reflect(Component, Debug)]
 pub struct HeightmapSource(pub Handle<HeightmapAsset>);
 

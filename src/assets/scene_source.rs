@@ -18,7 +18,7 @@ use crate::quality::VolcanoQuality;
 /// [`SpawnedScene`] on the same entity; when the file is reloaded (Bevy's `file_watcher`, or
 /// `AssetServer::reload`) those entities are despawned and the new file's are spawned.
 /// Despawning this entity leaves them in the world.
-#[derive(Component, Debug, Clone, Reflect)]
+#[derive(Component, Debug, Clone, Reflect, FromTemplate)]
 #[reflect(Component, Debug)]
 #[require(SpawnedScene)]
 pub struct VolcanoSceneSource(pub Handle<SceneAsset>);

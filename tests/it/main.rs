@@ -2,6 +2,8 @@
 //! Run one module with `cargo test -p volcano --test it MODULE::`.
 
 mod assets;
+#[cfg(feature = "bsn")]
+mod bsn;
 mod headless_sim;
 mod host_app;
 mod module_cycles;

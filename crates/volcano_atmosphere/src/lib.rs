@@ -18,7 +18,8 @@ pub use model::run::AtmosphereSummary;
 pub use model::scenario::{BUILTIN as BUILTIN_SCENARIOS, WeatherScenario};
 pub use model::step::WeatherStepReport;
 pub use plugin::{
-    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereSpawner, AtmosphereTimeline, SharedFields,
-    WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep, WeatherStepped, WeatherSystems, air_ash_at,
-    atmosphere_fields, flush_weather, join_weather, spawn_atmosphere, spawn_scenario, spawn_scenario_with,
+    AirLayer, Atmosphere, AtmospherePlugin, AtmosphereScenario, AtmosphereScenarioStatus, AtmosphereSpawner,
+    AtmosphereTimeline, SharedFields, WeatherPipelineSettings, WeatherPipelineStatus, WeatherStep,
+    WeatherStepped, WeatherSystems, air_ash_at, atmosphere_fields, flush_weather, join_weather,
+    spawn_atmosphere, spawn_scenario, spawn_scenario_with,
 };

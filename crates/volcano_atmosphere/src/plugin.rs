@@ -1,8 +1,9 @@
 //! [`AtmospherePlugin`]: the weather domain (`WeatherStep`, `Period(1 s)` = one 1 s step per
-//! simulated second at any fixed rate by default, docs/ARCHITECTURE.md §3.4). An [`Atmosphere`] entity carries the grid,
-//! coefficients, clock and ground; each [`AirLayer`] entity holds one layer's fields in one
-//! component. Each weather tick writes back the step started one weather step earlier and
-//! starts the next one off the main thread on a snapshot ([`pipeline`], §3.3).
+//! simulated second at any fixed rate by default, docs/ARCHITECTURE.md §3.4). An [`Atmosphere`]
+//! entity carries the grid, coefficients, clock and ground; each [`AirLayer`] entity holds one
+//! layer's fields in one component; an [`AtmosphereScenario`] entity is built into an
+//! atmosphere at the next tick. Each weather tick writes back the step started one weather step
+//! earlier and starts the next one off the main thread on a snapshot ([`pipeline`], §3.3).
 
 mod components;
 pub mod pipeline;
@@ -21,7 +22,10 @@ pub use pipeline::{
     AtmosphereWork, WeatherPipelineSettings, WeatherPipelineStatus, flush_weather, join_weather,
 };
 pub use shared::SharedFields;
-pub use spawn::{AtmosphereSpawner, spawn_atmosphere, spawn_scenario, spawn_scenario_with};
+pub use spawn::{
+    AtmosphereScenario, AtmosphereScenarioStatus, AtmosphereSpawner, spawn_atmosphere, spawn_scenario,
+    spawn_scenario_with,
+};
 
 /// The layered atmosphere: systems in [`WeatherStep`] and [`WeatherSystems`], and the messages
 /// they send.
@@ -46,6 +50,8 @@ impl Plugin for AtmospherePlugin {
             .register_type::<AirLayer>()
             .register_type::<AtmosphereGround>()
             .register_type::<AtmosphereTimeline>()
+            .register_type::<AtmosphereScenario>()
+            .register_type::<AtmosphereScenarioStatus>()
             .register_type::<WeatherPipelineSettings>()
             .register_type::<WeatherPipelineStatus>()
             // An atmosphere written from a saved world has neither (one is a task, the other a
@@ -56,6 +62,13 @@ impl Plugin for AtmospherePlugin {
             .add_systems(
                 FixedUpdate,
                 pipeline::apply_weather.run_if(pipeline::weather_due).in_set(WeatherSystems::Apply),
+            )
+            // After `SimSystems::Begin` placed the terrains; the new atmosphere steps this tick.
+            .add_systems(
+                FixedUpdate,
+                spawn::build_scenario_atmospheres
+                    .in_set(SimSystems::BeforeWeather)
+                    .before(WeatherSystems::Apply),
             )
             .add_systems(WeatherStep, pipeline::start_weather)
             .add_systems(Update, warn_unplaced_atmospheres)

@@ -29,15 +29,16 @@ pub use grid::{Boundary, Grid2};
 pub use interpolation::{TickInterpolation, TickInterpolationPlugin, TickInterpolationSystems};
 pub use plugin::VolcanoCorePlugin;
 pub use rng::{VolcanoRng, derive_stream};
-pub use terrain::{LandCover, NodeRegion, StratovolcanoParams, Terrain, TerrainChanged};
-pub use volcano::{OnTerrain, TerrainVolcanoes, VentPosition, Volcano, VolcanoSpec};
+pub use terrain::{LandCover, NodeRegion, StratovolcanoParams, Terrain, TerrainChanged, TerrainTemplate};
+pub use volcano::{OnTerrain, TerrainVolcanoes, VentPosition, Volcano, VolcanoSpec, VolcanoTemplate};
 
 /// Everything a game usually needs from this crate.
 pub mod prelude {
     pub use crate::{
         AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2, LandCover,
         OnTerrain, SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams, Terrain,
-        TerrainChanged, TerrainVolcanoes, ThesisIsa, TickInterpolation, TickInterpolationPlugin,
-        UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng, VolcanoSpec,
+        TerrainChanged, TerrainTemplate, TerrainVolcanoes, ThesisIsa, TickInterpolation,
+        TickInterpolationPlugin, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng,
+        VolcanoSpec, VolcanoTemplate,
     };
 }

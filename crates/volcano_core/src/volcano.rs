@@ -6,6 +6,8 @@
 
 use bevy::ecs::component::Component;
 use bevy::ecs::entity::Entity;
+use bevy::ecs::error::BevyError;
+use bevy::ecs::template::{FromTemplate, SpecializeFromTemplate, Template, TemplateContext};
 use bevy::math::Vec3;
 use bevy::prelude::{Commands, DetectChanges, Query, Ref, ReflectComponent, ReflectDefault};
 use bevy::reflect::Reflect;
@@ -17,7 +19,8 @@ use crate::rng::VolcanoRng;
 use crate::terrain::Terrain;
 
 /// A volcano. Spawn it with a `Transform` whose x/z place the vent; the vent snaps to the
-/// terrain. Build it with [`Volcano::new`] or from a RON [`VolcanoSpec`], which validate.
+/// terrain. Build it with [`Volcano::new`] or from a RON [`VolcanoSpec`], which validate; a
+/// scene (`bsn!`) writes it through its [`VolcanoTemplate`].
 #[derive(Component, Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
 #[require(Transform)]
 #[reflect(Component)]
@@ -67,6 +70,67 @@ impl Volcano {
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.clone().set_vent_radius(self.vent_radius)
     }
+}
+
+/// How a scene writes a [`Volcano`] (`Volcano`'s `FromTemplate::Template`). A volcano keeps
+/// its fields private so that its vent radius is always valid; `bsn!` patches this template's
+/// fields instead and builds the volcano with [`Volcano::new`] when the scene spawns. An
+/// invalid radius fails the spawn with an error naming `vent_radius`, never a panic.
+///
+/// ```text
+/// bsn! { Volcano { vent_radius: 80.0, seed: 7 } Transform::from_xyz(0.0, 0.0, -2_000.0) }
+/// bsn! { Volcano::new(80.0, 7) }   // the same, through `VolcanoTemplate::new`
+/// bsn! { Volcano }                 // Volcano::default()
+/// ```
+///
+/// Not `Clone`: a `Default + Clone` type is its own template in Bevy, so a template that builds
+/// something else copies itself with [`Template::clone_template`].
+#[derive(Debug, PartialEq, Reflect)]
+#[reflect(Default, Debug, PartialEq)]
+pub struct VolcanoTemplate {
+    /// Vent radius (m), in (0, [`Volcano::MAX_VENT_RADIUS`]]; checked when the scene spawns.
+    pub vent_radius: f32,
+    /// Seed of the volcano's random streams.
+    pub seed: u64,
+}
+
+impl Default for VolcanoTemplate {
+    /// [`Volcano::default`]'s values: vent radius 100 m, seed 0.
+    fn default() -> Self {
+        let v = Volcano::default();
+        Self { vent_radius: v.vent_radius, seed: v.seed }
+    }
+}
+
+impl VolcanoTemplate {
+    /// The template of `Volcano::new(vent_radius, seed)`; the radius is checked when the
+    /// scene spawns.
+    pub fn new(vent_radius: f32, seed: u64) -> Self {
+        Self { vent_radius, seed }
+    }
+}
+
+impl Template for VolcanoTemplate {
+    type Output = Volcano;
+
+    fn build_template(&self, _context: &mut TemplateContext) -> Result<Volcano, BevyError> {
+        Volcano::new(self.vent_radius, self.seed)
+            .map_err(|e| BevyError::from(format!("volcano not built: {e}")))
+    }
+
+    fn clone_template(&self) -> Self {
+        Self { vent_radius: self.vent_radius, seed: self.seed }
+    }
+}
+
+// `Volcano` is `Default + Clone`, which would make it its own template (Bevy's blanket
+// `FromTemplate` for `Default + Clone + Unpin` types). This impl, whose bound never holds, takes
+// `Unpin` away from it so that its template is the validating `VolcanoTemplate` instead: the
+// same opt-out Bevy's `FromTemplate` derive and asset `Handle`s use.
+impl Unpin for Volcano where for<'a> [()]: SpecializeFromTemplate {}
+
+impl FromTemplate for Volcano {
+    type Template = VolcanoTemplate;
 }
 
 /// A volcano as written in RON presets and scene files.
@@ -206,6 +270,23 @@ mod tests {
             assert!(e.to_string().contains("vent_radius"), "{e}");
         }
         assert_eq!(Volcano::new(42.0, 3).unwrap().vent_radius(), 42.0);
+    }
+
+    #[test]
+    fn the_template_builds_a_valid_volcano_or_names_the_error() {
+        use bevy::ecs::world::World;
+        let mut world = World::new();
+        let mut entity = world.spawn_empty();
+        let mut refs = bevy::ecs::template::SceneEntityReferences::default();
+        let mut context = TemplateContext::new(&mut entity, &mut refs);
+        let v = VolcanoTemplate::new(80.0, 9).clone_template().build_template(&mut context).unwrap();
+        assert_eq!(v, Volcano::new(80.0, 9).unwrap());
+        let v = VolcanoTemplate::default().build_template(&mut context).unwrap();
+        assert_eq!(v, Volcano::default());
+        for r in [f32::NAN, -3.0, 5_000.0] {
+            let e = VolcanoTemplate::new(r, 1).build_template(&mut context).unwrap_err();
+            assert!(e.to_string().contains("vent_radius"), "{e}");
+        }
     }
 
     #[test]

@@ -3,7 +3,7 @@
 use bevy::ecs::entity::{Entity, MapEntities};
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::ecs::system::SystemParam;
-use bevy::prelude::{Component, Message, Query, Transform, Vec2, Vec3, Vec3Swizzles};
+use bevy::prelude::{Component, Message, Query, ReflectDefault, Transform, Vec2, Vec3, Vec3Swizzles};
 use bevy::reflect::Reflect;
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
@@ -26,8 +26,11 @@ use crate::model::thermal::surface_temperature;
 /// freezes back into that terrain. Moving the entity rebuilds the field where it now is (its
 /// lava is lost). Parameter edits apply live (re-validated each step; an invalid edit freezes
 /// the field until fixed).
+/// The default is [`LavaField::new`] of the default [`Placement`] and [`LavaParams`], so a
+/// scene (`bsn!`) patches only the fields it sets: `LavaField { placement: Placement { centre:
+/// Vec2::ZERO, nx: 256, ny: 256, cell: 1.0 } }` beside a `Transform`.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
-#[reflect(Component)]
+#[reflect(Component, Default)]
 pub struct LavaField {
     /// Grid placement and size.
     pub placement: Placement,
@@ -41,14 +44,27 @@ pub struct LavaField {
     pub seed: u64,
 }
 
+impl Default for LavaField {
+    /// 512² cells of 0.5 m centred on its entity ([`Placement::default`]), thesis Table
+    /// 5.2 parameters, open edges, seed 0: what [`LavaField::new`] gives for the defaults.
+    fn default() -> Self {
+        Self::unchecked(Placement::default(), LavaParams::default())
+    }
+}
+
 impl LavaField {
     /// A validated field with open edges (lava leaving the grid is booked as outflow).
     pub fn new(placement: Placement, params: LavaParams) -> Result<Self, ConfigError> {
         placement.validate()?;
         params.validate()?;
+        Ok(Self::unchecked(placement, params))
+    }
+
+    /// The field with open edges, default folds and seed 0, without checking the values.
+    fn unchecked(placement: Placement, params: LavaParams) -> Self {
         let open = crate::model::field::Edge::Open;
         let edges = Edges { west: open, east: open, south: open, north: open };
-        Ok(Self { placement, edges, params, folds: FoldParams::default(), seed: 0 })
+        Self { placement, edges, params, folds: FoldParams::default(), seed: 0 }
     }
 
     /// A validated square field of `cells × cells` cells of `cell` m, centred on its entity's
@@ -122,8 +138,9 @@ pub enum LavaFieldStatus {
 /// a `Transform`): `(LavaSource::new(5.0)?, Transform::from_xyz(x, 0.0, z))`. Add, move and
 /// remove it live. A source that is on no lava field, or whose values were edited out of
 /// range, gets [`LavaSourceStatus::Rejected`].
+/// A scene (`bsn!`) patches the default: `LavaSource { rate: 3.0 }` beside a `Transform`.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
-#[reflect(Component)]
+#[reflect(Component, Default)]
 pub struct LavaSource {
     /// Position (only x and z are used), added to the entity's `Transform` translation.
     pub position: Vec3,
@@ -133,6 +150,13 @@ pub struct LavaSource {
     pub temperature: f64,
     /// Radius of the fed disc (m), ≥ 0 (0 = one cell).
     pub radius: f64,
+}
+
+impl Default for LavaSource {
+    /// 1 m³/s at the default liquidus (1,473 K) over one cell, at the world origin.
+    fn default() -> Self {
+        Self { position: Vec3::ZERO, rate: 1.0, temperature: LavaParams::default().liquidus, radius: 0.0 }
+    }
 }
 
 impl LavaSource {
@@ -304,5 +328,19 @@ impl LavaQuery<'_, '_> {
             .iter()
             .filter_map(|(e, f, s)| s.probe(e, &f.params, xz))
             .max_by(|a, b| a.thickness.total_cmp(&b.thickness))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_defaults_are_the_validated_values() {
+        let field = LavaField::new(Placement::default(), LavaParams::default()).unwrap();
+        assert_eq!(LavaField::default(), field);
+        let source = LavaSource::default();
+        assert!(source.validate().is_ok());
+        assert_eq!(source, LavaSource::new(Vec3::ZERO, 1.0, 1_473.0).unwrap());
     }
 }

@@ -1,7 +1,7 @@
 //! Components and messages of the plume plugin.
 
 use bevy::ecs::entity::{Entity, MapEntities};
-use bevy::prelude::{Component, Message, ReflectComponent, Vec3};
+use bevy::prelude::{Component, Message, ReflectComponent, ReflectDefault, Vec3};
 use bevy::reflect::Reflect;
 use volcano_core::error::ConfigError;
 
@@ -14,10 +14,13 @@ use crate::model::timeline::EruptionTimeline;
 use crate::model::umbrella::UmbrellaSphere;
 
 /// An explosive eruption on a [`volcano_core::Volcano`]: emits a slice every `r₀ / (2 v₀)`
-/// seconds while `active`. Edits to the parameters apply to new slices.
+/// seconds while `active`. Edits to the parameters apply to new slices. The default is the
+/// thesis preset ([`Eruption::thesis`]), so a scene (`bsn!`) writes `Eruption::plinian()` or
+/// patches fields, `Eruption { active: false }`; values out of range freeze the column until
+/// they are fixed, as live edits do.
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[require(EmissionState, PlumeAshBudget, crate::ground::PyroclasticBudget)]
-#[reflect(Component)]
+#[reflect(Component, Default)]
 pub struct Eruption {
     /// Slice model parameters (validated on construction; re-checked before each emission).
     pub params: PlumeParams,
@@ -34,6 +37,13 @@ pub struct Eruption {
     pub umbrella_fallout_s: f64,
     /// Pyroclastic particles of collapsing slices (§3.6).
     pub pyroclastic: PyroclasticParams,
+}
+
+impl Default for Eruption {
+    /// [`Eruption::thesis`]: thesis Table 3.1 as written.
+    fn default() -> Self {
+        Self::thesis()
+    }
 }
 
 impl Eruption {

@@ -2,7 +2,8 @@
 //! height/normal queries and ray intersection for picking.
 //!
 //! Generators live in [`generate`] (procedural stratovolcano) and [`png_io`] (16-bit PNG
-//! heightmaps, the way real DEMs are commonly shared).
+//! heightmaps, the way real DEMs are commonly shared); a scene (`bsn!`) builds a terrain from a
+//! [`TerrainTemplate`] when it spawns.
 //!
 //! What the simulation adds on top of the ground (frozen lava) is kept as an exact `f64`
 //! *added layer* per node beside the `f32` heights (docs/physics/lava.md §6.7): heights are
@@ -15,6 +16,7 @@ mod placement;
 pub use placement::ignored_parts as ignored_transform_parts;
 pub mod png_io;
 pub mod remap;
+mod template;
 
 use std::ops::{Deref, DerefMut};
 
@@ -29,6 +31,7 @@ use serde::{Deserialize, Serialize};
 pub use generate::StratovolcanoParams;
 pub(crate) use placement::place_terrains;
 pub use remap::{NodeRegion, NodeRemap};
+pub use template::TerrainTemplate;
 
 use crate::error::ConfigError;
 use crate::grid::{Boundary, Grid2};
