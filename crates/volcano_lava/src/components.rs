@@ -341,6 +341,6 @@ mod tests {
         assert_eq!(LavaField::default(), field);
         let source = LavaSource::default();
         assert!(source.validate().is_ok());
-        assert_eq!(source, LavaSource::new(Vec3::ZERO, 1.0, 1_473.0).unwrap());
+        assert_eq!(source, LavaSource::new(1.0).unwrap());
     }
 }
