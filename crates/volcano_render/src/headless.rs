@@ -17,15 +17,17 @@
 use std::fs::File;
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::Duration;
 
 use bevy::app::{PluginGroupBuilder, ScheduleRunnerPlugin};
 use bevy::camera::RenderTarget;
 use bevy::image::Image;
 use bevy::prelude::*;
-use bevy::render::RenderPlugin;
-use bevy::render::render_resource::TextureFormat;
+use bevy::render::render_resource::{CachedPipelineState, PipelineCache, TextureFormat};
 use bevy::render::view::screenshot::{Screenshot, ScreenshotCaptured};
+use bevy::render::{Render, RenderApp, RenderPlugin, RenderSystems};
 use bevy::window::ExitCondition;
 use bevy::winit::WinitPlugin;
 
@@ -62,12 +64,20 @@ pub struct HeadlessCapturePlugin {
     /// Output PNG path (parent directories are created).
     pub out: PathBuf,
     /// App updates to run before requesting the screenshot (lets assets load and LUTs settle).
+    /// The request also waits until the render world's last frame had every pipeline compiled
+    /// (at most [`HeadlessCapturePlugin::SETTLE_UPDATES`] more updates), so a frame drawn while
+    /// a shader was still loading is never the one captured. The frame is drawn in the update of
+    /// the request; the camera stops drawing while its read-back completes.
     pub capture_after_updates: u32,
 }
 
 impl HeadlessCapturePlugin {
     /// Updates allowed after the capture request before the app gives up with an error.
     pub const SAFETY_UPDATES: u32 = 600;
+    /// Updates past `capture_after_updates` the capture waits for every render pipeline to
+    /// compile (a shader still loading) before it captures anyway, with a warning (a shader
+    /// that fails to compile never will).
+    pub const SETTLE_UPDATES: u32 = 120;
 
     /// Capture of `width × height` to `out` after 8 updates.
     pub fn new(width: u32, height: u32, out: impl Into<PathBuf>) -> Self {
@@ -117,7 +127,42 @@ impl Plugin for HeadlessCapturePlugin {
             after: self.capture_after_updates,
             updates: 0,
         });
+        let renderer = RendererProgress::default();
+        app.insert_resource(renderer.clone());
+        if let Some(render_app) = app.get_sub_app_mut(RenderApp) {
+            render_app
+                .insert_resource(renderer)
+                .add_systems(Render, report_pipelines.in_set(RenderSystems::Cleanup));
+        }
     }
+}
+
+/// What the render world's last frame says about its pipelines, shared with the main world:
+/// a frame drawn while a pipeline is still queued, compiling or waiting for its shader lacks
+/// whatever that pipeline draws.
+#[derive(Resource, Debug, Clone, Default)]
+struct RendererProgress(Arc<RendererCounts>);
+
+#[derive(Debug, Default)]
+struct RendererCounts {
+    /// Frames the render world has run.
+    frames: AtomicU32,
+    /// Pipelines not ready at the end of the last frame.
+    pending: AtomicU32,
+}
+
+impl RendererProgress {
+    /// At least one frame rendered and every pipeline it knows compiled.
+    fn settled(&self) -> bool {
+        self.0.frames.load(Ordering::Acquire) > 0 && self.0.pending.load(Ordering::Acquire) == 0
+    }
+}
+
+/// Counts the pipelines not ready after this frame's compilation (in `RenderSystems::Cleanup`).
+fn report_pipelines(cache: Res<PipelineCache>, progress: Res<RendererProgress>) {
+    let pending = cache.pipelines().filter(|p| !matches!(p.state, CachedPipelineState::Ok(_))).count();
+    progress.0.pending.store(pending as u32, Ordering::Release);
+    progress.0.frames.fetch_add(1, Ordering::Release);
 }
 
 /// Points each new [`VolcanoViewer`] at the capture image (scene code stays the windowed one).
@@ -129,11 +174,33 @@ fn drive_capture(
     mut commands: Commands,
     mut target: ResMut<CaptureTarget>,
     status: Res<CaptureStatus>,
+    renderer: Res<RendererProgress>,
+    mut cameras: Query<(&mut Camera, &RenderTarget)>,
     mut exit: MessageWriter<AppExit>,
 ) {
     target.updates += 1;
     match &*status {
-        CaptureStatus::Waiting if target.updates >= target.after => {
+        // The requested frame is drawn and copied; the updates that wait for its read-back
+        // need not draw again (on a software renderer a volumetric frame takes seconds).
+        CaptureStatus::Requested(at) if target.updates == at + 1 => {
+            for (mut camera, render_target) in &mut cameras {
+                if matches!(render_target, RenderTarget::Image(t) if t.handle == target.image) {
+                    camera.is_active = false;
+                }
+            }
+        }
+        CaptureStatus::Waiting
+            if target.updates >= target.after
+                && (renderer.settled()
+                    || target.updates >= target.after + HeadlessCapturePlugin::SETTLE_UPDATES) =>
+        {
+            if !renderer.settled() {
+                warn!(
+                    "headless capture: {} pipelines still not compiled {} updates after the requested update; capturing anyway",
+                    renderer.0.pending.load(Ordering::Acquire),
+                    HeadlessCapturePlugin::SETTLE_UPDATES
+                );
+            }
             if let Some(dir) = target.out.parent().filter(|d| !d.as_os_str().is_empty())
                 && let Err(e) = std::fs::create_dir_all(dir)
             {

@@ -23,7 +23,8 @@ pub fn out_path(dir: &str, name: &str) -> PathBuf {
 
 /// An app with `headless` (`volcano_render::headless_default_plugins()`, possibly trimmed), the
 /// core, render and sky plugins, capturing a `width × height` frame to `out` after `updates`
-/// updates.
+/// updates and once every render pipeline has compiled (4 updates suffice for a still scene;
+/// a scene that simulates asks for as many as it needs).
 pub fn capture_app(headless: PluginGroupBuilder, width: u32, height: u32, out: &Path, updates: u32) -> App {
     let mut app = App::new();
     app.add_plugins(headless)

@@ -59,7 +59,7 @@ fn wall(camera: Query<&GlobalTransform, With<VolcanoViewer>>, mut list: ResMut<P
 #[test]
 fn instanced_ash_covers_the_sky() {
     let out = common::out_path("headless_ash.png");
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.add_systems(Startup, scene).add_systems(PostUpdate, wall.after(update_parents));
     let (_, _, rgb) = common::run_and_read(app, &out);
     // Top eighth: covered by ash (left: expanded spheres, right: billboards); grey-brown, not

@@ -58,7 +58,7 @@ fn parent(
 #[test]
 fn a_parents_face_is_not_darkened_by_its_back_children() {
     let out = common::out_path("headless_ash_body.png");
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.add_systems(Startup, common::ash_stage).add_systems(PostUpdate, parent.after(update_parents));
     let (_, _, rgb) = common::run_and_read(app, &out);
     let (cx, cy) = (W / 2, H / 2);

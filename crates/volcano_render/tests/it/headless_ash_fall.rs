@@ -63,7 +63,7 @@ fn render(with_ash: bool, name: &str) -> ([f64; 3], [f64; 3], Vec<f32>) {
     let out = common::out_path(name);
     let seen: Arc<Mutex<Vec<f32>>> = Arc::default();
     let sink = seen.clone();
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     // Built in the frame, so the capture cannot precede the worker.
     app.insert_resource(AshFallSettings { off_thread: false, ..default() });
     app.add_systems(Startup, scene(with_ash)).add_systems(Last, move |volumes: Query<&AshFallVolume>| {

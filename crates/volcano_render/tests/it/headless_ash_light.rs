@@ -66,7 +66,7 @@ fn puff(
 fn render(occluded: bool) -> ([f64; 3], [f64; 3]) {
     let name = if occluded { "headless_ash_light_occluded.png" } else { "headless_ash_light.png" };
     let out = common::out_path(name);
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(Occluded(occluded))
         .add_systems(Startup, common::ash_stage)
         .add_systems(PostUpdate, puff.after(update_parents));

@@ -50,7 +50,7 @@ fn puff(
 /// Renders the puff; returns the mean RGB of its upper and lower halves (inside its disc).
 fn render(vent: f32) -> ([f64; 3], [f64; 3]) {
     let out = common::out_path(&format!("headless_ash_vent_{vent}.png"));
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(Vent(vent))
         .add_systems(Startup, common::ash_stage)
         .add_systems(PostUpdate, puff.after(update_parents));

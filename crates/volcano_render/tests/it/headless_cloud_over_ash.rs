@@ -95,7 +95,7 @@ fn puff(
 /// Luminance of the frame's centre (±12 px, inside the puff's opaque core), and the frame.
 fn centre(name: &str, stage: Stage) -> (f64, Vec<u8>) {
     let out = common::out_path(name);
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(stage)
         .add_systems(Startup, (common::ash_stage, cloud))
         .add_systems(PostUpdate, puff.after(update_parents));

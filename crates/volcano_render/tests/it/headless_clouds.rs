@@ -47,8 +47,8 @@ fn a_dense_cloud_wall_hides_the_sky() {
     // `App::run` consumes the world: copy the volumes' fill out as the app runs.
     let seen: Arc<Mutex<Vec<f32>>> = Arc::default();
     let sink = seen.clone();
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
-    // Built in the frame the weather moves, so the capture after 8 updates shows it.
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
+    // Built in the frame the weather moves, so the capture shows it.
     app.insert_resource(CloudRenderSettings { off_thread: false, ..default() })
         .add_systems(Startup, scene)
         .add_systems(Last, move |volumes: Query<&CloudVolume>| {

@@ -36,7 +36,7 @@ fn render(name: &str, detail: GroundDetail, eye: Vec3, pitch_deg: f32, scale: u3
         W * scale,
         H * scale,
         &out,
-        8,
+        4,
     );
     app.insert_resource(detail);
     app.add_systems(Startup, move |mut commands: Commands| {

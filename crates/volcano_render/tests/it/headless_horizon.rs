@@ -20,7 +20,7 @@ fn render(name: &str, horizon: Option<TerrainHorizon>, height: f32, pitch_deg: f
     let out = common::out_path(name);
     // One app after the other in this process: only the first may set the global logger.
     let mut app =
-        common::capture_app(headless_default_plugins().disable::<bevy::log::LogPlugin>(), W, H, &out, 8);
+        common::capture_app(headless_default_plugins().disable::<bevy::log::LogPlugin>(), W, H, &out, 4);
     app.add_systems(Startup, move |mut commands: Commands| {
         // 1.92 km square at 100 m; the sea level is 0 m.
         let flat = Terrain::flat(65, 30.0, 100.0).unwrap();

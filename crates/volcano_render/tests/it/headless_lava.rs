@@ -49,7 +49,7 @@ fn render(
     let field = LavaField::new(placement, LavaParams::default()).unwrap();
     // One app after the other in this process: only the first may set the global logger.
     let mut app =
-        common::capture_app(headless_default_plugins().disable::<bevy::log::LogPlugin>(), W, H, &out, 8);
+        common::capture_app(headless_default_plugins().disable::<bevy::log::LogPlugin>(), W, H, &out, 4);
     app.insert_resource(mode)
         .insert_resource(LavaRenderSettings { glow_light: light, ..default() })
         .add_systems(Startup, move |mut commands: Commands| {

@@ -113,8 +113,13 @@ fn smooth() -> CloudRenderSettings {
 
 /// Renders the setup; returns the mean RGB of the left and right thirds' inner bands.
 fn render(name: &str, setup: Setup) -> ([f64; 3], [f64; 3]) {
+    render_after(name, setup, 4)
+}
+
+/// [`render`] with the capture asked for after `updates` updates.
+fn render_after(name: &str, setup: Setup, updates: u32) -> ([f64; 3], [f64; 3]) {
     let out = common::out_path(name);
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, updates);
     app.insert_resource(setup).add_systems(Startup, scene);
     let (_, _, rgb) = common::run_and_read(app, &out);
     let (cx, cy) = (W / 2, H / 2);
@@ -146,10 +151,20 @@ fn a_cloud_has_a_sun_side_and_a_shadow_side() {
     assert!(lu > ls + 30.0, "sun side {lu:.1} not clearly brighter than the shadow side {ls:.1}");
 }
 
+/// A capture asked for at the first update waits until every render pipeline has compiled, so
+/// the frame shows the lit ball of check 1, not a frame drawn while the cloud's shader was
+/// still loading: asked for at the third update without that wait, the frame had no cloud.
+#[test]
+fn a_capture_asked_for_at_once_waits_for_the_shaders() {
+    let (shadow, sun) = render_after("headless_lit_clouds_ball_at_once.png", ball_setup(smooth(), false), 1);
+    let (ls, lu) = (common::luminance(shadow), common::luminance(sun));
+    assert!(lu > ls + 30.0, "sun side {lu:.1}, shadow side {ls:.1}: the cloud is not drawn");
+}
+
 /// The ball of [`ball_setup`] rendered: the frame's RGB.
 fn ball(name: &str, settings: CloudRenderSettings, empty: bool) -> Vec<u8> {
     let out = common::out_path(name);
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(ball_setup(settings, empty)).add_systems(Startup, scene);
     common::run_and_read(app, &out).2
 }
@@ -273,7 +288,7 @@ fn thin_sheet(substeps: u32) -> (f64, f64) {
     let density = common::density_volume(64, lo, hi, sheet);
     let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings };
     let out = common::out_path(&format!("headless_lit_clouds_sheet_{substeps}.png"));
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(setup).add_systems(Startup, scene);
     let (_, _, rgb) = common::run_and_read(app, &out);
     let lum = |x: u32, y: u32| {
@@ -347,7 +362,7 @@ fn a_density_image_replaced_in_place_is_drawn_whole() {
     let direct = ball("headless_lit_clouds_ball_direct.png", smooth(), false);
     let empty = ball("headless_lit_clouds_ball_none.png", smooth(), true);
     let out = common::out_path("headless_lit_clouds_ball_replaced.png");
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(ball_setup(smooth(), true))
         .add_systems(Startup, scene)
         .add_systems(Update, replace_by_the_ball);
@@ -387,7 +402,7 @@ fn faint_puffs(half: Vec3, distance: f32, steps: u32, skip: bool, empty: bool) -
     let setup = Setup { lo, hi, density, n: 64, orbit, toward_sun, plane: false, settings };
     let out =
         common::out_path(&format!("headless_lit_clouds_faint_puffs_{}_{steps}_{skip}_{empty}.png", half.x));
-    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 8);
+    let mut app = common::capture_app(headless_default_plugins(), W, H, &out, 4);
     app.insert_resource(setup).add_systems(Startup, scene);
     if !skip {
         app.insert_resource(MarchEveryStep);
