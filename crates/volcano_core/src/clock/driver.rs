@@ -5,6 +5,7 @@ use bevy::ecs::schedule::{
     IntoScheduleConfigs, LogLevel, ScheduleBuildSettings, ScheduleLabel, SingleThreadedExecutor,
 };
 use bevy::ecs::world::World;
+use bevy::log::error;
 use bevy::prelude::{Res, ResMut};
 use bevy::reflect::TypePath;
 use bevy::time::{Fixed, Time};
@@ -68,6 +69,9 @@ pub(crate) fn begin_tick(
         false
     };
     control.running_this_tick = run;
+    if let Some(fixed) = control.correct() {
+        error!("SimControl: {fixed} (a value written past its setter, e.g. through reflection)");
+    }
     if run {
         tick.0 += 1;
         let step = scaled(fixed.timestep(), control.speed());
@@ -91,6 +95,12 @@ pub(crate) fn drive_domain<D: ScheduleLabel + Default + Clone>(world: &mut World
     let (runs, step) = {
         let mut clock = world.resource_mut::<Time<DomainClock<D>>>();
         let ctx = clock.context_mut();
+        if let Some(fixed) = ctx.correct() {
+            error!(
+                "DomainClock<{}>: {fixed} (a value written past its setters, e.g. through reflection)",
+                std::any::type_name::<D>()
+            );
+        }
         ctx.ticks_seen += 1;
         let runs = if ctx.paused {
             if ctx.pending_steps > 0 {

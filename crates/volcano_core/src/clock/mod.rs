@@ -46,7 +46,11 @@ pub enum Cadence {
 }
 
 impl Cadence {
-    /// Errors on a zero count.
+    /// Most substeps per base tick: each runs the domain's whole schedule, so a count beyond
+    /// this would stall the game's fixed update.
+    pub const MAX_SUBSTEPS: u32 = 1_000;
+
+    /// Errors on a zero count or period, and on more than [`Cadence::MAX_SUBSTEPS`] substeps.
     pub fn validate(self) -> Result<Self, ConfigError> {
         let (name, v) = match self {
             Cadence::Substeps(n) => ("Substeps", n),
@@ -61,7 +65,26 @@ impl Cadence {
                 reason: "cadence counts and periods must be at least 1 (ns)".into(),
             });
         }
+        if let Cadence::Substeps(n) = self
+            && n > Self::MAX_SUBSTEPS
+        {
+            return Err(ConfigError::InvalidParameter {
+                name,
+                value: f64::from(n),
+                reason: format!("at most {} substeps per base tick", Self::MAX_SUBSTEPS),
+            });
+        }
         Ok(self)
+    }
+
+    /// The nearest valid cadence (a count or period of zero becomes 1 (ns), a substep count
+    /// above the limit the limit).
+    fn nearest_valid(self) -> Self {
+        match self {
+            Cadence::Substeps(n) => Cadence::Substeps(n.clamp(1, Self::MAX_SUBSTEPS)),
+            Cadence::EveryNthTick(k) => Cadence::EveryNthTick(k.max(1)),
+            Cadence::Period(p) => Cadence::Period(p.max(Duration::from_nanos(1))),
+        }
     }
 
     /// Base ticks per domain step for a base tick of `base` (1 for `Substeps`).
@@ -151,9 +174,12 @@ impl<D> DomainClock<D> {
     pub fn time_scale(&self) -> f64 {
         self.time_scale
     }
-    /// Sets the time scale, in [1e-6, 1e6] (pause instead of using 0).
+    /// Accepted time scales (pause instead of using 0).
+    pub const TIME_SCALE_RANGE: (f64, f64) = (1e-6, 1e6);
+    /// Sets the time scale, in [`DomainClock::TIME_SCALE_RANGE`].
     pub fn set_time_scale(&mut self, scale: f64) -> Result<(), ConfigError> {
-        self.time_scale = crate::error::in_range("time_scale", scale, 1e-6, 1e6)?;
+        let (lo, hi) = Self::TIME_SCALE_RANGE;
+        self.time_scale = crate::error::in_range("time_scale", scale, lo, hi)?;
         Ok(())
     }
     /// Whether this domain is paused.
@@ -186,6 +212,22 @@ impl<D> DomainClock<D> {
         } else {
             self.cadence.steps_at_tick(self.ticks_seen + 1, base)
         }
+    }
+    /// Puts a cadence or time scale written past the setters (through reflection) back in
+    /// range: an invalid cadence to the nearest valid one, a time scale to the nearest bound
+    /// (1 if NaN). Returns what was corrected, for the driver to report.
+    pub(crate) fn correct(&mut self) -> Option<String> {
+        let mut fixed = Vec::new();
+        if self.cadence.validate().is_err() {
+            let valid = self.cadence.nearest_valid();
+            fixed.push(format!("cadence {:?} -> {valid:?}", self.cadence));
+            self.cadence = valid;
+        }
+        if let Some(scale) = nearest_in(self.time_scale, Self::TIME_SCALE_RANGE) {
+            fixed.push(format!("time_scale {} -> {scale}", self.time_scale));
+            self.time_scale = scale;
+        }
+        (!fixed.is_empty()).then(|| fixed.join(", "))
     }
     /// Length of one step of this domain, time scale included.
     pub fn step_duration(&self, base: Duration) -> Duration {
@@ -300,6 +342,14 @@ impl SimControl {
         self.speed = crate::error::in_range("speed", speed, lo, hi)?;
         Ok(())
     }
+    /// Puts a speed written past [`SimControl::set_speed`] (through reflection) back in range:
+    /// the nearest bound, or 1 if NaN. Returns the correction, for the caller to report.
+    pub(crate) fn correct(&mut self) -> Option<String> {
+        let speed = nearest_in(self.speed, Self::SPEED_RANGE)?;
+        let said = format!("speed {} -> {speed}", self.speed);
+        self.speed = speed;
+        Some(said)
+    }
     /// Simulated time so far: the sum over the base ticks run of `timestep × speed`.
     pub fn simulated(&self) -> Duration {
         self.simulated
@@ -315,6 +365,18 @@ impl SimControl {
     /// Single steps still queued.
     pub fn pending_ticks(&self) -> u32 {
         self.pending_ticks
+    }
+}
+
+/// `None` if `value` lies in `[lo, hi]`, else the nearest bound (1 clamped into the range if
+/// `value` is NaN).
+fn nearest_in(value: f64, (lo, hi): (f64, f64)) -> Option<f64> {
+    if (lo..=hi).contains(&value) {
+        None
+    } else if value.is_nan() {
+        Some(1.0f64.clamp(lo, hi))
+    } else {
+        Some(value.clamp(lo, hi))
     }
 }
 

@@ -282,3 +282,49 @@ fn speed_scales_the_simulation_not_the_games_clocks() {
     assert!(control.set_speed(1e3).is_err());
     assert_eq!(control.speed(), 2.0, "a rejected speed leaves the old one");
 }
+
+/// Values written through reflection (an inspector, a loaded scene) bypass the setters'
+/// validation: a NaN or negative speed, a NaN time scale and a zero or absurd substep count
+/// are corrected at the next base tick, with the simulation still running and no panic
+/// (`Duration::mul_f64` panics on a negative or NaN factor).
+#[test]
+fn reflected_speed_scale_and_cadence_are_corrected_not_fatal() {
+    use bevy::reflect::{GetPath, PartialReflect};
+    for (speed, scale, cadence, want_speed, want_scale, want_cadence) in [
+        (f64::NAN, f64::NAN, Cadence::Substeps(0), 1.0, 1.0, Cadence::Substeps(1)),
+        (-2.0, -3.0, Cadence::Substeps(u32::MAX), 0.01, 1e-6, Cadence::Substeps(Cadence::MAX_SUBSTEPS)),
+        (1e9, f64::INFINITY, Cadence::EveryNthTick(0), 100.0, 1e6, Cadence::EveryNthTick(1)),
+    ] {
+        let mut app = logging_app(1);
+        run_until_tick(&mut app, 3);
+        let world = app.world_mut();
+        *world
+            .resource_mut::<SimControl>()
+            .reflect_path_mut("speed")
+            .unwrap()
+            .try_downcast_mut::<f64>()
+            .unwrap() = speed;
+        {
+            let mut clock = world.resource_mut::<Time<DomainClock<FastStep>>>();
+            let ctx = clock.context_mut();
+            *ctx.reflect_path_mut("time_scale").unwrap().try_downcast_mut::<f64>().unwrap() = scale;
+            ctx.reflect_path_mut("cadence").unwrap().apply(cadence.as_partial_reflect());
+        }
+        let steps_before = world.resource::<Log>().0.len();
+        run_until_tick(&mut app, 6);
+        let world = app.world();
+        assert_eq!(world.resource::<SimControl>().speed(), want_speed, "speed {speed}");
+        let clock = world.resource::<Time<DomainClock<FastStep>>>().context();
+        assert_eq!(clock.time_scale(), want_scale, "time scale {scale}");
+        assert_eq!(clock.cadence(), want_cadence);
+        assert!(world.resource::<Log>().0.len() > steps_before, "the domains kept stepping");
+        assert!(world.resource::<SimControl>().simulated() > Duration::ZERO);
+    }
+}
+
+#[test]
+fn a_cadence_of_more_substeps_than_the_limit_is_refused() {
+    assert!(Cadence::Substeps(Cadence::MAX_SUBSTEPS).validate().is_ok());
+    assert!(Cadence::Substeps(Cadence::MAX_SUBSTEPS + 1).validate().is_err());
+    assert!(DomainClock::<FastStep>::new(Cadence::Substeps(u32::MAX)).is_err());
+}
