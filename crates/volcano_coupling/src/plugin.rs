@@ -53,10 +53,19 @@ impl Default for CouplingSettings {
 }
 
 /// Ash released by expiring umbrella spheres since the last weather step, in message order.
+/// Holds at most [`AshInbox::CAP`] releases: while the weather alone is paused nothing drains
+/// it, and a release beyond the cap is booked as lost by its volcano
+/// ([`PlumeAshBudget::lost_kg`]) with a warning.
 #[derive(Resource, Debug, Clone, Default, Reflect, MapEntities)]
 #[reflect(opaque)]
 #[reflect(Resource, Default)]
 pub struct AshInbox(#[entities] pub Vec<AshReleased>);
+
+impl AshInbox {
+    /// Most releases held between two weather steps (a few hours of a paused weather domain
+    /// under a spreading umbrella; 1.5 MB).
+    pub const CAP: usize = 65_536;
+}
 
 /// Weather steps the air → plume transfer has seen, so it acts once per weather step. A
 /// resource rather than a system's `Local`, so a saved and reloaded world continues the same.
@@ -99,9 +108,27 @@ fn weather_steps_this_tick(
     clock.is_some_and(|c| c.context().steps_at_next_tick(fixed.timestep()) > 0)
 }
 
-/// Every tick: keeps what expiring umbrella spheres released until the next weather step.
-fn collect_released(mut inbox: ResMut<AshInbox>, mut released: MessageReader<AshReleased>) {
-    inbox.0.extend(released.read().copied());
+/// Every tick: keeps what expiring umbrella spheres released until the next weather step, up
+/// to [`AshInbox::CAP`]; the rest is booked as lost by its volcano.
+fn collect_released(
+    mut inbox: ResMut<AshInbox>,
+    mut released: MessageReader<AshReleased>,
+    mut plume_books: Query<&mut PlumeAshBudget>,
+) {
+    for m in released.read() {
+        if inbox.0.len() < AshInbox::CAP {
+            inbox.0.push(*m);
+            continue;
+        }
+        warn_once!(
+            "ash released while the weather does not step: more than {} releases wait for it; the \
+             excess is booked as lost by its volcano (AshInbox::CAP, PlumeAshBudget::lost_kg)",
+            AshInbox::CAP
+        );
+        if let Ok(mut books) = plume_books.get_mut(m.volcano) {
+            books.lost_kg += m.mass;
+        }
+    }
 }
 
 /// An atmosphere's layers moved out of their components (sorted by index) and back.

@@ -322,3 +322,34 @@ fn moist_low_air_makes_cloud_near_the_column_and_dry_air_none() {
     assert!(moist.iter().any(|&(_, near, far)| near > 0.0 && far == 0.0), "{moist:?}");
     assert!(dry.iter().all(|&(_, near, far)| near == 0.0 && far == 0.0), "{dry:?}");
 }
+
+/// While the weather alone is paused nothing drains the ash inbox: it keeps at most
+/// `AshInbox::CAP` releases and books the rest as lost by their volcano, so the mass is still
+/// accounted for and the inbox does not grow with the length of the pause.
+#[test]
+fn the_ash_inbox_is_capped_while_the_weather_is_paused() {
+    use volcano_coupling::plugin::AshInbox;
+    use volcano_plume::{AshReleased, PlumeAshBudget};
+    let mut app =
+        app(Eruption { active: false, ..Eruption::thesis() }, Some(still_air(40_000.0, 16)), default(), 1);
+    run(&mut app, 2);
+    let world = app.world_mut();
+    world.resource_mut::<Time<DomainClock<WeatherStep>>>().context_mut().set_paused(true);
+    let volcano = world.query_filtered::<Entity, With<Eruption>>().single(world).unwrap();
+    let lost_before = world.get::<PlumeAshBudget>(volcano).unwrap().lost_kg;
+    let (batches, per_batch) = (5, AshInbox::CAP / 4);
+    for _ in 0..batches {
+        for k in 0..per_batch {
+            let position = Vec3::new(100.0 * (k % 50) as f32, 8_000.0, 0.0);
+            app.world_mut().write_message(AshReleased { volcano, position, mass: 2.0 });
+        }
+        app.update();
+    }
+    let world = app.world();
+    let held = world.resource::<AshInbox>();
+    assert_eq!(held.0.len(), AshInbox::CAP, "the inbox holds the cap, no more");
+    let in_inbox: f64 = held.0.iter().map(|m| m.mass).sum();
+    let lost = world.get::<PlumeAshBudget>(volcano).unwrap().lost_kg - lost_before;
+    assert_eq!(in_inbox + lost, 2.0 * (batches * per_batch) as f64, "every release is held or booked");
+    assert_eq!(lost, 2.0 * (batches * per_batch - AshInbox::CAP) as f64);
+}
