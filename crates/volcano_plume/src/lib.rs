@@ -29,7 +29,7 @@ pub use model::pyroclastic::PyroclasticParams;
 pub use model::slice::{Phase, Slice, SliceEnv, SliceStepReport};
 pub use model::timeline::{EruptionTimeline, TimelineKey, TimelineState};
 pub use model::wind::WindProfile;
-pub use plugin::{PlumePlugin, PlumeStep, PlumeSystems};
+pub use plugin::{MAX_PLUME_STEP_S, PlumePlugin, PlumeStep, PlumeSystems};
 pub use pyroclastic::{
     PyroParticle, PyroclasticFlowStarted, PyroclasticPlugin, PyroclasticQuery, PyroclasticStep,
     PyroclasticSystems, SecondaryColumnFormed,

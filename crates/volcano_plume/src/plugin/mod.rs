@@ -13,6 +13,7 @@
 //! base tick (`sync_sphere_transforms`, `SimSystems::End`).
 
 mod step;
+mod step_length;
 
 use bevy::ecs::schedule::ScheduleLabel;
 use bevy::math::DQuat;
@@ -26,6 +27,7 @@ use crate::model::slice::Slice;
 use crate::model::spheres::SphereParams;
 
 pub use crate::model::domain::MAX_EMISSIONS_PER_STEP;
+pub use step_length::MAX_PLUME_STEP_S;
 
 /// Schedule of the plume domain.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, TypePath)]
@@ -74,6 +76,7 @@ impl Plugin for PlumePlugin {
             .register_type::<S1>()
             .register_type::<Umbrella>()
             .configure_sets(PlumeStep, (PlumeSystems::Prepare, PlumeSystems::Step).chain())
+            .add_systems(FixedUpdate, step_length::keep_plume_steps_short.in_set(SimSystems::Begin))
             .add_systems(PlumeStep, follow_scripts.in_set(PlumeSystems::Prepare))
             .add_systems(PlumeStep, step::step_plume.in_set(PlumeSystems::Step))
             // In the pyroclastic step, right after the lift-off, so a secondary column exists

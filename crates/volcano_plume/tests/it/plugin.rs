@@ -268,3 +268,37 @@ fn the_vent_emits_mass_at_the_rate_of_its_emission_law() {
         );
     }
 }
+
+#[derive(Resource, Default)]
+struct LongestStep(Duration);
+
+fn longest_step(time: Res<Time>, mut longest: ResMut<LongestStep>) {
+    longest.0 = longest.0.max(time.delta());
+}
+
+/// At the highest speed (100) a plume step at the default 10 substeps of a 50 Hz tick would be
+/// 0.2 s, twice the longest the slice model is validated for: the plume takes more substeps,
+/// so every step it runs is at most 0.1 s, and the vent still emits at its law's rate over the
+/// simulated time (no silent stop, no runaway column).
+#[test]
+fn at_the_highest_speed_the_plume_steps_stay_within_their_validated_length() {
+    let eruption = Eruption::thesis();
+    let p = eruption.params.clone();
+    let mut app = app(eruption, 1);
+    app.init_resource::<LongestStep>().add_systems(PlumeStep, longest_step.before(PlumeSystems::Step));
+    app.world_mut().resource_mut::<SimControl>().set_speed(100.0).unwrap();
+    run(&mut app, 20);
+    let world = app.world_mut();
+    let longest = world.resource::<LongestStep>().0.as_secs_f64();
+    assert!(longest <= MAX_PLUME_STEP_S, "a plume step of {longest} s");
+    assert!(longest > 0.5 * MAX_PLUME_STEP_S, "the steps were split more than needed: {longest} s");
+    let simulated = world.resource::<SimControl>().simulated().as_secs_f64();
+    let emitted = world.query::<&EmissionState>().single(world).unwrap().emitted as f64;
+    let due = simulated / p.emission_interval();
+    eprintln!("longest plume step {longest} s; {emitted} slices in {simulated} s, {due} due");
+    assert!(simulated >= 39.0, "{simulated} s simulated");
+    assert!((emitted - due).abs() <= 1.0, "{emitted} slices in {simulated} s, {due} due");
+    for s in world.query::<&PlumeSlice>().iter(world) {
+        assert!(s.state.position.is_finite() && s.state.velocity.is_finite(), "{:?}", s.state.position);
+    }
+}
