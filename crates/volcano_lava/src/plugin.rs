@@ -87,10 +87,25 @@ fn terrain_under(
 fn build_fields(
     mut commands: Commands,
     terrains: Query<(Entity, &Terrain)>,
-    fields: Query<(Entity, &LavaField, Option<&Transform>, Option<&BuiltFor>)>,
+    mut fields: Query<(Entity, &LavaField, Option<&Transform>, Option<&BuiltFor>, Option<&mut LavaState>)>,
 ) {
-    for (entity, field, transform, built) in &fields {
+    for (entity, field, transform, built, state) in &mut fields {
         let p = field_placement(field, transform);
+        // Its terrain despawned under a built patch that has not moved: the patch keeps its lava
+        // and its ground (the terrain's shape), and stops writing back.
+        if let (Some(BuiltFor(at, edges, Some(terrain))), Some(mut state)) = (built, state)
+            && *at == p
+            && *edges == field.edges
+            && terrains.get(*terrain).is_err()
+        {
+            if let Some(link) = state.imprint.as_mut().filter(|l| l.detached.is_none()) {
+                warn!(
+                    "lava field {entity}: its terrain {terrain} was despawned; the lava flows on in the field's own ground and no longer writes back"
+                );
+                link.detached = Some("the terrain was despawned".into());
+            }
+            continue;
+        }
         let under = p.validate().and_then(|_| terrain_under(&terrains, &p, built.and_then(|b| b.2)));
         let key = BuiltFor(p, field.edges, under.as_ref().ok().copied().flatten());
         // Built (or rejected) for this placement and terrain already: nothing to do.
@@ -261,7 +276,13 @@ fn imprint_terrain(
                 None => moved.push((link.terrain, region)),
             },
             // The field keeps flowing on its own ground; its frozen lava stays in it.
-            Err(e) => link.detached = Some(e.to_string()),
+            Err(e) => {
+                warn!(
+                    "lava field {field}: no longer writes its frozen lava into terrain {}: {e}",
+                    link.terrain
+                );
+                link.detached = Some(e.to_string());
+            }
         }
     }
     for (terrain, region) in moved {

@@ -255,3 +255,36 @@ fn a_patch_spawned_at_startup_is_built_before_the_first_tick() {
     let built = w.query::<(&LavaState, &LavaFieldStatus)>().iter(w).count();
     assert_eq!(built, 1, "the patch is not built before its first tick");
 }
+
+/// The despawn rule for a terrain under lava: the patch keeps its lava and goes on flowing on
+/// its own ground (which holds the shape of the terrain it was built on), stops writing back
+/// and says why (`TerrainLink::detached`); it is not rebuilt on flat ground.
+#[test]
+fn despawning_the_terrain_under_a_patch_keeps_its_lava() {
+    let mut app = app();
+    let placement = Placement { centre: Vec2::ZERO, nx: 64, ny: 64, cell: 0.5 };
+    let field = app.world_mut().spawn(LavaField::new(placement, LavaParams::default()).unwrap()).id();
+    app.world_mut().spawn(source(Vec3::new(0.0, 10.0, -6.0), 0.3, 1473.0).unwrap());
+    run(&mut app, 100);
+    let state = app.world().get::<LavaState>(field).unwrap();
+    let (volume, ground) = (state.flow.lava_volume(), state.flow.ground().data().to_vec());
+    assert!(volume > 0.5, "only {volume} m³ of lava before the despawn");
+    let w = app.world_mut();
+    let terrain = w.query_filtered::<Entity, With<Terrain>>().single(w).unwrap();
+    w.entity_mut(terrain).despawn();
+    run(&mut app, 60);
+    let w = app.world();
+    let state = w.get::<LavaState>(field).expect("the patch keeps its state");
+    let moved = state.flow.ground().data().iter().zip(&ground).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    // Rebuilt on flat ground it would have moved by metres (the slope); lava freezing into the
+    // ground moves it by micrometres here.
+    assert!(moved < 1e-3, "the ground is the terrain's, not rebuilt: moved by up to {moved} m");
+    assert!(
+        state.flow.lava_volume() > volume,
+        "the lava kept flowing: {} m³, {volume} before",
+        state.flow.lava_volume()
+    );
+    let link = state.imprint.as_ref().expect("the link to the terrain is kept");
+    assert!(link.detached.is_some(), "the patch says why it no longer writes back");
+    assert_eq!(w.get::<LavaFieldStatus>(field), Some(&LavaFieldStatus::Ok));
+}
