@@ -84,11 +84,16 @@ fn terrain_under(
     })
 }
 
-fn build_fields(
-    mut commands: Commands,
-    terrains: Query<(Entity, &Terrain)>,
-    mut fields: Query<(Entity, &LavaField, Option<&Transform>, Option<&BuiltFor>, Option<&mut LavaState>)>,
-) {
+/// A field: its entity, the field, its `Transform` if any, what it was built for, its state.
+type FieldItem = (
+    Entity,
+    &'static LavaField,
+    Option<&'static Transform>,
+    Option<&'static BuiltFor>,
+    Option<&'static mut LavaState>,
+);
+
+fn build_fields(mut commands: Commands, terrains: Query<(Entity, &Terrain)>, mut fields: Query<FieldItem>) {
     for (entity, field, transform, built, state) in &mut fields {
         let p = field_placement(field, transform);
         // Its terrain despawned under a built patch that has not moved: the patch keeps its lava

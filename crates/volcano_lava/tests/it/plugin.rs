@@ -275,7 +275,8 @@ fn despawning_the_terrain_under_a_patch_keeps_its_lava() {
     run(&mut app, 60);
     let w = app.world();
     let state = w.get::<LavaState>(field).expect("the patch keeps its state");
-    let moved = state.flow.ground().data().iter().zip(&ground).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let moved =
+        state.flow.ground().data().iter().zip(&ground).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     // Rebuilt on flat ground it would have moved by metres (the slope); lava freezing into the
     // ground moves it by micrometres here.
     assert!(moved < 1e-3, "the ground is the terrain's, not rebuilt: moved by up to {moved} m");
