@@ -110,21 +110,26 @@ enum Job {
 
 struct InFlight {
     started_tick: u64,
+    /// The layer entities the step was started from, by index: its result goes back only into
+    /// these (a layer despawned and replaced meanwhile, even by one of the same shape, does not
+    /// receive the stale result).
+    layers: Vec<Entity>,
     job: Job,
     /// Dropped to end the task's start delay at once (a join never waits for the delay).
     wake: Option<std::sync::mpsc::Sender<()>>,
 }
 
 impl InFlight {
-    /// Waits for the step if needed; also says whether it had to wait.
-    fn join(self) -> (Stepped, bool, u64) {
-        let InFlight { started_tick, job, wake } = self;
+    /// Waits for the step if needed; also says whether it had to wait, and returns the tick it
+    /// started at and the layers it started from.
+    fn join(self) -> (Stepped, bool, u64, Vec<Entity>) {
+        let InFlight { started_tick, layers, job, wake } = self;
         drop(wake);
         match job {
-            Job::Done(s) => (*s, false, started_tick),
+            Job::Done(s) => (*s, false, started_tick, layers),
             Job::Running(task) => {
                 let waited = !task.is_finished();
-                (block_on(task), waited, started_tick)
+                (block_on(task), waited, started_tick, layers)
             }
         }
     }
@@ -159,13 +164,13 @@ impl AtmosphereWork {
     }
     /// Waits until the step in flight (if any) has finished, without writing it back.
     fn finish(&mut self) {
-        if let Some(InFlight { started_tick, job, wake }) = self.in_flight.take() {
+        if let Some(InFlight { started_tick, layers, job, wake }) = self.in_flight.take() {
             drop(wake);
             let job = match job {
                 Job::Running(task) => Job::Done(Box::new(block_on(task))),
                 done => done,
             };
-            self.in_flight = Some(InFlight { started_tick, job, wake: None });
+            self.in_flight = Some(InFlight { started_tick, layers, job, wake: None });
         }
     }
 }
@@ -200,11 +205,15 @@ fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64) -> Stepped {
 }
 
 /// The layers of `atmosphere`, sorted by index (read through `Mut` without marking them
-/// changed until written).
-fn layers_of<'a>(atmosphere: Entity, layers: &'a mut Query<&mut AirLayer>) -> Vec<Mut<'a, AirLayer>> {
-    let mut mine: Vec<Mut<AirLayer>> = layers.iter_mut().filter(|l| l.atmosphere == atmosphere).collect();
-    mine.sort_by_key(|l| l.index);
-    mine
+/// changed until written), and their entities in the same order.
+fn layers_of<'a>(
+    atmosphere: Entity,
+    layers: &'a mut Query<(Entity, &mut AirLayer)>,
+) -> (Vec<Entity>, Vec<Mut<'a, AirLayer>>) {
+    let mut mine: Vec<(Entity, Mut<AirLayer>)> =
+        layers.iter_mut().filter(|(_, l)| l.atmosphere == atmosphere).collect();
+    mine.sort_by_key(|(_, l)| l.index);
+    mine.into_iter().unzip()
 }
 
 /// One atmosphere's components, as the write-back needs them.
@@ -213,23 +222,27 @@ struct Target<'a, 'w> {
     atmo: &'a mut Atmosphere,
     ground: &'a mut Ground,
     layers: &'a mut [Mut<'w, AirLayer>],
+    /// The entities of `layers`, in the same order.
+    layer_entities: &'a [Entity],
     status: &'a mut WeatherPipelineStatus,
 }
 
 /// Writes a finished step into the components and returns the message to send. A result that
-/// no longer fits (layers added, removed or regridded since it started) is dropped.
+/// no longer fits (layers added, removed, replaced or regridded since it started from
+/// `started_layers`) is dropped.
 fn write_back(
     t: Target,
     work: &mut AtmosphereWork,
     done: Stepped,
-    started_tick: u64,
+    (started_tick, started_layers): (u64, &[Entity]),
     now: u64,
 ) -> Option<WeatherStepped> {
     let Stepped { mut state, work: scratch, result, valid } = done;
     work.work = scratch;
     t.status.in_flight_since = None;
     debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
-    let fits = t.layers.len() == state.layers.len()
+    let fits = t.layer_entities == started_layers
+        && t.layers.len() == state.layers.len()
         && t.layers
             .iter()
             .zip(&state.layers)
@@ -290,18 +303,24 @@ pub(crate) fn weather_due(
 pub(crate) fn apply_weather(
     tick: Option<Res<SimTick>>,
     mut atmospheres: Query<AtmosphereItems>,
-    mut layers: Query<&mut AirLayer>,
+    mut layers: Query<(Entity, &mut AirLayer)>,
     mut stepped: MessageWriter<WeatherStepped>,
 ) {
     let now = tick.map_or(0, |t| t.0);
     for (entity, mut atmo, mut ground, mut work, mut status) in &mut atmospheres {
         let Some(flight) = work.in_flight.take() else { continue };
         let clock = Instant::now();
-        let (done, waited, started) = flight.join();
-        let mut mine = layers_of(entity, &mut layers);
-        let target =
-            Target { entity, atmo: &mut atmo, ground: &mut ground.0, layers: &mut mine, status: &mut status };
-        if let Some(m) = write_back(target, &mut work, done, started, now) {
+        let (done, waited, started, from) = flight.join();
+        let (ids, mut mine) = layers_of(entity, &mut layers);
+        let target = Target {
+            entity,
+            atmo: &mut atmo,
+            ground: &mut ground.0,
+            layers: &mut mine,
+            layer_entities: &ids,
+            status: &mut status,
+        };
+        if let Some(m) = write_back(target, &mut work, done, (started, &from), now) {
             stepped.write(m);
         }
         status.waited += u64::from(waited);
@@ -316,7 +335,7 @@ pub(crate) fn start_weather(
     tick: Option<Res<SimTick>>,
     settings: Res<WeatherPipelineSettings>,
     mut atmospheres: Query<(AtmosphereItems, Option<&mut AtmosphereTimeline>)>,
-    mut layers: Query<&mut AirLayer>,
+    mut layers: Query<(Entity, &mut AirLayer)>,
     mut stepped: MessageWriter<WeatherStepped>,
 ) {
     let dt = time.delta_secs_f64();
@@ -327,17 +346,18 @@ pub(crate) fn start_weather(
     let pool = if settings.off_thread { AsyncComputeTaskPool::try_get() } else { None };
     for ((entity, mut atmo, mut ground, mut work, mut status), timeline) in &mut atmospheres {
         let clock = Instant::now();
-        let mut mine = layers_of(entity, &mut layers);
+        let (ids, mut mine) = layers_of(entity, &mut layers);
         if let Some(flight) = work.in_flight.take() {
-            let (done, _, started) = flight.join();
+            let (done, _, started, from) = flight.join();
             let target = Target {
                 entity,
                 atmo: &mut atmo,
                 ground: &mut ground.0,
                 layers: &mut mine,
+                layer_entities: &ids,
                 status: &mut status,
             };
-            if let Some(m) = write_back(target, &mut work, done, started, now) {
+            if let Some(m) = write_back(target, &mut work, done, (started, &from), now) {
                 stepped.write(m);
             }
         }
@@ -377,7 +397,7 @@ pub(crate) fn start_weather(
             }
             None => Job::Done(Box::new(run_step(input, &params, dt))),
         };
-        work.in_flight = Some(InFlight { started_tick: now, job, wake: Some(wake) });
+        work.in_flight = Some(InFlight { started_tick: now, layers: ids, job, wake: Some(wake) });
         status.in_flight_since = Some(now);
         status.started += 1;
         status.last_start_ms = clock.elapsed().as_secs_f64() * 1e3;

@@ -190,3 +190,42 @@ fn pausing_the_weather_writes_back_so_edits_while_paused_stay() {
     assert_eq!(time_s, expected.time_s);
     assert!(layers == expected.layers, "the stroke made while paused was kept and stepped");
 }
+
+/// A layer despawned and replaced by another of the same shape while a step is in flight does
+/// not receive that step's result (computed from the layer it replaced): the result is dropped
+/// and the new layer keeps what it was spawned with until a step started from it comes back.
+#[test]
+fn a_layer_replaced_during_a_step_keeps_its_own_fields() {
+    let scenario = WeatherScenario::builtin("convection").unwrap();
+    let state = scenario.build(Some(16)).unwrap();
+    let mut app = app(5, 1, true);
+    let (s2, params) = (state.clone(), scenario.params.clone());
+    app.add_systems(Startup, move |mut commands: Commands| {
+        spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
+    });
+    // A step started at tick 5 is in flight; replace layer 1 with a warmer copy.
+    run(&mut app, 7);
+    let world = app.world_mut();
+    let (old, atmosphere, mut fields) = world
+        .query::<(Entity, &AirLayer)>()
+        .iter(world)
+        .find(|(_, l)| l.index == 1)
+        .map(|(e, l)| (e, l.atmosphere, (*l.fields).clone()))
+        .unwrap();
+    for t in fields.t.data_mut() {
+        *t += 10.0;
+    }
+    world.entity_mut(old).despawn();
+    let new = world
+        .spawn((AirLayer { atmosphere, index: 1, fields: fields.clone().into() }, ChildOf(atmosphere)))
+        .id();
+    // Tick 10 writes back the step started at 5 and starts the next from the components.
+    run(&mut app, 10);
+    let world = app.world();
+    let now = &*world.get::<AirLayer>(new).unwrap().fields;
+    assert!(*now == fields, "the new layer received the step started before it existed");
+    assert!(
+        world.resource::<Stepped>().0.iter().all(|&(started, _)| started != 5),
+        "the stale step was reported"
+    );
+}
