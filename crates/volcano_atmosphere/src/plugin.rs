@@ -79,15 +79,13 @@ impl Plugin for AtmospherePlugin {
 /// What of `transform` an atmosphere ignores: its grid is centred on the world origin, so any
 /// translation, rotation or scale. Empty for the identity.
 fn ignored_by_atmosphere(transform: &Transform) -> Vec<&'static str> {
-    let mut parts = Vec::new();
+    // What no heightfield-bound entity takes (rotation, scale), and any translation at all.
+    let mut parts: Vec<_> = volcano_core::terrain::ignored_transform_parts(transform)
+        .into_iter()
+        .filter(|p| *p != "y translation")
+        .collect();
     if transform.translation != Vec3::ZERO {
-        parts.push("translation");
-    }
-    if !transform.rotation.is_near_identity() {
-        parts.push("rotation");
-    }
-    if transform.scale != Vec3::ONE {
-        parts.push("scale");
+        parts.insert(0, "translation");
     }
     parts
 }
@@ -122,5 +120,8 @@ mod tests {
         assert_eq!(ignored_by_atmosphere(&moved), ["translation", "scale"]);
         let turned = Transform::from_rotation(Quat::from_rotation_y(0.3));
         assert_eq!(ignored_by_atmosphere(&turned), ["rotation"]);
+        // A height alone is a translation too, named once.
+        assert_eq!(ignored_by_atmosphere(&Transform::from_xyz(3.0, 5.0, 0.0)), ["translation"]);
+        assert_eq!(ignored_by_atmosphere(&Transform::from_xyz(0.0, 5.0, 0.0)), ["translation"]);
     }
 }
