@@ -120,8 +120,7 @@ struct InFlight {
 }
 
 impl InFlight {
-    /// Waits for the step if needed; also says whether it had to wait, and returns the tick it
-    /// started at and the layers it started from.
+    /// Waits for the step if needed; also says whether it had to wait.
     fn join(self) -> (Stepped, bool, u64, Vec<Entity>) {
         let InFlight { started_tick, layers, job, wake } = self;
         drop(wake);
@@ -227,21 +226,21 @@ struct Target<'a, 'w> {
     status: &'a mut WeatherPipelineStatus,
 }
 
-/// Writes a finished step into the components and returns the message to send. A result that
-/// no longer fits (layers added, removed, replaced or regridded since it started from
-/// `started_layers`) is dropped.
+/// Waits for the step `flight` (if still running) and writes it into the components; returns
+/// the message to send and whether it had to wait. A result that no longer fits (layers added,
+/// removed, replaced or regridded since the step started) is dropped.
 fn write_back(
     t: Target,
     work: &mut AtmosphereWork,
-    done: Stepped,
-    (started_tick, started_layers): (u64, &[Entity]),
+    flight: InFlight,
     now: u64,
-) -> Option<WeatherStepped> {
+) -> (Option<WeatherStepped>, bool) {
+    let (done, waited, started_tick, started_layers) = flight.join();
     let Stepped { mut state, work: scratch, result, valid } = done;
     work.work = scratch;
     t.status.in_flight_since = None;
     debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
-    let fits = t.layer_entities == started_layers
+    let fits = t.layer_entities == started_layers.as_slice()
         && t.layers.len() == state.layers.len()
         && t.layers
             .iter()
@@ -250,7 +249,7 @@ fn write_back(
         && t.ground.ash.data().len() == state.ground.ash.data().len();
     if !fits {
         warn_once!("atmosphere {}: its layers changed during a weather step; the step is dropped", t.entity);
-        return None;
+        return (None, waited);
     }
     // The result goes in without a copy; the old fields (no longer shared: the worker let
     // go of them before stepping) become the next step's buffers.
@@ -273,7 +272,7 @@ fn write_back(
         }
     };
     work.spare = Some(state);
-    message
+    (message, waited)
 }
 
 type AtmosphereItems<'a> = (
@@ -310,7 +309,6 @@ pub(crate) fn apply_weather(
     for (entity, mut atmo, mut ground, mut work, mut status) in &mut atmospheres {
         let Some(flight) = work.in_flight.take() else { continue };
         let clock = Instant::now();
-        let (done, waited, started, from) = flight.join();
         let (ids, mut mine) = layers_of(entity, &mut layers);
         let target = Target {
             entity,
@@ -320,7 +318,8 @@ pub(crate) fn apply_weather(
             layer_entities: &ids,
             status: &mut status,
         };
-        if let Some(m) = write_back(target, &mut work, done, (started, &from), now) {
+        let (message, waited) = write_back(target, &mut work, flight, now);
+        if let Some(m) = message {
             stepped.write(m);
         }
         status.waited += u64::from(waited);
@@ -348,7 +347,6 @@ pub(crate) fn start_weather(
         let clock = Instant::now();
         let (ids, mut mine) = layers_of(entity, &mut layers);
         if let Some(flight) = work.in_flight.take() {
-            let (done, _, started, from) = flight.join();
             let target = Target {
                 entity,
                 atmo: &mut atmo,
@@ -357,7 +355,7 @@ pub(crate) fn start_weather(
                 layer_entities: &ids,
                 status: &mut status,
             };
-            if let Some(m) = write_back(target, &mut work, done, (started, &from), now) {
+            if let (Some(m), _) = write_back(target, &mut work, flight, now) {
                 stepped.write(m);
             }
         }
