@@ -68,8 +68,9 @@ fn direct(
     s
 }
 
-#[test]
-fn components_hold_the_state_one_weather_step_behind_the_clock() {
+/// The built-in `convection` scenario on a 16² grid, spawned at start-up in an [`app`] that
+/// steps the weather every 5 ticks off the main thread; the scenario and its initial state.
+fn convection_app() -> (App, WeatherScenario, AtmosphereState) {
     let scenario = WeatherScenario::builtin("convection").unwrap();
     let state = scenario.build(Some(16)).unwrap();
     let mut app = app(5, 1, true);
@@ -77,6 +78,12 @@ fn components_hold_the_state_one_weather_step_behind_the_clock() {
     app.add_systems(Startup, move |mut commands: Commands| {
         spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
     });
+    (app, scenario, state)
+}
+
+#[test]
+fn components_hold_the_state_one_weather_step_behind_the_clock() {
+    let (mut app, scenario, state) = convection_app();
     // Weather ticks 5, 10, …, 40: eight steps started, seven written back.
     run(&mut app, 42);
     let clock_steps = app.world().resource::<Time<DomainClock<WeatherStep>>>().context().steps_run();
@@ -155,13 +162,7 @@ fn off_thread_equals_on_the_spot_at_any_frame_rate() {
 
 #[test]
 fn pausing_the_weather_writes_back_so_edits_while_paused_stay() {
-    let scenario = WeatherScenario::builtin("convection").unwrap();
-    let state = scenario.build(Some(16)).unwrap();
-    let mut app = app(5, 1, true);
-    let (s2, params) = (state.clone(), scenario.params.clone());
-    app.add_systems(Startup, move |mut commands: Commands| {
-        spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
-    });
+    let (mut app, scenario, state) = convection_app();
     // Steps started at ticks 5 and 10; the first is written back at 10.
     run(&mut app, 12);
     app.world_mut().resource_mut::<Time<DomainClock<WeatherStep>>>().context_mut().set_paused(true);
@@ -196,13 +197,7 @@ fn pausing_the_weather_writes_back_so_edits_while_paused_stay() {
 /// and the new layer keeps what it was spawned with until a step started from it comes back.
 #[test]
 fn a_layer_replaced_during_a_step_keeps_its_own_fields() {
-    let scenario = WeatherScenario::builtin("convection").unwrap();
-    let state = scenario.build(Some(16)).unwrap();
-    let mut app = app(5, 1, true);
-    let (s2, params) = (state.clone(), scenario.params.clone());
-    app.add_systems(Startup, move |mut commands: Commands| {
-        spawn_atmosphere(&mut commands, s2.clone(), params.clone()).unwrap();
-    });
+    let (mut app, ..) = convection_app();
     // A step started at tick 5 is in flight; replace layer 1 with a warmer copy.
     run(&mut app, 7);
     let world = app.world_mut();
