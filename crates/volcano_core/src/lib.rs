@@ -13,6 +13,7 @@
 pub mod atmosphere;
 pub mod clock;
 pub mod error;
+pub mod fault;
 pub mod grid;
 pub mod interpolation;
 pub mod parallel;
@@ -25,6 +26,7 @@ pub mod volcano;
 pub use atmosphere::{AirState, AtmosphereProfile, ThesisIsa, UsStandard1976};
 pub use clock::{Cadence, DomainClock, SimControl, SimDomainAppExt, SimSystems, SimTick};
 pub use error::ConfigError;
+pub use fault::{SimDomain, SimFault};
 pub use grid::{Boundary, Grid2};
 pub use interpolation::{TickInterpolation, TickInterpolationPlugin, TickInterpolationSystems};
 pub use plugin::VolcanoCorePlugin;
@@ -36,9 +38,9 @@ pub use volcano::{OnTerrain, TerrainVolcanoes, VentPosition, Volcano, VolcanoSpe
 pub mod prelude {
     pub use crate::{
         AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2, LandCover,
-        OnTerrain, SimControl, SimDomainAppExt, SimSystems, SimTick, StratovolcanoParams, Terrain,
-        TerrainChanged, TerrainTemplate, TerrainVolcanoes, ThesisIsa, TickInterpolation,
-        TickInterpolationPlugin, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng,
-        VolcanoSpec, VolcanoTemplate,
+        OnTerrain, SimControl, SimDomain, SimDomainAppExt, SimFault, SimSystems, SimTick,
+        StratovolcanoParams, Terrain, TerrainChanged, TerrainTemplate, TerrainVolcanoes, ThesisIsa,
+        TickInterpolation, TickInterpolationPlugin, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin,
+        VolcanoRng, VolcanoSpec, VolcanoTemplate,
     };
 }

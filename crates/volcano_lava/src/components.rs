@@ -293,6 +293,16 @@ pub struct LavaProbe {
 }
 
 impl LavaState {
+    /// The three layers, borrowed for one model call.
+    pub fn layers_mut(&mut self) -> crate::model::LayersMut<'_> {
+        crate::model::LayersMut {
+            flow: &mut self.flow,
+            surface: &mut self.surface,
+            folds: &mut self.folds,
+            breakouts: &mut self.breakouts,
+        }
+    }
+
     /// Lava at world (x, z), or `None` off this field.
     pub fn probe(&self, field: Entity, params: &LavaParams, xz: Vec2) -> Option<LavaProbe> {
         let (i, j) = self.flow.cell_at(xz)?;

@@ -12,7 +12,7 @@ use crate::model::field::{FlowField, Placement, Source};
 use crate::model::folds::FoldSystem;
 use crate::model::imprint::TerrainImprint;
 use crate::model::surface::SurfaceState;
-use crate::model::{DomainReport, LayersMut, step_layers};
+use crate::model::{DomainReport, step_layers};
 
 /// Schedule of the lava domain.
 #[derive(ScheduleLabel, Debug, Clone, PartialEq, Eq, Hash, Default, TypePath)]
@@ -27,6 +27,8 @@ impl Plugin for LavaPlugin {
         app.add_sim_domain::<LavaStep>(SimSystems::Lava, Cadence::Substeps(1))
             .add_message::<LavaReached>()
             .add_message::<LavaBreakout>()
+            // Owned by volcano_core, like `TerrainChanged`.
+            .add_message::<SimFault>()
             // Owned by volcano_core; registering twice is harmless.
             .add_message::<TerrainChanged>()
             .register_type::<LavaField>()
@@ -41,8 +43,6 @@ impl Plugin for LavaPlugin {
             // (a 256² patch takes ≈ 6 ms to resample its terrain and allocate its layers,
             // release); patches spawned later are built on their first lava step.
             .add_systems(PostStartup, build_fields);
-        #[cfg(debug_assertions)]
-        app.add_systems(PostUpdate, assert_finite_fields);
     }
 }
 
@@ -182,6 +182,7 @@ fn step_fields(
     mut fields: Query<(Entity, &LavaField, &mut LavaState)>,
     sources: Query<SourceItem>,
     mut breakouts: MessageWriter<LavaBreakout>,
+    mut faults: MessageWriter<SimFault>,
 ) {
     let dt = time.delta_secs_f64();
     // Gather: each source feeds the first field whose grid contains it.
@@ -217,14 +218,16 @@ fn step_fields(
         }
         let srcs: Vec<Source> = feeds.iter().filter(|(f, _)| *f == entity).map(|(_, s)| s.clone()).collect();
         let state = &mut *state;
-        let layers = LayersMut {
-            flow: &mut state.flow,
-            surface: &mut state.surface,
-            folds: &mut state.folds,
-            breakouts: &mut state.breakouts,
-        };
-        let DomainReport { flow: report, breakouts: tears } =
-            step_layers(layers, &field.params, &field.folds, &srcs, dt);
+        let DomainReport { flow: report, breakouts: tears, repaired } =
+            step_layers(state.layers_mut(), &field.params, &field.folds, &srcs, dt);
+        if repaired.any() {
+            let fault = SimFault {
+                lost_lava_m3: repaired.lost_m3,
+                ..SimFault::new(entity, SimDomain::Lava, repaired.cells + repaired.particles)
+            };
+            fault.warn();
+            faults.write(fault);
+        }
         for tear in tears {
             let ground = state.flow.ground().data()[tear.cell] + state.flow.thickness().data()[tear.cell];
             breakouts.write(LavaBreakout {
@@ -334,17 +337,4 @@ fn covered(flow: &FlowField, centre: Vec2, radius: f32, min_h: f64) -> bool {
         }
     }
     false
-}
-
-/// Debug builds: every lava state stays finite with non-negative thickness.
-#[cfg(debug_assertions)]
-fn assert_finite_fields(fields: Query<(Entity, &LavaState)>) {
-    for (entity, state) in &fields {
-        assert!(state.flow.is_valid(), "lava field {entity} has a non-finite or negative value");
-        assert!(
-            state.surface.crust.iter().all(|c| c.is_finite() && *c >= 0.0),
-            "lava field {entity} has a bad crust value"
-        );
-        assert!(state.folds.particles.iter().all(|p| p.pos.is_finite()), "lava field {entity}: fold NaN");
-    }
 }

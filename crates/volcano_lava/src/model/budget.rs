@@ -4,7 +4,7 @@ use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
 
 /// Running volume accounts (m³, f64). The lava volume on the grid must always equal
-/// `initial + sources − solidified − outflow` up to rounding; [`VolumeBudget::error_rel`]
+/// `initial + sources − solidified − outflow − faulted` up to rounding; [`VolumeBudget::error_rel`]
 /// measures how far it is.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Reflect, Serialize, Deserialize)]
 pub struct VolumeBudget {
@@ -19,12 +19,16 @@ pub struct VolumeBudget {
     /// Volume added by clamping round-off negatives (≈1e-18 per event), kept so the
     /// accounts close exactly.
     pub rounding: f64,
+    /// Lava removed by the guard with cells whose state was no longer finite
+    /// ([`crate::model::guard`]).
+    #[serde(default)]
+    pub faulted: f64,
 }
 
 impl VolumeBudget {
     /// The lava volume the accounts predict.
     pub fn expected(&self) -> f64 {
-        self.initial + self.sources - self.solidified - self.outflow + self.rounding
+        self.initial + self.sources - self.solidified - self.outflow - self.faulted + self.rounding
     }
 
     /// `|actual − expected| / (initial + sources)`, or the absolute error when nothing was

@@ -11,6 +11,7 @@ pub mod flow;
 mod flow_rows;
 mod flux;
 pub mod folds;
+pub mod guard;
 pub mod imprint;
 pub mod params;
 pub mod samples;
@@ -45,13 +46,16 @@ pub struct DomainReport {
     pub flow: LavaStepReport,
     /// Where the crust tore and lava broke out this step.
     pub breakouts: Vec<Breakout>,
+    /// What the guard repaired before and after the step ([`guard::repair`]).
+    pub repaired: guard::LavaRepair,
 }
 
 /// One domain step of a lava field, the one sequence the plugin and the scenario runner (and
 /// so the CLI) call (docs/ARCHITECTURE.md §2.1): the flow advances and cools under the
 /// crust ([`step_under_crust`]), the crust grows ([`update_surface`]), a crust that drags too
 /// much tears ([`update_breakouts`]), the folds move ([`update_folds`]) and thicken the crust
-/// under them ([`thicken_crust_under_folds`]). Parameters must have passed their `validate`.
+/// under them ([`thicken_crust_under_folds`]); [`guard::repair`] runs before and after.
+/// Parameters must have passed their `validate`.
 pub fn step_layers(
     layers: LayersMut<'_>,
     params: &LavaParams,
@@ -60,12 +64,17 @@ pub fn step_layers(
     dt: f64,
 ) -> DomainReport {
     let LayersMut { flow, surface, folds, breakouts } = layers;
+    // The guard runs before the step (state edited since, e.g. through reflection, never
+    // reaches the model's clamps) and after it (nothing non-finite reaches the readers).
+    let air = params.air_temperature;
+    let mut repaired = guard::repair(LayersMut { flow, surface, folds, breakouts }, air);
     let report = step_under_crust(flow, params, sources, &surface.crust, dt);
     update_surface(surface, flow, params, dt);
     let tears = update_breakouts(breakouts, flow, surface, params);
     update_folds(folds, flow, surface, params, fold_params, dt);
     thicken_crust_under_folds(folds, flow, surface, params, fold_params);
-    DomainReport { flow: report, breakouts: tears }
+    repaired += guard::repair(LayersMut { flow, surface, folds, breakouts }, air);
+    DomainReport { flow: report, breakouts: tears, repaired }
 }
 
 /// What one [`step`] did.

@@ -173,6 +173,11 @@ pub struct LavaSummary {
     pub max_substeps: u32,
     /// Steps where the substep cap slowed the flow.
     pub mobility_capped_steps: u64,
+    /// Cells the guard reset and particles it removed because their state was no longer
+    /// finite (0 in a healthy run).
+    pub faulted: u64,
+    /// Liquid lava removed with them (m³).
+    pub faulted_volume_m3: f64,
     /// Liquid lava on the grid (m³).
     pub lava_volume_m3: f64,
     /// Emitted by sources (m³).
@@ -238,6 +243,7 @@ pub struct LavaScenario {
     substeps: u64,
     max_substeps: u32,
     capped: u64,
+    repaired: crate::model::guard::LavaRepair,
 }
 
 impl LavaScenario {
@@ -294,6 +300,7 @@ impl LavaScenario {
             substeps: 0,
             max_substeps: 0,
             capped: 0,
+            repaired: Default::default(),
         })
     }
 
@@ -306,9 +313,10 @@ impl LavaScenario {
             folds: &mut self.folds,
             breakouts: &mut self.breakouts,
         };
-        let DomainReport { flow: r, breakouts: tears } =
+        let DomainReport { flow: r, breakouts: tears, repaired } =
             step_layers(layers, &self.params, &self.fold_params, &self.sources, self.config.dt);
         self.breakout_log.extend(tears);
+        self.repaired += repaired;
         self.steps += 1;
         self.substeps += r.substeps as u64;
         self.max_substeps = self.max_substeps.max(r.substeps);
@@ -395,6 +403,8 @@ impl LavaScenario {
             mean_substeps: self.substeps as f64 / self.steps.max(1) as f64,
             max_substeps: self.max_substeps,
             mobility_capped_steps: self.capped,
+            faulted: self.repaired.cells + self.repaired.particles,
+            faulted_volume_m3: b.faulted,
             lava_volume_m3: f.lava_volume(),
             source_volume_m3: b.sources,
             initial_volume_m3: b.initial,

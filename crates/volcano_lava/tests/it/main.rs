@@ -4,6 +4,7 @@
 mod analytic;
 mod conservation;
 mod cooling;
+mod faults;
 mod flank;
 mod folds;
 mod mobility_cap;

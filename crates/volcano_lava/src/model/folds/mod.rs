@@ -6,7 +6,7 @@
 //! Particles live in one `Vec` per field (not one entity each): the render side instances
 //! them from [`FoldSystem::particles`].
 
-mod bury;
+pub(crate) mod bury;
 mod collide;
 mod create;
 mod feedback;
