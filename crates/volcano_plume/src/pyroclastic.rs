@@ -90,6 +90,8 @@ impl Plugin for PyroclasticPlugin {
             .add_message::<SecondaryColumnFormed>()
             .add_message::<SliceCollapsed>()
             .add_message::<SecondaryColumnRising>()
+            // Owned by volcano_core; registering twice is harmless.
+            .add_message::<volcano_core::SimFault>()
             // Every terrain keeps the deposit of the volcanoes standing on it.
             .register_required_components::<Terrain, DepositMap>()
             .register_type::<PyroParticle>()
@@ -148,6 +150,7 @@ fn step_flows(
     mut started: MessageWriter<PyroclasticFlowStarted>,
     mut formed: MessageWriter<SecondaryColumnFormed>,
     mut rising: MessageWriter<SecondaryColumnRising>,
+    mut faults: MessageWriter<volcano_core::SimFault>,
 ) {
     let handed: Vec<&PlumeSlice> = collapsed.read().map(|SliceCollapsed(s)| s).collect();
     // Terrains and their maps (taken out, put back below: no copy, no change flag unless
@@ -292,6 +295,7 @@ fn step_flows(
         let (volcano, _, _, budget, emission, _) = &mut volcanoes[v];
         let volcano = *volcano;
         budget.set_if_neq(flows.budget);
+        crate::plugin::faults::report(&mut faults, volcano, SimDomain::Pyroclastic, &out.non_finite);
         if emission.emitted != flows.emitted {
             emission.emitted = flows.emitted;
         }

@@ -331,7 +331,13 @@ fn step_umbrella(
         let fallout = u.ash * (1.0 - (-dt / inputs.umbrella_fallout_s).exp());
         u.ash -= fallout;
         u.ash_pending += fallout;
-        if u.age > inputs.umbrella_lifetime {
+        if !u.is_finite() {
+            // The guard (`volcano_core::fault`): what it still held is booked as lost.
+            let mass = volcano_core::fault::bookable(u.ash) + volcano_core::fault::bookable(u.ash_pending);
+            state.ash.lost_kg += mass;
+            gone[k] = Some(SphereFate::NonFinite(report.umbrella_non_finite.len()));
+            report.umbrella_non_finite.push(RemovedSphere { at: k, sphere: u.clone(), ash_kg: mass });
+        } else if u.age > inputs.umbrella_lifetime {
             let mass = u.ash + u.ash_pending;
             if mass > 0.0 {
                 state.ash.released_kg += mass;

@@ -190,9 +190,16 @@ fn step_particles(
                 budget.lost += step.deposited;
             }
         }
-        if step.settled || !on_map || !finite(&fp.particle) {
-            if !step.settled && fp.particle.mass.is_finite() {
-                budget.lost += fp.particle.mass;
+        let broken = !finite(&fp.particle);
+        if step.settled || !on_map || broken {
+            if !step.settled {
+                // A particle no longer finite (the guard, `volcano_core::fault`) is removed with
+                // what it still held booked as lost, like one that left the terrain.
+                let mass = volcano_core::fault::bookable(fp.particle.mass);
+                budget.lost += mass;
+                if broken {
+                    report.volcanoes[v].non_finite.push(mass);
+                }
             }
             alive[i] = false;
             report.removed.push((v, i));

@@ -76,6 +76,24 @@ pub struct UmbrellaSphere {
     pub spread: Spread,
 }
 
+impl UmbrellaSphere {
+    /// Whether every number of its state is finite.
+    pub fn is_finite(&self) -> bool {
+        let spread = match self.spread {
+            Spread::Thesis => true,
+            Spread::GravityCurrent { c } => c.is_finite(),
+        };
+        self.axis.is_finite()
+            && self.direction.is_finite()
+            && self.d.is_finite()
+            && self.r.is_finite()
+            && self.v_neutral.is_finite()
+            && self.z_apex.is_finite()
+            && self.z_neutral.is_finite()
+            && spread
+    }
+}
+
 /// Radial speed `v r / d` (m/s), with `d` clamped to at least `r` (§3.5.2).
 pub fn radial_speed(v_neutral: f64, r: f64, d: f64) -> f64 {
     v_neutral * r / d.max(r)

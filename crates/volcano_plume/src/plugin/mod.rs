@@ -12,6 +12,7 @@
 //! its schedule (`adopt_secondary_columns`), and s1 transforms follow their slices once per
 //! base tick (`sync_sphere_transforms`, `SimSystems::End`).
 
+pub(crate) mod faults;
 mod step;
 mod step_length;
 
@@ -63,6 +64,8 @@ impl Plugin for PlumePlugin {
             .add_message::<NeutralBuoyancyReached>()
             .add_message::<UmbrellaSpreading>()
             .add_message::<AshReleased>()
+            // Owned by volcano_core; registering twice is harmless.
+            .add_message::<volcano_core::SimFault>()
             .init_resource::<crate::caps::PlumeCaps>()
             .init_resource::<crate::caps::PlumeCapReport>()
             .register_type::<crate::caps::PlumeCaps>()

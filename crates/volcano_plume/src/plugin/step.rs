@@ -19,7 +19,7 @@ use bevy::prelude::*;
 use volcano_core::clock::crossings;
 use volcano_core::prelude::*;
 
-use super::{orientation, spawn_with_ring};
+use super::{faults, orientation, spawn_with_ring};
 use crate::caps::{PlumeCapReport, PlumeCaps, checked};
 use crate::components::*;
 use crate::model::domain::{
@@ -35,6 +35,7 @@ pub(super) struct PlumeMessages<'w> {
     neutral: MessageWriter<'w, NeutralBuoyancyReached>,
     umbrella: MessageWriter<'w, UmbrellaSpreading>,
     released: MessageWriter<'w, AshReleased>,
+    faults: MessageWriter<'w, volcano_core::SimFault>,
 }
 
 /// One volcano's plume as gathered, the entities behind it, and what its step did.
@@ -327,7 +328,6 @@ pub(super) fn step_plume(
             SliceFate::Kept(_) | SliceFate::Retired(_) => {}
             SliceFate::NonFinite(i) => {
                 let removed = &r.non_finite[i];
-                warn!("plume slice {} became non-finite and was removed", removed.slice.index);
                 commands.entity(entity).despawn();
                 for &ring in &removed.ring {
                     commands.entity(all_rings[g.rings[ring]].0).despawn();
@@ -375,6 +375,7 @@ pub(super) fn step_plume(
                 SphereFate::Kept(j) => &g.state.umbrella[j],
                 SphereFate::Expired(e) => &g.report.expired[e].sphere,
                 SphereFate::Retired(e) => &g.report.umbrella_retired[e].sphere,
+                SphereFate::NonFinite(e) => &g.report.umbrella_non_finite[e].sphere,
             };
             let (translation, scale) = (cloud_world(cloud), Vec3::splat(cloud.radius as f32));
             let umbrella = umbrella_component(g.volcano, cloud);
@@ -425,14 +426,26 @@ pub(super) fn step_plume(
             continue;
         };
         let g = &plumes[v];
-        if let SphereFate::Expired(e) = g.report.sphere_fates[k] {
-            let r = &g.report.expired[e];
-            if r.ash_kg > 0.0 {
-                let position = cloud_world(&r.sphere);
-                out.released.write(AshReleased { volcano: g.volcano, position, mass: r.ash_kg });
+        match g.report.sphere_fates[k] {
+            SphereFate::Expired(e) => {
+                let r = &g.report.expired[e];
+                if r.ash_kg > 0.0 {
+                    let position = cloud_world(&r.sphere);
+                    out.released.write(AshReleased { volcano: g.volcano, position, mass: r.ash_kg });
+                }
+                commands.entity(entity).despawn();
             }
-            commands.entity(entity).despawn();
+            SphereFate::NonFinite(_) => commands.entity(entity).despawn(),
+            SphereFate::Kept(_) | SphereFate::Retired(_) => {}
         }
+    }
+
+    // The guard's removals (volcanoes in entity order).
+    for g in by_entity.iter().map(|&v| &plumes[v]) {
+        let slices: Vec<f64> = g.report.non_finite.iter().map(|r| r.ash_kg).collect();
+        faults::report(&mut out.faults, g.volcano, SimDomain::Plume, &slices);
+        let spheres: Vec<f64> = g.report.umbrella_non_finite.iter().map(|r| r.ash_kg).collect();
+        faults::report(&mut out.faults, g.volcano, SimDomain::Umbrella, &spheres);
     }
 
     // The umbrella cap (volcanoes in entity order).

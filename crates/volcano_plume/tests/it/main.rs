@@ -5,6 +5,7 @@ mod caps;
 mod common;
 mod current_clouds;
 mod domain;
+mod faults;
 mod flows_domain;
 mod physical;
 mod physical_plugin;

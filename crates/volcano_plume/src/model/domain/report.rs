@@ -98,6 +98,8 @@ pub enum SphereFate {
     Expired(usize),
     /// Retired by the cap: entry of [`PlumeReport::umbrella_retired`].
     Retired(usize),
+    /// Non-finite: entry of [`PlumeReport::umbrella_non_finite`].
+    NonFinite(usize),
 }
 
 /// What one step did. Lists are in the order things happened.
@@ -121,6 +123,8 @@ pub struct PlumeReport {
     pub expired: Vec<RemovedSphere>,
     /// Umbrella spheres the cap retired (in the cap's order), ash released.
     pub umbrella_retired: Vec<RemovedSphere>,
+    /// Umbrella spheres removed because their state was no longer finite, ash lost.
+    pub umbrella_non_finite: Vec<RemovedSphere>,
     /// One per slice position (numbered after emission).
     pub slice_fates: Vec<SliceFate>,
     /// One per umbrella position (numbered before the umbrella phase).

@@ -79,6 +79,18 @@ pub struct CloudSphere {
 }
 
 impl CloudSphere {
+    /// Whether every number of its state is finite (its ash may be NaN only through an edit;
+    /// the guard removes such a sphere).
+    pub fn is_finite(&self) -> bool {
+        self.sphere.is_finite()
+            && self.radius.is_finite()
+            && self.density.is_finite()
+            && self.age.is_finite()
+            && self.ash.is_finite()
+            && self.ash_pending.is_finite()
+            && self.vent.is_finite()
+    }
+
     /// Position in the plume frame of its vent (m, z above the vent).
     pub fn position(&self) -> DVec3 {
         let h = self.sphere.horizontal();

@@ -172,6 +172,41 @@ fn a_non_finite_slice_is_removed_with_its_ring_and_its_ash_booked_as_lost() {
 }
 
 #[test]
+fn a_non_finite_umbrella_sphere_is_removed_and_its_ash_booked_as_lost() {
+    let (p, spheres, rng) = (PlumeParams::default(), SphereParams::default(), VolcanoRng::new(3));
+    let sphere = |id: u64, ash: f64| CloudSphere {
+        id,
+        sphere: UmbrellaSphere::detach(&Slice::at_vent(&p), DVec3::X, Spread::Thesis),
+        radius: 10.0,
+        density: 1.0,
+        age: 1.0,
+        vent: Vec3::ZERO,
+        ash,
+        ash_pending: 2.0,
+    };
+    let mut state = PlumeState::default();
+    state.umbrella = vec![sphere(0, 5.0), sphere(1, 7.0), sphere(2, f64::NAN), sphere(3, 1.0)];
+    state.umbrella[1].sphere.d = f64::INFINITY;
+    state.umbrella[3].age = f64::NAN;
+    let mut no_emission = inputs(&p, &spheres, &rng);
+    no_emission.active = false;
+    let r = step(&mut state, &no_emission);
+    let gone: Vec<(usize, u64)> = r.umbrella_non_finite.iter().map(|s| (s.at, s.sphere.id)).collect();
+    assert_eq!(gone, vec![(1, 1), (2, 2), (3, 3)]);
+    assert_eq!(
+        r.sphere_fates[1..],
+        [SphereFate::NonFinite(0), SphereFate::NonFinite(1), SphereFate::NonFinite(2)]
+    );
+    assert_eq!(state.umbrella.iter().map(|u| u.id).collect::<Vec<_>>(), vec![0]);
+    // What they still held where it was finite: the NaN ash falls out into the sphere's
+    // pending ash too, so that sphere books nothing.
+    let held: f64 = r.umbrella_non_finite.iter().map(|s| s.ash_kg).sum();
+    assert!((held - (7.0 + 2.0 + 1.0 + 2.0)).abs() < 1e-9, "{held}");
+    assert_eq!(state.ash.lost_kg, held);
+    assert_eq!(state.ash.released_kg, 0.0);
+}
+
+#[test]
 fn a_frozen_eruption_emits_nothing_and_holds_its_slices_while_the_umbrella_spreads() {
     let (p, spheres, rng) = (PlumeParams::default(), SphereParams::default(), VolcanoRng::new(3));
     let mut state = one_slice(&p, &spheres, &rng, |s| s.state.position.z = 300.0);

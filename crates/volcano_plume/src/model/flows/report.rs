@@ -50,6 +50,9 @@ pub struct VolcanoFlowsReport {
     pub secondary_retired: u64,
     /// Their mass (kg), booked as lifted.
     pub secondary_retired_kg: f64,
+    /// Per particle removed because its state was no longer finite, the mass it still held
+    /// (kg, 0 where that was not finite), booked as lost.
+    pub non_finite: Vec<f64>,
 }
 
 /// What one step of the pyroclastic domain did.
