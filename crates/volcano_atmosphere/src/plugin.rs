@@ -45,6 +45,8 @@ impl Plugin for AtmospherePlugin {
     fn build(&self, app: &mut App) {
         app.add_sim_domain::<WeatherStep>(SimSystems::Weather, self.cadence)
             .add_message::<WeatherStepped>()
+            // Owned by volcano_core; registering twice is harmless.
+            .add_message::<SimFault>()
             .init_resource::<WeatherPipelineSettings>()
             .register_type::<Atmosphere>()
             .register_type::<AirLayer>()

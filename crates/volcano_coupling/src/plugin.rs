@@ -80,6 +80,8 @@ pub struct CouplingPlugin;
 impl Plugin for CouplingPlugin {
     fn build(&self, app: &mut App) {
         app.init_resource::<AshInbox>()
+            // Owned by volcano_core; registering twice is harmless.
+            .add_message::<SimFault>()
             .init_resource::<WeatherStepsSeen>()
             .register_type::<WeatherStepsSeen>()
             .register_type::<CouplingSettings>()
@@ -109,25 +111,46 @@ fn weather_steps_this_tick(
 }
 
 /// Every tick: keeps what expiring umbrella spheres released until the next weather step, up
-/// to [`AshInbox::CAP`]; the rest is booked as lost by its volcano.
+/// to [`AshInbox::CAP`]; the rest is booked as lost by its volcano. A release whose position or
+/// mass is not finite (or whose mass is negative; a game may send its own) is the guard's:
+/// dropped, what it held booked as lost, one [`SimFault`] per volcano and tick.
 fn collect_released(
     mut inbox: ResMut<AshInbox>,
     mut released: MessageReader<AshReleased>,
     mut plume_books: Query<&mut PlumeAshBudget>,
+    mut faults: MessageWriter<SimFault>,
 ) {
+    let mut broken: Vec<SimFault> = Vec::new();
     for m in released.read() {
-        if inbox.0.len() < AshInbox::CAP {
+        let lost = if !(m.position.is_finite() && m.mass.is_finite() && m.mass >= 0.0) {
+            let kg = volcano_core::fault::bookable(m.mass);
+            match broken.iter_mut().find(|f| f.entity == m.volcano) {
+                Some(f) => {
+                    f.repaired += 1;
+                    f.lost_ash_kg += kg;
+                }
+                None => broken
+                    .push(SimFault { lost_ash_kg: kg, ..SimFault::new(m.volcano, SimDomain::Coupling, 1) }),
+            }
+            kg
+        } else if inbox.0.len() < AshInbox::CAP {
             inbox.0.push(*m);
             continue;
-        }
-        warn_once!(
-            "ash released while the weather does not step: more than {} releases wait for it; the \
-             excess is booked as lost by its volcano (AshInbox::CAP, PlumeAshBudget::lost_kg)",
-            AshInbox::CAP
-        );
+        } else {
+            warn_once!(
+                "ash released while the weather does not step: more than {} releases wait for it; \
+                 the excess is booked as lost by its volcano (AshInbox::CAP, PlumeAshBudget::lost_kg)",
+                AshInbox::CAP
+            );
+            m.mass
+        };
         if let Ok(mut books) = plume_books.get_mut(m.volcano) {
-            books.lost_kg += m.mass;
+            books.lost_kg += lost;
         }
+    }
+    for fault in broken {
+        fault.warn();
+        faults.write(fault);
     }
 }
 

@@ -7,6 +7,7 @@ pub mod amplify;
 pub mod ash;
 pub mod clouds;
 pub mod fields;
+pub mod guard;
 pub mod maps;
 pub mod multigrid;
 pub mod paint;

@@ -48,7 +48,8 @@ pub struct AtmosphereSummary {
     pub step_ms: f64,
     /// Water precipitated to the ground (g).
     pub precipitated_g: f64,
-    /// Whether every field stayed finite and every amount non-negative (checked each step).
+    /// Whether every field stayed finite and every amount non-negative without the guard
+    /// ([`guard::repair`](super::guard::repair)) having to repair a cell (checked each step).
     pub valid: bool,
     /// Largest |wind| through a closed face (rock on one side) after the last step's
     /// projection (m/s); zero when the projection respects the terrain.
@@ -210,7 +211,7 @@ pub fn run(
         unlimited = unlimited.max(rep.max_unlimited_vertical_speed);
         v_limited += rep.vertical_limited_cells;
         f_limited += rep.flux_limited_layers;
-        valid &= state.is_valid();
+        valid &= state.is_valid() && !rep.repaired.any();
         let hour = state.local_hour();
         if let Some(p) = &shore {
             if (11.5..12.5).contains(&hour) {

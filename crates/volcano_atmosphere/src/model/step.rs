@@ -14,6 +14,7 @@ use volcano_core::parallel;
 use super::advection::{Transport, advect_conservative, advect_wind_and_temperature, apertures};
 use super::ash::{AshReport, step_ash};
 use super::fields::{AtmosphereState, LayerFields};
+use super::guard::{self, AtmosphereRepair};
 use super::params::AtmosphereParams;
 use super::projection::{ProjectionReport, ProjectionWork, damp, project, relax_wind};
 use super::sun::sun_position;
@@ -105,6 +106,9 @@ pub struct WeatherStepReport {
     pub phase_ms: [f64; 4],
     /// Ash settled onto the ground and blown out through the rim this step.
     pub ash: AshReport,
+    /// What the guard repaired before and after the step ([`guard::repair`]): zero in a
+    /// healthy run.
+    pub repaired: AtmosphereRepair,
 }
 
 /// Checks a step length: finite, in (0, 3600] s.
@@ -120,7 +124,7 @@ pub fn check_dt(dt: f64) -> Result<f64, ConfigError> {
     }
 }
 
-/// Advances the atmosphere by `dt` seconds.
+/// Advances the atmosphere by `dt` seconds; [`guard::repair`] runs before and after.
 pub fn step(
     state: &mut AtmosphereState,
     params: &AtmosphereParams,
@@ -134,6 +138,9 @@ pub fn step(
         *work = Workspace::new(state)?;
     }
     let mut report = WeatherStepReport::default();
+    // The guard runs before the step (state edited since, e.g. painted or reflected, never
+    // reaches the model's clamps) and after it (nothing non-finite reaches the readers).
+    report.repaired = guard::repair(state);
 
     let clock = std::time::Instant::now();
     let lap = |i: usize, r: &mut WeatherStepReport| r.phase_ms[i] = clock.elapsed().as_secs_f64() * 1e3;
@@ -210,6 +217,7 @@ pub fn step(
         dt,
     );
     state.time_s += dt;
+    report.repaired += guard::repair(state);
     Ok(report)
 }
 

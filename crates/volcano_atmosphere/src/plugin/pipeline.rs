@@ -99,8 +99,6 @@ struct Stepped {
     state: AtmosphereState,
     work: Option<Workspace>,
     result: Result<WeatherStepReport, ConfigError>,
-    /// `state.is_valid()` in debug builds (checked on the worker, asserted on write-back).
-    valid: bool,
 }
 
 enum Job {
@@ -197,10 +195,7 @@ fn run_step(input: StepInput, params: &AtmosphereParams, dt: f64) -> Stepped {
         }
         Err(e) => (None, Err(e)),
     };
-    // docs/ARCHITECTURE.md §7.1: debug builds check that the state stays finite and
-    // non-negative.
-    let valid = !cfg!(debug_assertions) || state.is_valid();
-    Stepped { state, work, result, valid }
+    Stepped { state, work, result }
 }
 
 /// The layers of `atmosphere`, sorted by index (read through `Mut` without marking them
@@ -226,20 +221,22 @@ struct Target<'a, 'w> {
     status: &'a mut WeatherPipelineStatus,
 }
 
-/// Waits for the step `flight` (if still running) and writes it into the components; returns
-/// the message to send and whether it had to wait. A result that no longer fits (layers added,
-/// removed, replaced or regridded since the step started) is dropped.
-fn write_back(
-    t: Target,
-    work: &mut AtmosphereWork,
-    flight: InFlight,
-    now: u64,
-) -> (Option<WeatherStepped>, bool) {
+/// What [`write_back`] did: the messages to send and whether it had to wait.
+struct Applied {
+    stepped: Option<WeatherStepped>,
+    /// The guard repaired cells in the step ([`WeatherStepReport::repaired`]).
+    fault: Option<SimFault>,
+    waited: bool,
+}
+
+/// Waits for the step `flight` (if still running) and writes it into the components. A result
+/// that no longer fits (layers added, removed, replaced or regridded since the step started)
+/// is dropped.
+fn write_back(t: Target, work: &mut AtmosphereWork, flight: InFlight, now: u64) -> Applied {
     let (done, waited, started_tick, started_layers) = flight.join();
-    let Stepped { mut state, work: scratch, result, valid } = done;
+    let Stepped { mut state, work: scratch, result } = done;
     work.work = scratch;
     t.status.in_flight_since = None;
-    debug_assert!(valid, "atmosphere {} produced a non-finite or negative field", t.entity);
     let fits = t.layer_entities == started_layers.as_slice()
         && t.layers.len() == state.layers.len()
         && t.layers
@@ -249,7 +246,7 @@ fn write_back(
         && t.ground.ash.data().len() == state.ground.ash.data().len();
     if !fits {
         warn_once!("atmosphere {}: its layers changed during a weather step; the step is dropped", t.entity);
-        return (None, waited);
+        return Applied { stepped: None, fault: None, waited };
     }
     // The result goes in without a copy; the old fields (no longer shared: the worker let
     // go of them before stepping) become the next step's buffers.
@@ -260,19 +257,36 @@ fn write_back(
     state.layers = spare;
     merge_ground(t.ground, &mut state.ground);
     t.status.applied += 1;
-    let message = match result {
+    let (stepped, fault) = match result {
         Ok(report) => {
             t.atmo.time_s = state.time_s;
             t.atmo.precipitated = state.precipitated;
-            Some(WeatherStepped { atmosphere: t.entity, report, started_tick, applied_tick: now })
+            let r = report.repaired;
+            let fault = r.any().then(|| SimFault {
+                lost_ash_kg: r.lost_ash_g * 1e-3,
+                lost_water_kg: r.lost_water_g * 1e-3,
+                ..SimFault::new(t.entity, SimDomain::Atmosphere, r.cells)
+            });
+            (Some(WeatherStepped { atmosphere: t.entity, report, started_tick, applied_tick: now }), fault)
         }
         Err(e) => {
             warn_once!("atmosphere {} not stepped: {e}", t.entity);
-            None
+            (None, None)
         }
     };
     work.spare = Some(state);
-    (message, waited)
+    Applied { stepped, fault, waited }
+}
+
+/// Sends what a write-back produced (the fault logged as a warning).
+fn send(applied: Applied, stepped: &mut MessageWriter<WeatherStepped>, faults: &mut MessageWriter<SimFault>) {
+    if let Some(fault) = applied.fault {
+        fault.warn();
+        faults.write(fault);
+    }
+    if let Some(m) = applied.stepped {
+        stepped.write(m);
+    }
 }
 
 type AtmosphereItems<'a> = (
@@ -304,6 +318,7 @@ pub(crate) fn apply_weather(
     mut atmospheres: Query<AtmosphereItems>,
     mut layers: Query<(Entity, &mut AirLayer)>,
     mut stepped: MessageWriter<WeatherStepped>,
+    mut faults: MessageWriter<SimFault>,
 ) {
     let now = tick.map_or(0, |t| t.0);
     for (entity, mut atmo, mut ground, mut work, mut status) in &mut atmospheres {
@@ -318,11 +333,9 @@ pub(crate) fn apply_weather(
             layer_entities: &ids,
             status: &mut status,
         };
-        let (message, waited) = write_back(target, &mut work, flight, now);
-        if let Some(m) = message {
-            stepped.write(m);
-        }
-        status.waited += u64::from(waited);
+        let applied = write_back(target, &mut work, flight, now);
+        status.waited += u64::from(applied.waited);
+        send(applied, &mut stepped, &mut faults);
         status.last_apply_ms = clock.elapsed().as_secs_f64() * 1e3;
     }
 }
@@ -336,6 +349,7 @@ pub(crate) fn start_weather(
     mut atmospheres: Query<(AtmosphereItems, Option<&mut AtmosphereTimeline>)>,
     mut layers: Query<(Entity, &mut AirLayer)>,
     mut stepped: MessageWriter<WeatherStepped>,
+    mut faults: MessageWriter<SimFault>,
 ) {
     let dt = time.delta_secs_f64();
     if dt <= 0.0 {
@@ -355,9 +369,7 @@ pub(crate) fn start_weather(
                 layer_entities: &ids,
                 status: &mut status,
             };
-            if let (Some(m), _) = write_back(target, &mut work, flight, now) {
-                stepped.write(m);
-            }
+            send(write_back(target, &mut work, flight, now), &mut stepped, &mut faults);
         }
         let Ok(template) = atmo.state_shell() else { continue };
         if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != template.grid.n) {

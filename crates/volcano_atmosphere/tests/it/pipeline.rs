@@ -224,3 +224,58 @@ fn a_layer_replaced_during_a_step_keeps_its_own_fields() {
         "the stale step was reported"
     );
 }
+
+#[derive(Resource, Default)]
+struct Faults(Vec<SimFault>);
+
+fn record_faults(mut reader: MessageReader<SimFault>, mut seen: ResMut<Faults>) {
+    seen.0.extend(reader.read().cloned());
+}
+
+/// The water (g/m³ × m) of the cell `edit_nan` sets to NaN, once it did.
+#[derive(Resource, Default)]
+struct Edited(Option<(Entity, f64)>);
+
+const EDIT_CELL: usize = 8 * 16 + 8;
+
+/// At tick 10, after the write-back and before the next step starts (where the coupling writes
+/// into the air), sets one temperature of the lowest layer to NaN.
+fn edit_nan(tick: Res<SimTick>, mut layers: Query<&mut AirLayer>, mut edited: ResMut<Edited>) {
+    if tick.0 != 10 {
+        return;
+    }
+    let mut layer = layers.iter_mut().find(|l| l.index == 0).unwrap();
+    let atmosphere = layer.atmosphere;
+    let f = &mut *layer.fields;
+    let k = EDIT_CELL;
+    let held = (f.h.data()[k] + f.w.data()[k]) * f.thickness * f.sigma.data()[k] as f64;
+    f.t.data_mut()[k] = f32::NAN;
+    edited.0 = Some((atmosphere, held));
+}
+
+/// A cell made NaN between steps is reset by the next step's guard (on the worker) and reported
+/// once as a `SimFault` when that step is written back; the water it held is booked.
+#[test]
+fn a_non_finite_cell_is_repaired_by_the_next_step_and_reported() {
+    let (mut app, ..) = convection_app();
+    app.init_resource::<Faults>().init_resource::<Edited>().add_systems(Last, record_faults).add_systems(
+        FixedUpdate,
+        edit_nan.in_set(SimSystems::BeforeWeather).after(volcano_atmosphere::WeatherSystems::Apply),
+    );
+    // The step started at tick 10 reads the edit; it is written back at tick 15.
+    run(&mut app, 14);
+    assert!(app.world().resource::<Faults>().0.is_empty());
+    let (atmosphere, held) = app.world().resource::<Edited>().0.unwrap();
+    run(&mut app, 15);
+    let faults = std::mem::take(&mut app.world_mut().resource_mut::<Faults>().0);
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    let f = &faults[0];
+    assert_eq!((f.entity, f.domain, f.repaired), (atmosphere, SimDomain::Atmosphere, 1));
+    let dx = app.world().get::<Atmosphere>(atmosphere).unwrap().dx;
+    let held_kg = held * dx * dx * 1e-3;
+    assert!(held_kg > 0.0 && (f.lost_water_kg - held_kg).abs() <= 1e-9 * held_kg, "{f:?}, {held_kg}");
+    let (layers, ..) = components(&mut app);
+    assert!(layers.iter().all(|l| l.is_valid()));
+    run(&mut app, 40);
+    assert!(app.world().resource::<Faults>().0.is_empty(), "one repair, one report");
+}

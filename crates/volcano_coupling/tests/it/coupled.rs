@@ -353,3 +353,41 @@ fn the_ash_inbox_is_capped_while_the_weather_is_paused() {
     assert_eq!(in_inbox + lost, 2.0 * (batches * per_batch) as f64, "every release is held or booked");
     assert_eq!(lost, 2.0 * (batches * per_batch - AshInbox::CAP) as f64);
 }
+
+/// A release that is not finite (a game may send its own) never reaches the air: the guard
+/// drops it, books what it still held as lost by its volcano and reports one `SimFault` per
+/// volcano and tick; the finite releases of the same tick go on into the inbox.
+#[test]
+fn non_finite_ash_releases_are_dropped_booked_and_reported() {
+    use volcano_coupling::plugin::AshInbox;
+    use volcano_plume::{AshReleased, PlumeAshBudget};
+    #[derive(Resource, Default)]
+    struct Faults(Vec<SimFault>);
+    let mut app =
+        app(Eruption { active: false, ..Eruption::thesis() }, Some(still_air(40_000.0, 16)), default(), 1);
+    app.init_resource::<Faults>()
+        .add_systems(Last, |mut r: MessageReader<SimFault>, mut f: ResMut<Faults>| {
+            f.0.extend(r.read().cloned())
+        });
+    run(&mut app, 2);
+    let world = app.world_mut();
+    world.resource_mut::<Time<DomainClock<WeatherStep>>>().context_mut().set_paused(true);
+    let volcano = world.query_filtered::<Entity, With<Eruption>>().single(world).unwrap();
+    let lost_before = world.get::<PlumeAshBudget>(volcano).unwrap().lost_kg;
+    let held_before = world.resource::<AshInbox>().0.len();
+    let at = Vec3::new(100.0, 8_000.0, 0.0);
+    for (position, mass) in
+        [(at, 2.0), (Vec3::new(f32::NAN, 8_000.0, 0.0), 3.0), (at, f64::INFINITY), (at, -1.0), (at, 5.0)]
+    {
+        world.write_message(AshReleased { volcano, position, mass });
+    }
+    app.update();
+    let world = app.world();
+    let faults = &world.resource::<Faults>().0;
+    assert_eq!(faults.len(), 1, "{faults:?}");
+    let f = &faults[0];
+    assert_eq!((f.entity, f.domain, f.repaired, f.lost_ash_kg), (volcano, SimDomain::Coupling, 3, 3.0));
+    let held: Vec<f64> = world.resource::<AshInbox>().0[held_before..].iter().map(|m| m.mass).collect();
+    assert_eq!(held, vec![2.0, 5.0]);
+    assert_eq!(world.get::<PlumeAshBudget>(volcano).unwrap().lost_kg - lost_before, 3.0);
+}

@@ -116,7 +116,7 @@ fn bad_sources_and_fields_are_rejected_not_panicking() {
     assert!(matches!(w.get::<LavaFieldStatus>(bad_field), Some(LavaFieldStatus::Rejected(_))));
     assert!(w.get::<LavaState>(bad_field).is_none());
     let state = w.get::<LavaState>(field).unwrap();
-    assert!(state.flow.is_valid());
+    assert!(state.flow.is_valid() && state.flow.budget().faulted == 0.0, "no cell needed the guard");
     // The edited source emitted only while valid: 5 steps.
     assert!((state.flow.budget().sources - 1.0 * 0.02 * 5.0).abs() < 1e-12, "{:?}", state.flow.budget());
 }
