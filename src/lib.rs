@@ -35,6 +35,7 @@
 //! clock), [`volcano_plume`] (eruption columns), [`volcano_atmosphere`] (layered atmosphere),
 //! [`volcano_coupling`] (plume ↔ atmosphere, ash), [`volcano_lava`] (pahoehoe lava),
 //! `volcano_render` (feature `render`, default) and `volcano_egui` (feature `debug`).
+#![forbid(unsafe_code)]
 
 pub mod assets;
 pub mod lava_scene;

@@ -4,6 +4,8 @@
 mod assets;
 #[cfg(feature = "bsn")]
 mod bsn;
+mod fixed_rates;
+mod fuzz;
 mod headless_sim;
 mod host_app;
 mod module_cycles;

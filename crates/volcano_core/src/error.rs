@@ -30,6 +30,14 @@ pub enum ConfigError {
         /// The system's message.
         message: String,
     },
+    /// A file was read but what it holds was rejected: the file, and the error inside it.
+    #[error("{path}: {source}")]
+    InFile {
+        /// Path of the file.
+        path: String,
+        /// What was wrong in it.
+        source: Box<ConfigError>,
+    },
     /// A name (scene, preset) is unknown.
     #[error("unknown {kind} `{name}`; known: {known}")]
     UnknownName {
@@ -40,6 +48,17 @@ pub enum ConfigError {
         /// Comma-separated list of known names.
         known: String,
     },
+}
+
+impl ConfigError {
+    /// This error as found in the file at `path` (an I/O error or one already placed in a file
+    /// names its file already and is returned as it is).
+    pub fn in_file(self, path: &std::path::Path) -> Self {
+        match self {
+            e @ (ConfigError::Io { .. } | ConfigError::InFile { .. }) => e,
+            e => ConfigError::InFile { path: path.display().to_string(), source: Box::new(e) },
+        }
+    }
 }
 
 /// Checks that `value` is finite and strictly positive.

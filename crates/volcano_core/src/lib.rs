@@ -9,6 +9,7 @@
 //! the ECS glue ([`clock`], [`volcano`], [`plugin`]). [`parallel`] is the deterministic
 //! row-band helper every domain runs its loops with, on Bevy's task pools; [`interpolation`]
 //! shows moving entities between their last two base ticks.
+#![forbid(unsafe_code)]
 
 pub mod atmosphere;
 pub mod clock;

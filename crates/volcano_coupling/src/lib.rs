@@ -13,6 +13,7 @@
 //!
 //! [`model`] holds the transfers as plain functions over plain data; [`plugin`] gathers the
 //! slices and layers, calls them and writes back (docs/ARCHITECTURE.md §2).
+#![forbid(unsafe_code)]
 
 pub mod model;
 pub mod plugin;

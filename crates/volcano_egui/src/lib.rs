@@ -15,6 +15,7 @@
 //! [`EguiOverlayCameraPlugin`] (opt-in, used by the examples) draws egui on its own LDR overlay
 //! camera, so the scene camera can be HDR with bloom: bevy_egui 0.40 draws nothing on an HDR
 //! camera.
+#![forbid(unsafe_code)]
 
 mod atmosphere;
 mod eruption;

@@ -6,9 +6,11 @@
 //! (`model::domain::step`) advances one volcano's whole plume by one step. [`plugin`] runs it in
 //! the `PlumeStep` domain ([`PlumeSystems`]): add an [`Eruption`] next to a `Volcano` and
 //! slices, s1 spheres and the umbrella appear as entities.
+#![forbid(unsafe_code)]
 
 pub mod caps;
 pub mod components;
+mod faults;
 pub mod ground;
 pub mod model;
 pub mod plugin;

@@ -295,7 +295,7 @@ fn step_flows(
         let (volcano, _, _, budget, emission, _) = &mut volcanoes[v];
         let volcano = *volcano;
         budget.set_if_neq(flows.budget);
-        crate::plugin::faults::report(&mut faults, volcano, SimDomain::Pyroclastic, &out.non_finite);
+        crate::faults::report(&mut faults, volcano, SimDomain::Pyroclastic, &out.non_finite);
         if emission.emitted != flows.emitted {
             emission.emitted = flows.emitted;
         }

@@ -25,6 +25,7 @@
 //!     })
 //!     .run();
 //! ```
+#![forbid(unsafe_code)]
 
 pub mod ash_fall;
 mod build_job;

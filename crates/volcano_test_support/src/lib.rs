@@ -1,6 +1,7 @@
 //! What the workspace's render tests share: a headless app that captures one frame
 //! ([`capture_app`], [`run_and_read`]), PNG read-back and frame statistics. Not published: the
 //! crates' integration tests take it as a dev-dependency.
+#![forbid(unsafe_code)]
 
 mod png_read;
 

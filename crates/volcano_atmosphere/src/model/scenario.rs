@@ -269,11 +269,11 @@ impl WeatherScenario {
         Ok(s)
     }
 
-    /// Reads, parses and validates a RON scenario file.
+    /// Reads, parses and validates a RON scenario file; an error names the file.
     pub fn load(path: &std::path::Path) -> Result<Self, ConfigError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| ConfigError::Io { path: path.display().to_string(), message: e.to_string() })?;
-        Self::from_ron(&text)
+        Self::from_ron(&text).map_err(|e| e.in_file(path))
     }
 
     /// A built-in scenario by name.

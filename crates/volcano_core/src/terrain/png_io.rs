@@ -66,13 +66,24 @@ pub fn cover_from_relief(
     Grid2::from_vec(heights.nx(), heights.ny(), heights.cell(), heights.origin(), data)
 }
 
+/// The largest heightmap side a PNG may declare (a 16-bit 8192² map is 128 MiB).
+pub const MAX_HEIGHTMAP_SIDE: usize = 8192;
+
 impl Terrain {
     /// Decodes a greyscale PNG (16- or 8-bit) into a terrain centred on the origin. Land
     /// cover is water below sea level, ground elsewhere.
     pub fn from_png_bytes(bytes: &[u8], scale: HeightmapScale) -> Result<Terrain, ConfigError> {
         scale.validate()?;
-        let decoder = png::Decoder::new(Cursor::new(bytes));
+        let limits = png::Limits { bytes: MAX_HEIGHTMAP_SIDE * MAX_HEIGHTMAP_SIDE * 2 };
+        let decoder = png::Decoder::new_with_limits(Cursor::new(bytes), limits);
         let mut reader = decoder.read_info().map_err(img_err)?;
+        // The declared size is checked before anything is allocated for it.
+        let (w, h) = (reader.info().width as usize, reader.info().height as usize);
+        if w > MAX_HEIGHTMAP_SIDE || h > MAX_HEIGHTMAP_SIDE {
+            return Err(img_err(format!(
+                "heightmap {w}×{h} is larger than {MAX_HEIGHTMAP_SIDE}×{MAX_HEIGHTMAP_SIDE}"
+            )));
+        }
         let size = reader.output_buffer_size().ok_or_else(|| img_err("image too large"))?;
         let mut buf = vec![0u8; size];
         let info = reader.next_frame(&mut buf).map_err(img_err)?;
@@ -121,12 +132,12 @@ impl Terrain {
         Terrain::new(self.heights().clone(), cover, self.sea_level())
     }
 
-    /// Reads a greyscale PNG heightmap from a file.
+    /// Reads a greyscale PNG heightmap from a file; an error names the file.
     pub fn from_png_file(path: impl AsRef<Path>, scale: HeightmapScale) -> Result<Terrain, ConfigError> {
         let path = path.as_ref();
         let bytes = std::fs::read(path)
             .map_err(|e| ConfigError::Io { path: path.display().to_string(), message: e.to_string() })?;
-        Self::from_png_bytes(&bytes, scale)
+        Self::from_png_bytes(&bytes, scale).map_err(|e| e.in_file(path))
     }
 
     /// Encodes the heights as a 16-bit greyscale PNG with `value = round((h − base) / mpu)`,

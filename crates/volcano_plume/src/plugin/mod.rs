@@ -12,7 +12,6 @@
 //! its schedule (`adopt_secondary_columns`), and s1 transforms follow their slices once per
 //! base tick (`sync_sphere_transforms`, `SimSystems::End`).
 
-pub(crate) mod faults;
 mod step;
 mod step_length;
 

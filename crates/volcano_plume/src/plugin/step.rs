@@ -19,9 +19,10 @@ use bevy::prelude::*;
 use volcano_core::clock::crossings;
 use volcano_core::prelude::*;
 
-use super::{faults, orientation, spawn_with_ring};
+use super::{orientation, spawn_with_ring};
 use crate::caps::{PlumeCapReport, PlumeCaps, checked};
 use crate::components::*;
+use crate::faults;
 use crate::model::domain::{
     self, AshBooks, CloudSphere, Emission, Emitter, LiveSlice, Outcome, PlumeAir, PlumeInputs, PlumeReport,
     PlumeState, RingSource, RingSphere, SliceFate, SphereFate, StepCaps,

@@ -93,6 +93,18 @@ unsafe impl Sync for SharedRows {}
 /// the black rows at the ends of the bands (whose red neighbours belong to another band) are
 /// updated in a second parallel pass after every red row. The result does not depend on the
 /// thread count.
+/// The kernels' precondition on a level of `n × n` cells, checked in every build because the
+/// unsafe loops rely on it: `n` is a power of two (the torus wraps with the mask `n − 1`), so
+/// even (a cell's four neighbours have the other colour, also across the seam, which is what
+/// lets the bands relax one colour concurrently) and, from 4 up, a whole number of the AVX2
+/// loops' 4-wide lanes.
+fn check_rows(n: usize) {
+    assert!(
+        n.is_power_of_two() && n >= 4,
+        "multigrid rows must be a power of two of at least 4 cells, got {n}"
+    );
+}
+
 pub(super) fn rb_gauss_seidel(n: usize, h2: f64, faces: Option<&Faces>, phi: &mut [f64], rhs: &[f64]) {
     rb_gauss_seidel_on(n, h2, faces, phi, rhs, avx2::available());
 }
@@ -108,6 +120,7 @@ pub(super) fn rb_gauss_seidel_on(
     avx2: bool,
 ) {
     assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    check_rows(n);
     with_stencil!(faces, |s| rb_gauss_seidel_with(n, h2, s, faces, phi, rhs, avx2))
 }
 
@@ -233,6 +246,7 @@ pub(super) fn residual_sum_sq_on(
     avx2: bool,
 ) -> f64 {
     assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    check_rows(n);
     with_stencil!(faces, |s| residual_sum_sq_with(n, h2, s, faces, phi, rhs, avx2))
 }
 
@@ -249,9 +263,8 @@ fn residual_sum_sq_with<S: Stencil>(
     assert_eq!(rhs.len(), n * n);
     let mask = n - 1;
     let inv = 1.0 / h2;
-    // Four running sums (cells i mod 4; n is a power of two ≥ 16), so the additions do not
-    // wait on each other.
-    debug_assert!(n.is_multiple_of(4));
+    // Four running sums (cells i mod 4; n is a power of two ≥ 4, checked), so the additions
+    // do not wait on each other.
     // Cells `skip_from..skip_to` of each row are summed by the AVX2 loop (the same lanes in
     // the same order).
     let (skip_from, skip_to) = if avx2 { (4, avx2::interior_end(n)) } else { (4, 4) };
@@ -318,6 +331,7 @@ pub(super) fn restrict_residual_on(
     avx2: bool,
 ) {
     assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    check_rows(n);
     assert_eq!(phi.len(), n * n);
     assert_eq!(rhs.len(), n * n);
     assert_eq!(coarse.len(), n * n / 4);
@@ -381,6 +395,7 @@ pub(super) fn prolong_add(m: usize, coarse: &[f64], faces: Option<&Faces>, fine:
 /// the same bits either way.
 pub(super) fn prolong_add_on(m: usize, coarse: &[f64], faces: Option<&Faces>, fine: &mut [f64], avx2: bool) {
     assert!(!avx2 || avx2::cpu_has_avx2(), "AVX2 loops on a CPU without AVX2");
+    check_rows(m);
     let n = 2 * m;
     let mask = m - 1;
     // Fine cells `skip_from..skip_to` of each row are computed by the AVX2 loop.
@@ -419,5 +434,19 @@ pub(super) fn prolong_add_on(m: usize, coarse: &[f64], faces: Option<&Faces>, fi
         parallel::for_each_row(fine, n, |j, row| row_pass((j, row)));
     } else {
         fine.chunks_mut(n).enumerate().for_each(row_pass);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A level whose rows are not a power of two would break the red-black parity the unsafe
+    /// loops' race freedom rests on: refused in every build, before any of them runs.
+    #[test]
+    #[should_panic(expected = "power of two of at least 4 cells, got 12")]
+    fn rows_that_are_not_a_power_of_two_are_refused() {
+        let (mut phi, rhs) = (vec![0.0; 144], vec![0.0; 144]);
+        rb_gauss_seidel_on(12, 1.0, None, &mut phi, &rhs, false);
     }
 }
