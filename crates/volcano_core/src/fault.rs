@@ -76,3 +76,81 @@ impl std::fmt::Display for SimFault {
 pub fn bookable(x: f64) -> f64 {
     if x.is_finite() && x > 0.0 { x } else { 0.0 }
 }
+
+/// Whether every value is finite and at least `lo`: the guards' fast path, one pass at memory
+/// speed. Eight independent lanes sum `x · 0` (0 for a finite `x`, NaN for NaN or ±∞) and take
+/// the minimum, which the compiler turns into vector code (a single running sum could not be
+/// reordered); only a slice that fails is searched cell by cell.
+pub fn finite_and_at_least<T: Copy + Into<f64>>(xs: &[T], lo: f64) -> bool {
+    let mut zero = [0.0f64; 8];
+    let mut min = [f64::INFINITY; 8];
+    let chunks = xs.chunks_exact(8);
+    let rest = chunks.remainder();
+    if lo == f64::NEG_INFINITY {
+        for c in chunks {
+            for l in 0..8 {
+                let x: f64 = c[l].into();
+                zero[l] += x * 0.0;
+            }
+        }
+    } else {
+        for c in chunks {
+            for l in 0..8 {
+                let x: f64 = c[l].into();
+                zero[l] += x * 0.0;
+                // `minpd`'s own semantics (NaN is caught by the sum).
+                min[l] = if x < min[l] { x } else { min[l] };
+            }
+        }
+    }
+    let lanes_ok = zero.iter().sum::<f64>() == 0.0 && min.iter().all(|&m| m >= lo);
+    lanes_ok
+        && rest.iter().all(|&x| {
+            let x: f64 = x.into();
+            x.is_finite() && x >= lo
+        })
+}
+
+/// Whether `f` is finite on every item (`f` sums an item's numbers: NaN or ±∞ if any is):
+/// [`finite_and_at_least`]'s lanes over a slice of structs, without a copy.
+pub fn finite_by<T>(items: &[T], f: impl Fn(&T) -> f64) -> bool {
+    let mut zero = [0.0f64; 8];
+    let chunks = items.chunks_exact(8);
+    let rest = chunks.remainder();
+    for c in chunks {
+        for l in 0..8 {
+            zero[l] += f(&c[l]) * 0.0;
+        }
+    }
+    zero.iter().sum::<f64>() == 0.0 && rest.iter().all(|x| f(x).is_finite())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_fast_path_finds_every_kind_of_bad_value_in_every_lane() {
+        for n in [0, 1, 7, 8, 9, 64, 67] {
+            let good: Vec<f64> = (0..n).map(|k| k as f64 * 0.5 - 1.0).collect();
+            assert!(finite_and_at_least(&good, -1.0), "{n}");
+            for k in 0..n {
+                for bad in [f64::NAN, f64::INFINITY, f64::NEG_INFINITY, -2.0] {
+                    let mut v = good.clone();
+                    v[k] = bad;
+                    assert!(!finite_and_at_least(&v, -1.0), "{n} values, {bad} at {k}");
+                }
+            }
+        }
+        let f: Vec<f32> = vec![1.0, 2.0, f32::NAN, 3.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        assert!(!finite_and_at_least(&f, f64::NEG_INFINITY));
+        assert!(finite_and_at_least(&[1.0f32; 9], 0.5));
+        let pairs: Vec<(f64, f64)> = (0..19).map(|k| (k as f64, -(k as f64))).collect();
+        assert!(finite_by(&pairs, |p| p.0 + p.1));
+        for k in 0..19 {
+            let mut bad = pairs.clone();
+            bad[k].1 = f64::NAN;
+            assert!(!finite_by(&bad, |p| p.0 + p.1), "NaN at {k}");
+        }
+    }
+}

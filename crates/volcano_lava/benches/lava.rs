@@ -92,6 +92,19 @@ fn benches(c: &mut Criterion) {
     g.bench_function("folds_2000_particles", |b| {
         b.iter(|| black_box(update_folds(&mut folds, &f, &s, &p, &fp, 0.02)));
     });
+    // The guard's healthy pass (every step, before it): the carried grids, samples and folds.
+    let mut b0 = volcano_lava::model::breakout::BreakoutState::new(N * N);
+    g.bench_function("guard_healthy", |b| {
+        b.iter(|| {
+            let layers = volcano_lava::LayersMut {
+                flow: &mut f,
+                surface: &mut s,
+                folds: &mut folds,
+                breakouts: &mut b0,
+            };
+            black_box(volcano_lava::model::guard::repair(layers, 300.0))
+        })
+    });
     // Bandwidth reference: read ground, h, T and write h, T (the bytes a substep must touch).
     let n = N * N;
     let (ground, mut h, mut t) = (vec![0.1f64; n], vec![0.5f64; n], vec![1400.0f64; n]);

@@ -5,6 +5,7 @@
 //! every build.
 
 use serde::Serialize;
+use volcano_core::fault::finite_and_at_least;
 
 use super::fields::{AtmosphereState, LayerFields};
 
@@ -52,6 +53,12 @@ pub fn repair(state: &mut AtmosphereState) -> AtmosphereRepair {
     }
     let t_ground = state.layers.first().map_or(288.0, |l| l.t_ref);
     let g = &mut state.ground;
+    if finite_and_at_least(g.t.data(), f64::MIN_POSITIVE)
+        && finite_and_at_least(g.water.data(), 0.0)
+        && finite_and_at_least(g.ash.data(), 0.0)
+    {
+        return out;
+    }
     let n = g.t.data().len().min(g.water.data().len()).min(g.ash.data().len());
     for k in 0..n {
         let (t, water, ash) = (g.t.data()[k], g.water.data()[k], g.ash.data()[k]);
@@ -70,8 +77,22 @@ pub fn repair(state: &mut AtmosphereState) -> AtmosphereRepair {
     out
 }
 
+/// The fast path for one layer (see [`finite_and_at_least`]).
+fn layer_healthy(l: &LayerFields) -> bool {
+    let any = f64::NEG_INFINITY;
+    finite_and_at_least(l.t.data(), f64::MIN_POSITIVE)
+        && [l.u.data(), l.v.data(), l.c.data(), l.up.data(), l.d.data()]
+            .iter()
+            .all(|g| finite_and_at_least(g, any))
+        && finite_and_at_least(l.p.data(), any)
+        && [l.h.data(), l.w.data(), l.ash.data()].iter().all(|g| finite_and_at_least(g, 0.0))
+}
+
 fn repair_layer(l: &mut LayerFields, dx2: f64) -> AtmosphereRepair {
     let mut out = AtmosphereRepair::default();
+    if layer_healthy(l) {
+        return out;
+    }
     let n = l.t.data().len();
     let fine32 = |x: f32| x.is_finite();
     let amount = |x: f64| x.is_finite() && x >= 0.0;

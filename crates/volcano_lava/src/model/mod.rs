@@ -46,7 +46,7 @@ pub struct DomainReport {
     pub flow: LavaStepReport,
     /// Where the crust tore and lava broke out this step.
     pub breakouts: Vec<Breakout>,
-    /// What the guard repaired before and after the step ([`guard::repair`]).
+    /// What the guard repaired before the step ([`guard::repair`]).
     pub repaired: guard::LavaRepair,
 }
 
@@ -54,7 +54,7 @@ pub struct DomainReport {
 /// so the CLI) call (docs/ARCHITECTURE.md §2.1): the flow advances and cools under the
 /// crust ([`step_under_crust`]), the crust grows ([`update_surface`]), a crust that drags too
 /// much tears ([`update_breakouts`]), the folds move ([`update_folds`]) and thicken the crust
-/// under them ([`thicken_crust_under_folds`]); [`guard::repair`] runs before and after.
+/// under them ([`thicken_crust_under_folds`]); [`guard::repair`] runs first.
 /// Parameters must have passed their `validate`.
 pub fn step_layers(
     layers: LayersMut<'_>,
@@ -64,16 +64,16 @@ pub fn step_layers(
     dt: f64,
 ) -> DomainReport {
     let LayersMut { flow, surface, folds, breakouts } = layers;
-    // The guard runs before the step (state edited since, e.g. through reflection, never
-    // reaches the model's clamps) and after it (nothing non-finite reaches the readers).
+    // The guard runs once, before the step: state edited since the last step (through
+    // reflection, a tool) never reaches the model's clamps, and what a step produced is found
+    // at the start of the next (one pass per step: the lava runs at 50 Hz on the main thread).
     let air = params.air_temperature;
-    let mut repaired = guard::repair(LayersMut { flow, surface, folds, breakouts }, air);
+    let repaired = guard::repair(LayersMut { flow, surface, folds, breakouts }, air);
     let report = step_under_crust(flow, params, sources, &surface.crust, dt);
     update_surface(surface, flow, params, dt);
     let tears = update_breakouts(breakouts, flow, surface, params);
     update_folds(folds, flow, surface, params, fold_params, dt);
     thicken_crust_under_folds(folds, flow, surface, params, fold_params);
-    repaired += guard::repair(LayersMut { flow, surface, folds, breakouts }, air);
     DomainReport { flow: report, breakouts: tears, repaired }
 }
 
