@@ -13,4 +13,5 @@ mod placement;
 mod readme;
 mod reflect;
 mod save_load;
+mod thread_counts;
 mod view_boundary;
