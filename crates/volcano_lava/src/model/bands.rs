@@ -5,6 +5,8 @@
 //! in band order, so reductions (sums, maxima) and therefore the simulation are bit-identical
 //! on any machine. The row loops run in the copy that [`simd`] picks.
 
+use std::sync::atomic::{AtomicU8, Ordering};
+
 use volcano_core::parallel::Bands;
 
 /// Rows per band: 512 rows → 16 bands, enough to balance two to eight cores (the default bands
@@ -18,7 +20,8 @@ pub fn band_range(b: usize, ny: usize) -> std::ops::Range<usize> {
 
 /// Which compiled copy of the row loops (`flow_rows`, `surface_rows`) runs; all give the
 /// same bits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+#[repr(u8)]
 pub enum Simd {
     /// The baseline copy (SSE2 on x86-64).
     Baseline,
@@ -29,8 +32,19 @@ pub enum Simd {
     Avx512,
 }
 
-/// The best copy of the row loops this CPU runs (checked at run time).
+/// The best copy of the row loops this CPU runs (checked at run time), at most the
+/// [`limit_simd`] set.
 pub fn simd() -> Simd {
+    let detected = detected();
+    match SIMD_LIMIT.load(Ordering::Relaxed) {
+        0 => Simd::Baseline,
+        1 => detected.min(Simd::Avx2),
+        _ => detected,
+    }
+}
+
+/// The best copy this CPU can run.
+fn detected() -> Simd {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx512f") {
@@ -41,6 +55,17 @@ pub fn simd() -> Simd {
         }
     }
     Simd::Baseline
+}
+
+/// The highest copy [`simd`] may pick, process-wide (0 baseline, 1 AVX2, 2 AVX-512F).
+static SIMD_LIMIT: AtomicU8 = AtomicU8::new(2);
+
+/// Limits the row loops of every lava field in the process to `limit` or below (the CPU's own
+/// support still applies: a limit above it changes nothing). All copies give the same bits, so
+/// this only changes the speed; it lets a test or a benchmark run the baseline on a CPU with
+/// AVX2 or AVX-512.
+pub fn limit_simd(limit: Simd) {
+    SIMD_LIMIT.store(limit as u8, Ordering::Relaxed);
 }
 
 /// Defines a row-loop entry point `$name` with the given arguments and a trailing

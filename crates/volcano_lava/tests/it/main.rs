@@ -11,3 +11,4 @@ mod mobility_cap;
 mod placement;
 mod plugin;
 mod robustness;
+mod simd;
