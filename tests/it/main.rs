@@ -4,6 +4,7 @@
 mod assets;
 #[cfg(feature = "bsn")]
 mod bsn;
+mod despawns;
 mod fixed_rates;
 mod fuzz;
 mod headless_sim;
