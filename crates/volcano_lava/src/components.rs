@@ -104,6 +104,9 @@ pub struct LavaState {
     pub last_substeps: u32,
     /// Whether the last step hit the substep cap (the flow was slowed to stay stable).
     pub mobility_capped: bool,
+    /// Whether the folds are at [`FoldParams::max_particles`] after the last step (no fold
+    /// is created or extended until particles are buried; logged once per field).
+    pub folds_at_cap: bool,
     /// The terrain the field was built on, into which frozen lava is written back (none when
     /// the field was built on flat ground without a `Terrain`).
     #[entities]

@@ -141,6 +141,7 @@ fn build_fields(mut commands: Commands, terrains: Query<(Entity, &Terrain)>, mut
                         flow,
                         last_substeps: 0,
                         mobility_capped: false,
+                        folds_at_cap: false,
                         imprint,
                     },
                     LavaFieldStatus::Ok,
@@ -218,7 +219,7 @@ fn step_fields(
         }
         let srcs: Vec<Source> = feeds.iter().filter(|(f, _)| *f == entity).map(|(_, s)| s.clone()).collect();
         let state = &mut *state;
-        let DomainReport { flow: report, breakouts: tears, repaired } =
+        let DomainReport { flow: report, breakouts: tears, repaired, folds_at_cap } =
             step_layers(state.layers_mut(), &field.params, &field.folds, &srcs, dt);
         if repaired.any() {
             let fault = SimFault {
@@ -237,6 +238,14 @@ fn step_fields(
         }
         state.last_substeps = report.substeps;
         state.mobility_capped = report.mobility_capped;
+        if folds_at_cap && !state.folds_at_cap {
+            warn!(
+                "lava field {entity}: {} fold particles, FoldParams::max_particles; no new folds until \
+                 some are buried (LavaState::folds_at_cap)",
+                state.folds.particles.len()
+            );
+        }
+        state.folds_at_cap = folds_at_cap;
     }
 }
 

@@ -48,6 +48,8 @@ pub struct DomainReport {
     pub breakouts: Vec<Breakout>,
     /// What the guard repaired before the step ([`guard::repair`]).
     pub repaired: guard::LavaRepair,
+    /// The fold particles are at [`FoldParams::max_particles`] (a limiter: no new folds).
+    pub folds_at_cap: bool,
 }
 
 /// One domain step of a lava field, the one sequence the plugin and the scenario runner (and
@@ -72,9 +74,9 @@ pub fn step_layers(
     let report = step_under_crust(flow, params, sources, &surface.crust, dt);
     update_surface(surface, flow, params, dt);
     let tears = update_breakouts(breakouts, flow, surface, params);
-    update_folds(folds, flow, surface, params, fold_params, dt);
+    let folds_at_cap = update_folds(folds, flow, surface, params, fold_params, dt).at_cap;
     thicken_crust_under_folds(folds, flow, surface, params, fold_params);
-    DomainReport { flow: report, breakouts: tears, repaired }
+    DomainReport { flow: report, breakouts: tears, repaired, folds_at_cap }
 }
 
 /// What one [`step`] did.

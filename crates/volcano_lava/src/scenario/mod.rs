@@ -178,6 +178,8 @@ pub struct LavaSummary {
     pub faulted: u64,
     /// Liquid lava removed with them (m³).
     pub faulted_volume_m3: f64,
+    /// Steps that ended with the folds at `FoldParams::max_particles` (no new folds).
+    pub fold_cap_steps: u64,
     /// Liquid lava on the grid (m³).
     pub lava_volume_m3: f64,
     /// Emitted by sources (m³).
@@ -244,6 +246,7 @@ pub struct LavaScenario {
     max_substeps: u32,
     capped: u64,
     repaired: crate::model::guard::LavaRepair,
+    fold_cap_steps: u64,
 }
 
 impl LavaScenario {
@@ -301,6 +304,7 @@ impl LavaScenario {
             max_substeps: 0,
             capped: 0,
             repaired: Default::default(),
+            fold_cap_steps: 0,
         })
     }
 
@@ -313,10 +317,11 @@ impl LavaScenario {
             folds: &mut self.folds,
             breakouts: &mut self.breakouts,
         };
-        let DomainReport { flow: r, breakouts: tears, repaired } =
+        let DomainReport { flow: r, breakouts: tears, repaired, folds_at_cap } =
             step_layers(layers, &self.params, &self.fold_params, &self.sources, self.config.dt);
         self.breakout_log.extend(tears);
         self.repaired += repaired;
+        self.fold_cap_steps += u64::from(folds_at_cap);
         self.steps += 1;
         self.substeps += r.substeps as u64;
         self.max_substeps = self.max_substeps.max(r.substeps);
@@ -405,6 +410,7 @@ impl LavaScenario {
             mobility_capped_steps: self.capped,
             faulted: self.repaired.cells + self.repaired.particles,
             faulted_volume_m3: b.faulted,
+            fold_cap_steps: self.fold_cap_steps,
             lava_volume_m3: f.lava_volume(),
             source_volume_m3: b.sources,
             initial_volume_m3: b.initial,

@@ -18,6 +18,7 @@ fn folds_pile_up_in_front_of_the_obstacle_not_on_a_free_slope() {
     let n = s.folds.particle_count();
     println!("obstacle: {} folds, {n} particles, max crust {:.4} m", sum.folds.unwrap(), sum.max_crust_m);
     assert!(sum.folds.unwrap() >= 3, "{sum:?}");
+    assert_eq!(sum.fold_cap_steps, 0, "the default cap never acts here");
     // The obstacle occupies 60–66 % of the length (y from 38.1 m): particles sit upstream of
     // it, most of them within 12 m of its face.
     let origin = s.field.ground().origin().y as f64;
@@ -172,4 +173,18 @@ fn a_fold_thickens_and_stiffens_the_crust_under_it() {
     assert!((ca - (0.02f64.powi(2) + 4.0 * kappa * 0.04).sqrt()).abs() < 1e-9, "away: {ca} m");
     assert_eq!(crust_drag_factor(cu, rigid), 0.25, "rigid under the fold");
     assert!(crust_drag_factor(ca, rigid) > 0.4);
+}
+
+/// The fold cap holds the particle count and says so: with `max_particles` = 30 the obstacle's
+/// folds stop growing at 30 particles and the steps at the cap are counted.
+#[test]
+fn the_fold_particle_cap_holds_and_is_reported() {
+    let mut c = ScenarioConfig::new(ScenarioKind::Obstacle);
+    c.seconds = 200.0;
+    let mut s = LavaScenario::build(&c).unwrap();
+    s.fold_params.max_particles = 30;
+    s.run_until(c.seconds);
+    let sum = s.summary();
+    assert!(s.folds.particle_count() <= 30, "{} particles", s.folds.particle_count());
+    assert!(sum.fold_cap_steps > 0, "{sum:?}");
 }

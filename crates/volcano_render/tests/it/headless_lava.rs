@@ -45,6 +45,7 @@ fn render(
         breakouts: BreakoutState::new(32 * 64),
         last_substeps: 0,
         mobility_capped: false,
+        folds_at_cap: false,
     };
     let field = LavaField::new(placement, LavaParams::default()).unwrap();
     // One app after the other in this process: only the first may set the global logger.

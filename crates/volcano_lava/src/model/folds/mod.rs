@@ -173,6 +173,9 @@ pub struct FoldReport {
     pub collisions: u32,
     /// Particles overridden and removed.
     pub buried: u32,
+    /// The system holds [`FoldParams::max_particles`]: no fold is created or extended until
+    /// particles are buried.
+    pub at_cap: bool,
 }
 
 /// All folds of one field.
@@ -249,6 +252,7 @@ pub fn update_folds(
         report.new_folds = f;
         report.new_particles = p;
     }
+    report.at_cap = sys.particles.len() >= params.max_particles;
     report
 }
 
