@@ -62,10 +62,9 @@ pub fn repair(state: &mut AtmosphereState) -> AtmosphereRepair {
     let n = g.t.data().len().min(g.water.data().len()).min(g.ash.data().len());
     for k in 0..n {
         let (t, water, ash) = (g.t.data()[k], g.water.data()[k], g.ash.data()[k]);
-        let bad = !(t.is_finite() && t > 0.0)
-            || !(water.is_finite() && water >= 0.0)
-            || !(ash.is_finite() && ash >= 0.0);
-        if bad {
+        let ok =
+            t.is_finite() && t > 0.0 && water.is_finite() && water >= 0.0 && ash.is_finite() && ash >= 0.0;
+        if !ok {
             out.cells += 1;
             out.lost_water_g += known(water) * dx2;
             out.lost_ash_g += known(ash) * dx2;
@@ -94,21 +93,15 @@ fn repair_layer(l: &mut LayerFields, dx2: f64) -> AtmosphereRepair {
         return out;
     }
     let n = l.t.data().len();
-    let fine32 = |x: f32| x.is_finite();
     let amount = |x: f64| x.is_finite() && x >= 0.0;
     for k in 0..n {
         let t = l.t.data()[k];
-        let bad = !(t.is_finite() && t > 0.0)
-            || !fine32(l.u.data()[k])
-            || !fine32(l.v.data()[k])
-            || !fine32(l.c.data()[k])
-            || !fine32(l.up.data()[k])
-            || !fine32(l.d.data()[k])
-            || !l.p.data()[k].is_finite()
-            || !amount(l.h.data()[k])
-            || !amount(l.w.data()[k])
-            || !amount(l.ash.data()[k]);
-        if !bad {
+        let ok = t.is_finite()
+            && t > 0.0
+            && [&l.u, &l.v, &l.c, &l.up, &l.d].iter().all(|g| g.data()[k].is_finite())
+            && l.p.data()[k].is_finite()
+            && [&l.h, &l.w, &l.ash].iter().all(|g| amount(g.data()[k]));
+        if ok {
             continue;
         }
         out.cells += 1;

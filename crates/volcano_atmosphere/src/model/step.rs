@@ -137,10 +137,9 @@ pub fn step(
     if !work.matches(state) {
         *work = Workspace::new(state)?;
     }
-    let mut report = WeatherStepReport::default();
     // The guard runs before the step (state edited since, e.g. painted or reflected, never
     // reaches the model's clamps) and after it (nothing non-finite reaches the readers).
-    report.repaired = guard::repair(state);
+    let mut report = WeatherStepReport { repaired: guard::repair(state), ..Default::default() };
 
     let clock = std::time::Instant::now();
     let lap = |i: usize, r: &mut WeatherStepReport| r.phase_ms[i] = clock.elapsed().as_secs_f64() * 1e3;

@@ -184,8 +184,8 @@ fn a_non_finite_umbrella_sphere_is_removed_and_its_ash_booked_as_lost() {
         ash,
         ash_pending: 2.0,
     };
-    let mut state = PlumeState::default();
-    state.umbrella = vec![sphere(0, 5.0), sphere(1, 7.0), sphere(2, f64::NAN), sphere(3, 1.0)];
+    let umbrella = vec![sphere(0, 5.0), sphere(1, 7.0), sphere(2, f64::NAN), sphere(3, 1.0)];
+    let mut state = PlumeState { umbrella, ..Default::default() };
     state.umbrella[1].sphere.d = f64::INFINITY;
     state.umbrella[3].age = f64::NAN;
     let mut no_emission = inputs(&p, &spheres, &rng);
