@@ -13,6 +13,7 @@ mod module_cycles;
 mod placement;
 mod readme;
 mod reflect;
+mod reflect_fuzz;
 mod save_load;
 mod thread_counts;
 mod view_boundary;

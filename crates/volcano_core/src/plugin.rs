@@ -59,7 +59,5 @@ impl Plugin for VolcanoCorePlugin {
                     .in_set(SimSystems::Begin)
                     .after(begin_tick),
             );
-        #[cfg(debug_assertions)]
-        app.add_systems(bevy::app::PostUpdate, volcano::assert_finite_volcanoes);
     }
 }

@@ -226,7 +226,19 @@ pub(crate) fn snap_vents(
         if !(terrain_changed || volcano.is_changed() || transform.is_changed() || vent.is_none()) {
             continue;
         }
+        // An edit that left the volcano invalid (through reflection, an inspector) keeps its
+        // last vent until it is fixed; the eruption goes on from there.
         let p = transform.translation;
+        if let Err(e) = volcano.validate() {
+            bevy::log::warn!("volcano {entity}: {e}; its vent stays where it was until the value is fixed");
+            continue;
+        }
+        if !p.is_finite() {
+            bevy::log::warn!(
+                "volcano {entity}: its translation {p} is not finite; its vent stays where it was"
+            );
+            continue;
+        }
         let under = terrains.iter().find(|(_, t)| t.contains(p.x, p.z));
         match (under.map(|(e, _)| e), on.map(|o| o.0)) {
             (Some(t), Some(o)) if t == o => {}
@@ -247,15 +259,6 @@ pub(crate) fn snap_vents(
         if vent.is_none_or(|v| v.0 != vent_pos) {
             commands.entity(entity).insert(VentPosition(vent_pos));
         }
-    }
-}
-
-/// Debug builds: every volcano's parameters and vent are finite and valid.
-#[cfg(debug_assertions)]
-pub(crate) fn assert_finite_volcanoes(q: Query<(&Volcano, Option<&VentPosition>)>) {
-    for (v, vent) in &q {
-        debug_assert!(v.validate().is_ok(), "invalid volcano state: {:?}", v.validate());
-        debug_assert!(vent.is_none_or(|p| p.0.is_finite()), "non-finite vent position");
     }
 }
 

@@ -378,6 +378,10 @@ fn update_vent_markers(
 ) {
     let Some(assets) = assets else { return };
     for (entity, volcano, vent, frame, children) in &volcanoes {
+        // An invalid radius (a reflected edit) keeps the marker as it was.
+        if volcano.validate().is_err() || !vent.0.is_finite() {
+            continue;
+        }
         let r = volcano.vent_radius();
         let h = (0.6 * r).max(10.0);
         // Local offset of the vent in the volcano's frame (normally zero: the core plugin snaps

@@ -344,6 +344,19 @@ impl AtmosphereState {
         self.day_of_year + ((self.start_hour + self.time_s / 3600.0) / 24.0).floor()
     }
 
+    /// Checks the clock and books: the time since the start and the water precipitated finite
+    /// and non-negative, the start hour in [0, 24], the day of the year in [1, 366], the
+    /// latitude in [−90, 90] (the sun's position, hence every cell's heating, comes from them).
+    pub fn check_clock(&self) -> Result<(), ConfigError> {
+        use volcano_core::error::in_range;
+        in_range("time_s", self.time_s, 0.0, f64::MAX)?;
+        in_range("start_hour", self.start_hour, 0.0, 24.0)?;
+        in_range("day_of_year", self.day_of_year, 1.0, 366.0)?;
+        in_range("latitude_deg", self.latitude_deg, -90.0, 90.0)?;
+        in_range("precipitated", self.precipitated, 0.0, f64::MAX)?;
+        Ok(())
+    }
+
     /// Checks that every layer and ground grid has the state's `n × n` shape and that there
     /// are 2–255 layers (a state assembled by hand could otherwise make a step index out of
     /// range).

@@ -134,6 +134,7 @@ pub fn step(
     check_dt(dt)?;
     params.validate()?;
     state.check_shape()?;
+    state.check_clock()?;
     if !work.matches(state) {
         *work = Workspace::new(state)?;
     }

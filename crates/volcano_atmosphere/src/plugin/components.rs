@@ -51,8 +51,9 @@ pub struct Atmosphere {
 impl Atmosphere {
     /// A model state with this atmosphere's grid, clock and books, no layers and a default
     /// ground: the shell the weather snapshot and the cloud renderer fill with their layers.
+    /// An error names a field out of range (an edit through reflection).
     pub fn state_shell(&self) -> Result<AtmosphereState, ConfigError> {
-        Ok(AtmosphereState {
+        let shell = AtmosphereState {
             grid: GridSpec::new(self.n, self.dx)?,
             layers: Vec::new(),
             ground: Ground::default(),
@@ -61,7 +62,9 @@ impl Atmosphere {
             day_of_year: self.day_of_year,
             latitude_deg: self.latitude_deg,
             precipitated: self.precipitated,
-        })
+        };
+        shell.check_clock()?;
+        Ok(shell)
     }
 }
 

@@ -371,7 +371,13 @@ pub(crate) fn start_weather(
             };
             send(write_back(target, &mut work, flight, now), &mut stepped, &mut faults);
         }
-        let Ok(template) = atmo.state_shell() else { continue };
+        let template = match atmo.state_shell() {
+            Ok(t) => t,
+            Err(e) => {
+                warn_once!("atmosphere {entity}: {e}; the weather waits until the value is fixed");
+                continue;
+            }
+        };
         if mine.len() < 2 || mine.iter().any(|l| l.fields.t.nx() != template.grid.n) {
             continue;
         }
