@@ -62,7 +62,7 @@ impl ViscosityModel {
 /// Parameters of the flow, thermal and surface layers. Defaults are thesis Table 5.2 plus
 /// docs/physics/lava.md §6.3 choices (emissivity 0.95, convection 60 W/m²/K, FLOWGO viscosity).
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct LavaParams {
     /// Lava density ρ (kg/m³).
     pub density: f64,
@@ -239,6 +239,17 @@ mod tests {
     fn shipped_preset_is_the_default() {
         let p = LavaParams::from_ron(include_str!("../../presets/pahoehoe.ron")).unwrap();
         assert_eq!(p, LavaParams::default());
+    }
+
+    /// A misspelt field is an error naming it, not a value silently left at its default.
+    #[test]
+    fn a_misspelt_field_is_an_error_naming_it() {
+        let e = LavaParams::from_ron("(yeild_strength: 50.0)").unwrap_err().to_string();
+        assert!(e.contains("yeild_strength"), "{e}");
+        let e =
+            ron::from_str::<crate::model::folds::FoldParams>("(max_particle: 10)").unwrap_err().to_string();
+        assert!(e.contains("max_particle"), "{e}");
+        assert_eq!(LavaParams::from_ron("(yield_strength: 50.0)").unwrap().yield_strength, 50.0);
     }
 
     #[test]

@@ -32,7 +32,7 @@ pub use hash::SpatialHash;
 
 /// Parameters of the fold layer (thesis §5.4.3, §5.5 and Table 5.2).
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
-#[serde(default)]
+#[serde(default, deny_unknown_fields)]
 pub struct FoldParams {
     /// Whether folds are simulated.
     pub enabled: bool,
