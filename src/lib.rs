@@ -129,3 +129,15 @@ pub mod prelude {
         camera_bundle,
     };
 }
+
+/// The guide's ```` ```rust ```` blocks, compiled by `cargo test` as doc tests (the other
+/// blocks are shell, RON or fragments marked `text`).
+#[cfg(doctest)]
+mod guide {
+    #[doc = include_str!("../docs/GAMEPLAY.md")]
+    struct Gameplay;
+    #[doc = include_str!("../docs/EMBEDDING.md")]
+    struct Embedding;
+    #[doc = include_str!("../docs/ASSETS.md")]
+    struct Assets;
+}
