@@ -140,4 +140,6 @@ mod guide {
     struct Embedding;
     #[doc = include_str!("../docs/ASSETS.md")]
     struct Assets;
+    #[doc = include_str!("../docs/SAVING.md")]
+    struct Saving;
 }
