@@ -33,6 +33,7 @@ use serde::Serialize;
 use volcano::prelude::*;
 use volcano_atmosphere::WeatherPipelineStatus;
 
+mod cpu;
 mod soak;
 
 /// The chained sets in order; a stamp sits between each pair.
@@ -111,6 +112,9 @@ pub struct BenchReport {
     pub realtime: bool,
     /// The soak report (`--report-every`), one row per interval.
     pub soak: Vec<soak::SoakRow>,
+    /// CPU seconds per simulated second over the timed ticks: the whole process, the main
+    /// thread and the pools (`null` where the OS's clocks are unknown).
+    pub cpu_s_per_sim_s: Option<cpu::CpuBill>,
 }
 
 /// The slowest tick of a run (see [`BenchReport::slowest_tick`]).
@@ -279,6 +283,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     let (mut weather_sets, mut other_sets) = ([0.0; SETS.len()], [0.0; SETS.len()]);
     let first = tick(&app);
     let waits_before = weather(&mut app).2;
+    let cpu_start = cpu::Reading::now();
     let mut soak = match opts.report_every_ticks {
         0 => None,
         every => match soak::Soak::create(dir, every, first) {
@@ -354,6 +359,8 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         }
     }
     let timed = (tick(&app) - first).max(1) as f64;
+    let simulated_s = (tick(&app) - first) as f64 / crate::TICK_HZ;
+    let cpu_bill = cpu_start.zip(cpu::Reading::now()).map(|(a, b)| a.bill_to(b, simulated_s));
     let weather_waits = weather(&mut app).2 - waits_before;
     let total = app.world().resource::<Stamps>().total;
     let sorted = &mut times.all;
@@ -397,6 +404,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         quality: opts.quality.map(|q| format!("{q:?}")),
         realtime: opts.realtime,
         soak: soak.map(|s| s.rows).unwrap_or_default(),
+        cpu_s_per_sim_s: cpu_bill,
     };
     if let Err(e) = rows.flush() {
         return ticks_csv_failed(e);

@@ -158,6 +158,20 @@ fn bench_times_every_domain_of_the_eruption_scene() {
     for d in ["plume", "lava", "weather"] {
         assert!(v["domains"][d].as_f64().unwrap() > 0.0, "{d} took no time: {text}");
     }
+    // The CPU bill: the process is the main thread and the pools; the main thread spent at
+    // least its timed ticks (p50 × ticks) and at most its wall time.
+    let cpu = &v["cpu_s_per_sim_s"];
+    let (process, main, pools) = (
+        cpu["process"].as_f64().unwrap(),
+        cpu["main_thread"].as_f64().unwrap(),
+        cpu["pools"].as_f64().unwrap(),
+    );
+    assert!((process - main - pools).abs() < 1e-9 && pools >= 0.0, "{text}");
+    let ticks_s = 60.0 / 50.0;
+    assert!(
+        main * ticks_s >= 0.5 * p50 * 60.0 / 1e3,
+        "main thread {main} s/s against ticks of {p50} ms: {text}"
+    );
     // Every timed tick in ticks.csv, its ms adding up to the report's.
     let csv = std::fs::read_to_string(dir.join("ticks.csv")).unwrap();
     let rows: Vec<Vec<f64>> =
