@@ -1,6 +1,7 @@
 //! The soak report of `volcano bench --report-every S`: every S simulated seconds, the entity
 //! count, the process' resident memory and live heap, the main-thread tick cost over the interval (p50, p99,
-//! max) and what the plume holds and its caps removed, so a long run shows whether entity
+//! max), the CPU of the process and of the main thread per simulated second, and what the
+//! plume holds and its caps removed, so a long run shows whether entity
 //! count, memory and tick cost stay bounded. Rows go to `DIR/soak.csv` as they come (a run
 //! stopped early keeps what it measured) and into `bench.json`.
 
@@ -46,10 +47,16 @@ pub struct SoakRow {
     pub capped_particles: u64,
     /// Clusters lifted off without a column by the secondary-column cap so far.
     pub retired_secondary: u64,
+    /// CPU seconds per simulated second over the interval, every thread of the process
+    /// (0 where the OS's clock is unknown).
+    pub cpu_s_per_sim_s: f64,
+    /// Of it, the main thread's.
+    pub main_cpu_s_per_sim_s: f64,
 }
 
 const HEADER: &str = "sim_s,wall_s,entities,rss_mib,heap_mib,tick_p50_ms,tick_p99_ms,tick_max_ms,slices,umbrella,\
-                      particles,secondary_columns,capped_slices,capped_particles,retired_secondary";
+                      particles,secondary_columns,capped_slices,capped_particles,retired_secondary,\
+                      cpu_s_per_sim_s,main_cpu_s_per_sim_s";
 
 /// Resident memory of this process (MiB), 0 if unknown.
 pub fn rss_mib() -> f64 {
@@ -87,6 +94,8 @@ pub struct Soak {
     every_ticks: u64,
     next: u64,
     times: Vec<f64>,
+    /// CPU clocks at the start of the interval.
+    cpu: Option<super::cpu::Reading>,
     file: std::fs::File,
     /// Rows written so far.
     pub rows: Vec<SoakRow>,
@@ -97,7 +106,8 @@ impl Soak {
     pub fn create(dir: &Path, every_ticks: u64, first: u64) -> std::io::Result<Self> {
         let mut file = std::fs::File::create(dir.join("soak.csv"))?;
         writeln!(file, "{HEADER}")?;
-        Ok(Self { every_ticks, next: first + every_ticks, times: Vec::new(), file, rows: Vec::new() })
+        let cpu = super::cpu::Reading::now();
+        Ok(Self { every_ticks, next: first + every_ticks, times: Vec::new(), cpu, file, rows: Vec::new() })
     }
 
     /// Records one base tick's main-thread time; writes a row when an interval is complete.
@@ -109,9 +119,16 @@ impl Soak {
         self.next += self.every_ticks;
         let mut sorted = std::mem::take(&mut self.times);
         sorted.sort_by(f64::total_cmp);
-        let row = row(app, tick, &sorted, wall_s);
+        let mut row = row(app, tick, &sorted, wall_s);
+        let now = super::cpu::Reading::now();
+        if let Some(bill) =
+            self.cpu.zip(now).map(|(a, b)| a.bill_to(b, self.every_ticks as f64 / crate::TICK_HZ))
+        {
+            (row.cpu_s_per_sim_s, row.main_cpu_s_per_sim_s) = (bill.process, bill.main_thread);
+        }
+        self.cpu = now;
         eprintln!(
-            "  {:>6.0} s: {} entities, {:.0} MiB resident, {:.0} MiB heap, tick p50 {:.2} / p99 {:.2} / max {:.2} ms, {} slices, {} particles",
+            "  {:>6.0} s: {} entities, {:.0} MiB resident, {:.0} MiB heap, tick p50 {:.2} / p99 {:.2} / max {:.2} ms, {} slices, {} particles, {:.3} CPU s/s",
             row.sim_s,
             row.entities,
             row.rss_mib,
@@ -120,12 +137,13 @@ impl Soak {
             row.tick_p99_ms,
             row.tick_max_ms,
             row.slices,
-            row.particles
+            row.particles,
+            row.cpu_s_per_sim_s
         );
         let r = &row;
         writeln!(
             self.file,
-            "{},{:.1},{},{:.1},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{}",
+            "{},{:.1},{},{:.1},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{:.4},{:.4}",
             r.sim_s,
             r.wall_s,
             r.entities,
@@ -140,7 +158,9 @@ impl Soak {
             r.secondary_columns,
             r.capped_slices,
             r.capped_particles,
-            r.retired_secondary
+            r.retired_secondary,
+            r.cpu_s_per_sim_s,
+            r.main_cpu_s_per_sim_s
         )?;
         self.file.flush()?;
         self.rows.push(row);
@@ -171,6 +191,8 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
         capped_slices: caps.slices_retired,
         capped_particles: caps.particles_settled,
         retired_secondary: caps.secondary_retired,
+        cpu_s_per_sim_s: 0.0,
+        main_cpu_s_per_sim_s: 0.0,
     }
 }
 

@@ -206,6 +206,9 @@ fn bench_times_every_domain_of_the_eruption_scene() {
     let cols: Vec<f64> = rows[1].split(',').map(|c| c.parse().unwrap()).collect();
     assert_eq!(cols[0], 2.0, "simulated seconds: {csv}");
     assert!(cols[2] > 100.0 && cols[3] > 1.0 && cols[4] > 0.0, "entities, MiB, p50: {csv}");
+    // The interval's CPU: the process's at least the main thread's, which ran the ticks.
+    let (cpu, main) = (cols[15], cols[16]);
+    assert!(main > 0.0 && cpu >= main, "CPU s/s {cpu}, main thread {main}: {csv}");
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(dir.join("bench.json")).unwrap()).unwrap();
     assert_eq!((v["ticks"].as_u64(), v["quality"].as_str()), (Some(100), Some("Low")));
