@@ -12,7 +12,7 @@ use super::fields::{AtmosphereState, LayerFields};
 /// What one [`repair`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize)]
 pub struct AtmosphereRepair {
-    /// Layer and ground cells reset.
+    /// Layer and ground cells reset (and layers whose prevailing wind was reset).
     pub cells: u64,
     /// Water (vapour, condensed, on the ground) removed with them (g); an amount that was
     /// itself not finite counts as zero, a negative one with its sign.
@@ -89,6 +89,15 @@ fn layer_healthy(l: &LayerFields) -> bool {
 
 fn repair_layer(l: &mut LayerFields, dx2: f64) -> AtmosphereRepair {
     let mut out = AtmosphereRepair::default();
+    // The layer's prevailing wind (the relaxation's target) is state too.
+    if !l.wind.is_finite() {
+        l.wind = bevy::math::Vec2::ZERO;
+        out.cells += 1;
+    }
+    if l.wind_relaxation_s.is_some_and(|t| !(t.is_finite() && t > 0.0)) {
+        l.wind_relaxation_s = None;
+        out.cells += 1;
+    }
     if layer_healthy(l) {
         return out;
     }

@@ -169,6 +169,36 @@ pub struct Event {
     pub action: EventAction,
 }
 
+impl Event {
+    /// Checks the event against an atmosphere of `layers` layers; the error names the field.
+    /// Scenarios check their events when loaded; events a game pushes into an
+    /// `AtmosphereTimeline` are checked when they fire.
+    pub fn validate(&self, layers: usize) -> Result<(), ConfigError> {
+        in_range("event at_s", self.at_s, 0.0, 1e9)?;
+        if self.layer >= layers {
+            return Err(ConfigError::InvalidParameter {
+                name: "event layer",
+                value: self.layer as f64,
+                reason: format!("must be a layer index below {layers}"),
+            });
+        }
+        match &self.action {
+            EventAction::SetWind(u, v) => {
+                in_range("event wind u", *u as f64, -100.0, 100.0)?;
+                in_range("event wind v", *v as f64, -100.0, 100.0)?;
+            }
+            EventAction::Turbulence(n) => check_noise(&Some(n.clone()))?,
+            EventAction::Paint(_, s) => check_spot(s)?,
+            EventAction::Band { x_from_m, x_to_m, value, .. } => {
+                finite("event x_from_m", *x_from_m)?;
+                finite("event x_to_m", *x_to_m)?;
+                in_range("event value", *value, -1e3, 1e3)?;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Diagnostics a scenario asks the runner for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Diagnostic {
@@ -345,27 +375,7 @@ impl WeatherScenario {
             }
         }
         for e in &self.events {
-            in_range("event at_s", e.at_s, 0.0, 1e9)?;
-            if e.layer >= self.layers.len() {
-                return Err(ConfigError::InvalidParameter {
-                    name: "event layer",
-                    value: e.layer as f64,
-                    reason: format!("must be a layer index below {}", self.layers.len()),
-                });
-            }
-            match &e.action {
-                EventAction::SetWind(u, v) => {
-                    in_range("event wind u", *u as f64, -100.0, 100.0)?;
-                    in_range("event wind v", *v as f64, -100.0, 100.0)?;
-                }
-                EventAction::Turbulence(n) => check_noise(&Some(n.clone()))?,
-                EventAction::Paint(_, s) => check_spot(s)?,
-                EventAction::Band { x_from_m, x_to_m, value, .. } => {
-                    finite("event x_from_m", *x_from_m)?;
-                    finite("event x_to_m", *x_to_m)?;
-                    in_range("event value", *value, -1e3, 1e3)?;
-                }
-            }
+            e.validate(self.layers.len())?;
         }
         Ok(())
     }

@@ -387,13 +387,20 @@ pub(crate) fn start_weather(
             None => (None, None),
         };
         let shell = AtmosphereState { ground: snapshot_ground(spare_ground, &ground.0), ..template };
-        let events = match timeline {
+        let mut events: Vec<Event> = match timeline {
             Some(mut timeline) => {
                 let due = timeline.0.iter().take_while(|e| e.at_s <= shell.time_s).count();
                 if due > 0 { timeline.0.drain(..due).collect() } else { Vec::new() }
             }
             None => Vec::new(),
         };
+        // Events a game pushed into the timeline are checked as they fire, like a scenario's
+        // when it loads.
+        events.retain(|e| {
+            e.validate(mine.len())
+                .inspect_err(|err| warn!("atmosphere {entity}: timeline event dropped: {err}"))
+                .is_ok()
+        });
         let input = StepInput { shared, spare_layers, shell, events, work: work.work.take() };
         let params = atmo.params.clone();
         let (wake, woken) = std::sync::mpsc::channel::<()>();

@@ -279,3 +279,27 @@ fn a_non_finite_cell_is_repaired_by_the_next_step_and_reported() {
     run(&mut app, 40);
     assert!(app.world().resource::<Faults>().0.is_empty(), "one repair, one report");
 }
+
+/// An event a game pushes into the timeline is checked when it fires: a NaN wind (which on its
+/// worker would turn the layer's wind to NaN and panic in the advection's indexing) is dropped
+/// with a warning, and the weather goes on stepping.
+#[test]
+fn a_bad_timeline_event_is_dropped_not_run() {
+    use volcano_atmosphere::AtmosphereTimeline;
+    use volcano_atmosphere::model::scenario::{Event, EventAction};
+    let (mut app, ..) = convection_app();
+    run(&mut app, 7);
+    let world = app.world_mut();
+    let atmosphere = world.query_filtered::<Entity, With<Atmosphere>>().single(world).unwrap();
+    let bad = Event { at_s: 0.0, layer: 0, action: EventAction::SetWind(f32::NAN, 0.0) };
+    let good = Event { at_s: 0.0, layer: 1, action: EventAction::SetWind(3.0, 0.0) };
+    world.entity_mut(atmosphere).insert(AtmosphereTimeline(vec![bad, good]));
+    let steps = world.resource::<Stepped>().0.len();
+    run(&mut app, 40);
+    assert!(app.world().resource::<Stepped>().0.len() >= steps + 5, "the weather kept stepping");
+    let (layers, ..) = components(&mut app);
+    assert!(layers.iter().all(|l| l.is_valid() && l.wind.is_finite()));
+    assert_eq!(layers[1].wind, Vec2::new(3.0, 0.0), "the valid event ran");
+    let left = app.world().get::<AtmosphereTimeline>(atmosphere).unwrap();
+    assert!(left.0.is_empty(), "both fired (one dropped)");
+}
