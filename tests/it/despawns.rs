@@ -11,6 +11,8 @@ use volcano::atmosphere::{AirLayer, WeatherPipelineStatus};
 use volcano::plume::{PlumeSlice, PyroParticle, S1};
 use volcano::prelude::*;
 
+use crate::worlds;
+
 #[derive(Resource, Default)]
 struct Faults(Vec<SimFault>);
 
@@ -26,22 +28,12 @@ fn world() -> (App, Entity) {
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
         .init_resource::<Faults>()
         .add_systems(Last, record);
-    let terrain = StratovolcanoParams {
-        resolution: 128,
-        cell: 100.0,
-        crater_radius: 80.0,
-        crater_depth: 10.0,
-        ..default()
-    }
-    .generate()
-    .unwrap();
+    let terrain = worlds::collapsing_cone();
     let world = app.world_mut();
     let mut commands = world.commands();
-    let scenario = WeatherScenario::builtin("eruption").unwrap();
-    AtmosphereSpawner::new(&scenario).over(&terrain).grid(32).spawn(&mut commands).unwrap();
+    worlds::air_over(&mut commands, &terrain, 32);
     commands.spawn(terrain);
-    let mut eruption = Eruption::pyroclastic();
-    eruption.active = true;
+    let eruption = worlds::collapsing_eruption();
     let volcano = commands.spawn((Volcano::new(100.0, 5).unwrap(), eruption, Transform::default())).id();
     world.flush();
     (app, volcano)

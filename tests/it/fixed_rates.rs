@@ -10,6 +10,8 @@ use volcano::lava::LavaState;
 use volcano::plume::EmissionState;
 use volcano::prelude::*;
 
+use crate::worlds;
+
 #[derive(Resource, Default)]
 struct Seen {
     weather: usize,
@@ -44,17 +46,13 @@ fn run_at(step: Duration) -> Outcome {
         .insert_resource(TimeUpdateStrategy::ManualDuration(frame))
         .init_resource::<Seen>()
         .add_systems(Last, record);
-    let terrain =
-        StratovolcanoParams { resolution: 65, cell: 200.0, ..Default::default() }.generate().unwrap();
-    let scenario = WeatherScenario::builtin("eruption").unwrap();
+    let terrain = worlds::small_island();
     let world = app.world_mut();
     let mut commands = world.commands();
-    AtmosphereSpawner::new(&scenario).over(&terrain).grid(16).spawn(&mut commands).unwrap();
+    worlds::air_over(&mut commands, &terrain, 16);
     let source = Vec2::new(1_500.0, 0.0);
     let placement = volcano::lava::Placement::downslope_of(&terrain, source, 32, 2.0).unwrap();
-    let y = terrain.height_at(source.x, source.y);
-    commands.spawn(LavaField::new(placement, LavaParams::default()).unwrap());
-    commands.spawn(LavaSource::new(LAVA_RATE).unwrap().at(Vec3::new(source.x, y, source.y)).unwrap());
+    worlds::lava(&mut commands, &terrain, placement, source, LAVA_RATE);
     commands.spawn(terrain);
     let eruption = Eruption::plinian();
     let interval = eruption.params.emission_interval();

@@ -17,3 +17,4 @@ mod reflect_fuzz;
 mod save_load;
 mod thread_counts;
 mod view_boundary;
+mod worlds;

@@ -14,6 +14,8 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use volcano::prelude::*;
 
+use crate::worlds;
+
 /// Calls `leaf` on every numeric leaf of `value` (depth first), until it returns true.
 fn walk(value: &mut dyn PartialReflect, leaf: &mut dyn FnMut(&mut dyn PartialReflect) -> bool) -> bool {
     match value.reflect_mut() {
@@ -126,19 +128,13 @@ fn world() -> App {
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
         .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(40)));
-    let terrain = StratovolcanoParams { resolution: 65, cell: 200.0, ..default() }.generate().unwrap();
+    let terrain = worlds::small_island();
     let world = app.world_mut();
     let mut commands = world.commands();
-    AtmosphereSpawner::new(&WeatherScenario::builtin("eruption").unwrap())
-        .over(&terrain)
-        .grid(16)
-        .spawn(&mut commands)
-        .unwrap();
+    worlds::air_over(&mut commands, &terrain, 16);
     let source = Vec2::new(1_500.0, 0.0);
     let placement = volcano::lava::Placement::downslope_of(&terrain, source, 32, 2.0).unwrap();
-    let y = terrain.height_at(source.x, source.y);
-    commands.spawn(LavaField::new(placement, LavaParams::default()).unwrap());
-    commands.spawn(LavaSource::new(0.2).unwrap().at(Vec3::new(source.x, y, source.y)).unwrap());
+    worlds::lava(&mut commands, &terrain, placement, source, 0.2);
     commands.spawn(LavaZone::new(source + Vec2::new(0.0, 20.0), 5.0).unwrap());
     commands.spawn(terrain);
     commands.spawn((Volcano::new(100.0, 3).unwrap(), Eruption::plinian(), Transform::default()));

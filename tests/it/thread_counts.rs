@@ -15,6 +15,8 @@ use volcano::lava::LavaState;
 use volcano::plume::{DepositMap, PlumeAshBudget, PlumeSlice, PyroParticle, PyroclasticBudget, Umbrella};
 use volcano::prelude::*;
 
+use crate::worlds;
+
 const THREADS: &str = "VOLCANO_TEST_THREADS";
 
 /// FNV-1a over the `Debug` text of each item (in a stable order): `Debug` prints every `f64`
@@ -34,36 +36,20 @@ fn simulate() -> Vec<(&'static str, (usize, u64))> {
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
         .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
-    // A 12.8 km cone with a shallow crater, so the collapse spills onto the flanks.
-    let terrain = StratovolcanoParams {
-        resolution: 128,
-        cell: 100.0,
-        crater_radius: 80.0,
-        crater_depth: 10.0,
-        ..default()
-    }
-    .generate()
-    .unwrap();
+    let terrain = worlds::collapsing_cone();
     let world = app.world_mut();
     let mut commands = world.commands();
-    AtmosphereSpawner::new(&WeatherScenario::builtin("eruption").unwrap())
-        .over(&terrain)
-        .grid(32)
-        .spawn(&mut commands)
-        .unwrap();
+    worlds::air_over(&mut commands, &terrain, 32);
+    // Eight row bands of lava (256 rows).
     let source = Vec2::new(1_800.0, 300.0);
     let placement = volcano::lava::Placement {
         nx: 96,
         ny: 256,
         ..volcano::lava::Placement::downslope_of(&terrain, source, 96, 1.0).unwrap()
     };
-    let y = terrain.height_at(source.x, source.y);
-    commands.spawn(LavaField::new(placement, LavaParams::default()).unwrap());
-    commands.spawn(LavaSource::new(0.5).unwrap().at(Vec3::new(source.x, y, source.y)).unwrap());
+    worlds::lava(&mut commands, &terrain, placement, source, 0.5);
     commands.spawn(terrain);
-    let mut eruption = Eruption::pyroclastic();
-    eruption.active = true;
-    commands.spawn((Volcano::new(100.0, 5).unwrap(), eruption, Transform::default()));
+    commands.spawn((Volcano::new(100.0, 5).unwrap(), worlds::collapsing_eruption(), Transform::default()));
     world.flush();
     while app.world().resource::<SimTick>().0 < 50 * 14 {
         app.update();

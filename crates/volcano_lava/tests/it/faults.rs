@@ -8,18 +8,13 @@ use bevy::time::TimeUpdateStrategy;
 use volcano_core::prelude::*;
 use volcano_lava::*;
 
+use crate::plugin::run;
+
 #[derive(Resource, Default, Debug)]
 struct Faults(Vec<SimFault>);
 
 fn record(mut seen: ResMut<Faults>, mut r: MessageReader<SimFault>) {
     seen.0.extend(r.read().cloned());
-}
-
-fn run(app: &mut App, ticks: u64) {
-    let target = app.world().resource::<SimTick>().0 + ticks;
-    while app.world().resource::<SimTick>().0 < target {
-        app.update();
-    }
 }
 
 #[test]

@@ -47,7 +47,8 @@ fn app() -> App {
     app
 }
 
-fn run(app: &mut App, ticks: u64) {
+/// Updates until `ticks` more base ticks have run.
+pub(crate) fn run(app: &mut App, ticks: u64) {
     let target = app.world().resource::<SimTick>().0 + ticks;
     while app.world().resource::<SimTick>().0 < target {
         app.update();
