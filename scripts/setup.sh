@@ -7,7 +7,10 @@ set -euo pipefail
 # Windowed runs load X11/xkbcommon at run time. Building needs nothing beyond the toolchain:
 # the trimmed Bevy features use no audio, gamepad or udev crates.
 # gcc + libc6-dev: the linker driver `cc` and crates that compile C in build scripts.
-PKGS=(gcc libc6-dev libvulkan1 mesa-vulkan-drivers libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0)
+# python3-openvdb: the export tests open the written volumes with OpenVDB itself
+# (tools/check_vdb.py; 22 MB download).
+PKGS=(gcc libc6-dev libvulkan1 mesa-vulkan-drivers libx11-6 libxcursor1 libxrandr2 libxi6 libxkbcommon-x11-0
+    python3-openvdb)
 missing=()
 for p in "${PKGS[@]}"; do
     dpkg -s "$p" >/dev/null 2>&1 || missing+=("$p")

@@ -1,0 +1,61 @@
+//! Files written whole or not at all: into a temporary file in the destination's folder
+//! (`tempfile`), renamed over the destination once the writer returned `Ok` and the data
+//! reached the disk. On an error the temporary file is removed.
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::Path;
+
+use crate::vdb::VdbError;
+
+/// Runs `write` on a buffered temporary file beside `path` and renames it to `path` if it
+/// succeeds.
+pub fn write_atomically<E>(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>,
+) -> Result<(), E>
+where
+    E: From<VdbError>,
+{
+    let file_error = |source: std::io::Error| VdbError::File { path: path.display().to_string(), source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let tmp =
+        tempfile::Builder::new().prefix(".volcano-").suffix(".part").tempfile_in(dir).map_err(file_error)?;
+    let (file, tmp_path) = tmp.into_parts();
+    let mut w = BufWriter::new(file);
+    write(&mut w)?;
+    let file = w.into_inner().map_err(|e| file_error(e.into_error()))?;
+    file.sync_all().map_err(file_error)?;
+    tmp_path.persist(path).map_err(|e| file_error(e.error))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_error_leaves_nothing_behind() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("x.vdb");
+        let r: Result<(), VdbError> = write_atomically(&path, |w| {
+            w.write_all(b"half")?;
+            Err(VdbError::Format("refused".into()))
+        });
+        assert!(r.is_err());
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0, "no file, no temporary");
+        write_atomically::<VdbError>(&path, |w| Ok(w.write_all(b"whole")?)).unwrap();
+        assert_eq!(std::fs::read(&path).unwrap(), b"whole");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn an_unwritable_folder_is_an_error_naming_the_file() {
+        let path = Path::new("/nonexistent-volcano-dir/x.vdb");
+        let e = write_atomically::<VdbError>(path, |_| Ok(())).unwrap_err();
+        assert!(e.to_string().contains("/nonexistent-volcano-dir/x.vdb"), "{e}");
+    }
+}
