@@ -38,6 +38,7 @@
 #![forbid(unsafe_code)]
 
 pub mod assets;
+pub mod export;
 pub mod lava_scene;
 pub mod quality;
 pub mod scenes;

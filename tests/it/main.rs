@@ -5,6 +5,7 @@ mod assets;
 #[cfg(feature = "bsn")]
 mod bsn;
 mod despawns;
+mod export;
 mod fixed_rates;
 mod fuzz;
 mod headless_sim;

@@ -1,122 +1,126 @@
-//! `volcano plume --export DIR --frames N`: runs the plume plugin headless and writes one
-//! binary PLY point file per frame with `x, y, z, radius, density` for every sphere of every
-//! scale (s1 on slices, umbrella spheres, and their procedural s2/s3 children). Coordinates are
-//! Bevy's world frame: metres, **y up**, vent at the origin (in Blender's PLY import choose
-//! "Y up"; Houdini is y-up already).
+//! `volcano export`: runs a built-in scene headless and writes frames an offline renderer
+//! opens (docs/EXPORT.md): per frame `frame_NNNN.vdb` (OpenVDB grids `ash`, `temperature`,
+//! `cloud`, `ash_fall`, world metres, y up) and `frame_NNNN.json` (time, camera, sun, grids),
+//! each written under a temporary name and renamed when complete; `--expect` adds
+//! `frame_NNNN.expect.json` for `tools/check_vdb.py` (the check with OpenVDB itself). One
+//! frame is held in memory at a time.
 
-use std::io::{BufWriter, Write};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-use bevy::math::DVec3;
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
-use volcano::plume::view::{for_each_sphere, gather_parents};
-use volcano::plume::{Eruption, PlumeParams};
+use volcano::export::vdb::{FloatGrid, expectation};
+use volcano::export::{ExportSettings, FrameView, capture_frame, frame_paths, write_frame};
 use volcano::prelude::*;
 
-/// One exported sphere.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PointRecord {
-    /// Centre (world, y up).
-    pub center: DVec3,
-    /// Radius (m).
-    pub radius: f64,
-    /// Density (kg/m³).
-    pub density: f64,
+/// What `volcano export` was asked for.
+#[derive(Debug, Clone)]
+pub struct ExportArgs {
+    /// Built-in scene.
+    pub scene: String,
+    /// Base ticks run before the first frame.
+    pub ticks: u64,
+    /// Frames to write.
+    pub frames: u32,
+    /// Base ticks between frames.
+    pub every: u64,
+    /// Quality level, if any.
+    pub quality: Option<VolcanoQuality>,
+    /// Voxel sizes and budget.
+    pub settings: ExportSettings,
+    /// Also write the expectation `tools/check_vdb.py` reads.
+    pub expect: bool,
+    /// Output folder.
+    pub out: PathBuf,
 }
 
-/// Writes a binary little-endian PLY of `points`.
-pub fn write_ply(path: &Path, points: &[PointRecord]) -> std::io::Result<()> {
-    let mut f = BufWriter::new(std::fs::File::create(path)?);
-    write!(
-        f,
-        "ply\nformat binary_little_endian 1.0\ncomment volcano plume spheres, metres, y up\n\
-         element vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
-         property float radius\nproperty float density\nend_header\n",
-        points.len()
-    )?;
-    for p in points {
-        for v in [p.center.x, p.center.y, p.center.z, p.radius, p.density] {
-            f.write_all(&(v as f32).to_le_bytes())?;
-        }
+/// Most base ticks one export runs (a simulated day at 50 Hz).
+const MAX_TICKS: u64 = 24 * 3_600 * 50;
+
+/// Checks the arguments before anything runs: a clear error for each.
+fn check(args: &ExportArgs) -> Result<VolcanoScenePlugin, String> {
+    if args.frames == 0 {
+        return Err("--frames must be at least 1".into());
     }
-    f.flush()
+    if args.every == 0 && args.frames > 1 {
+        return Err("--every must be at least 1 base tick when --frames is more than 1".into());
+    }
+    let last = args.every.checked_mul(args.frames as u64 - 1).and_then(|t| t.checked_add(args.ticks));
+    if last.is_none_or(|t| t > MAX_TICKS) {
+        return Err(format!("--ticks + --every × (--frames − 1) must be at most {MAX_TICKS} base ticks"));
+    }
+    args.settings.validate().map_err(|e| e.to_string())?;
+    VolcanoScenePlugin::builtin(&args.scene).map(VolcanoScenePlugin::headless).map_err(|e| e.to_string())
 }
 
-/// Every sphere of every scale, through the same enumeration the renderer uses; without the
-/// clouds the view derives over pyroclastic currents (`current_clouds`), which are a look, not
-/// model spheres.
-fn gather(world: &mut World) -> Vec<PointRecord> {
-    let (eruptions, mut parents) = gather_parents(world);
-    parents.retain(|p| !p.cloud);
-    let mut out = Vec::new();
-    for_each_sphere(&eruptions, &parents, |s| {
-        out.push(PointRecord { center: s.center, radius: s.radius, density: s.density })
-    });
-    out
-}
-
-/// Runs the eruption `params` on a flat plain and writes `frames` PLY files, one every
-/// `frame_seconds` (rounded to whole 20 ms base ticks), after `start_seconds`.
-pub fn export(
-    params: &PlumeParams,
-    dir: &Path,
-    frames: u32,
-    frame_seconds: f64,
-    start_seconds: f64,
-) -> ExitCode {
-    let eruption = match Eruption::new(params.clone(), Default::default()) {
-        Ok(e) => e,
+/// Runs the export; prints one progress line per frame on stderr.
+pub fn run(args: &ExportArgs) -> ExitCode {
+    let plugin = match check(args) {
+        Ok(p) => p,
         Err(e) => {
             eprintln!("error: {e}");
             return ExitCode::from(2);
         }
     };
-    if !(frame_seconds.is_finite()
-        && frame_seconds > 0.0
-        && start_seconds.is_finite()
-        && start_seconds >= 0.0)
-        || frames == 0
-    {
-        eprintln!("error: --frames must be ≥ 1, --frame-seconds > 0, --start-seconds ≥ 0");
-        return ExitCode::from(2);
-    }
-    if let Err(e) = std::fs::create_dir_all(dir) {
-        eprintln!("error: cannot create {}: {e}", dir.display());
+    if let Err(e) = std::fs::create_dir_all(&args.out) {
+        eprintln!("error: cannot create {}: {e}", args.out.display());
         return ExitCode::FAILURE;
     }
-    let ticks_per_frame = ((frame_seconds * crate::TICK_HZ).round() as u64).max(1);
-    let start_ticks = (start_seconds * crate::TICK_HZ).round() as u64;
-    let seed = 1;
+    let view = FrameView::of_scene(plugin.spec());
     let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+    if let Some(q) = args.quality {
+        app.insert_resource(q);
+    }
+    app.add_plugins((MinimalPlugins, VolcanoSimPlugins, plugin))
         .insert_resource(Time::<Fixed>::from_hz(crate::TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
-    app.world_mut()
-        .spawn(Terrain::flat(3, 1_000.0, params.vent_altitude as f32).expect("valid flat terrain"));
-    app.world_mut().spawn((
-        Volcano::new(params.r0 as f32, seed).unwrap_or_default(),
-        eruption.clone(),
-        Transform::default(),
-    ));
-    let run_to = |app: &mut App, tick: u64| {
-        while app.world().resource::<SimTick>().0 < tick {
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / crate::TICK_HZ)));
+    let started = Instant::now();
+    for frame in 0..args.frames {
+        let target = args.ticks + args.every * frame as u64;
+        while app.world().get_resource::<SimTick>().is_none_or(|t| t.0 < target) {
             app.update();
         }
-    };
-    let mut total = 0usize;
-    for f in 0..frames {
-        run_to(&mut app, start_ticks + f as u64 * ticks_per_frame);
-        let points = gather(app.world_mut());
-        total += points.len();
-        let path = dir.join(format!("frame_{f:05}.ply"));
-        if let Err(e) = write_ply(&path, &points) {
-            eprintln!("error: cannot write {}: {e}", path.display());
+        let captured = match capture_frame(app.world_mut(), &args.settings, view) {
+            Ok(f) => f,
+            Err(e) => {
+                eprintln!("error: frame {frame}: {e}");
+                return ExitCode::FAILURE;
+            }
+        };
+        if let Err(e) = write_frame(&args.out, frame, &captured) {
+            eprintln!("error: frame {frame}: {e}");
             return ExitCode::FAILURE;
         }
+        if args.expect
+            && let Err(e) = write_expectation(&args.out, frame, &captured.grids)
+        {
+            eprintln!("error: frame {frame}: {e}");
+            return ExitCode::FAILURE;
+        }
+        let (vdb, _) = frame_paths(&args.out, frame);
+        let mb = std::fs::metadata(&vdb).map_or(0.0, |m| m.len() as f64 / 1e6);
+        let grids: Vec<String> =
+            captured.info.grids.iter().map(|g| format!("{} {}", g.name, g.active_voxels)).collect();
+        eprintln!(
+            "frame {}/{}: t = {:.0} s, {} spheres, active voxels: {}; {} ({mb:.1} MB), {:.1} s elapsed",
+            frame + 1,
+            args.frames,
+            captured.info.time_s,
+            captured.info.spheres,
+            grids.join(", "),
+            vdb.display(),
+            started.elapsed().as_secs_f64()
+        );
     }
-    println!("wrote {frames} PLY frames ({total} spheres in all) to {}", dir.display());
     ExitCode::SUCCESS
+}
+
+/// `frame_NNNN.expect.json`: what `tools/check_vdb.py` compares the `.vdb` with.
+fn write_expectation(dir: &Path, frame: u32, grids: &[FloatGrid]) -> Result<(), String> {
+    let refs: Vec<&FloatGrid> = grids.iter().collect();
+    let path = dir.join(format!("frame_{frame:04}.expect.json"));
+    std::fs::write(&path, expectation(&refs, 5_000).to_string())
+        .map_err(|e| format!("{}: {e}", path.display()))
 }

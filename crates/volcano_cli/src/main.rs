@@ -8,6 +8,7 @@ mod eruption;
 mod export;
 mod plots;
 mod plume;
+mod ply;
 mod pyroclastic;
 mod render;
 
@@ -182,6 +183,44 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Run a built-in scene headless and write frames for an offline renderer
+    /// (docs/EXPORT.md): OpenVDB volumes (`ash`, `temperature`, `cloud`, `ash_fall`; world
+    /// metres, y up) and a JSON of time, camera and sun per frame.
+    Export {
+        /// Built-in scene (`volcano scenes` lists them).
+        #[arg(long, default_value = "eruption")]
+        scene: String,
+        /// Base ticks (50 Hz) run before the first frame.
+        #[arg(long)]
+        ticks: u64,
+        /// Frames to write.
+        #[arg(long, default_value_t = 1)]
+        frames: u32,
+        /// Base ticks between frames.
+        #[arg(long, default_value_t = 50)]
+        every: u64,
+        /// Voxel edge of `ash` and `temperature` (m).
+        #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
+        ash_voxel: f64,
+        /// Voxel edge of `cloud` and `ash_fall` (m).
+        #[arg(long, default_value_t = 250.0, allow_negative_numbers = true)]
+        air_voxel: f64,
+        /// Most active voxels in one grid.
+        #[arg(long, default_value_t = 60_000_000)]
+        max_voxels: u64,
+        /// Splat only the s1 and umbrella spheres, not their s2/s3 detail.
+        #[arg(long)]
+        no_detail: bool,
+        /// Quality level.
+        #[arg(long, value_enum)]
+        quality: Option<Quality>,
+        /// Also write `frame_NNNN.expect.json` for `tools/check_vdb.py`.
+        #[arg(long)]
+        expect: bool,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Run a collapsing eruption on the `pyroclastic_flow` scene's terrain (thesis §3.6):
     /// writes DIR/summary.json (particles, runout, secondary columns, mass budget) and
     /// DIR/deposit.png (top view: terrain, deposit, particle tracks).
@@ -212,7 +251,7 @@ fn main() -> ExitCode {
         Command::Plume { params, out, target_height_km, export, frames, frame_seconds, start_seconds } => {
             match (export, out) {
                 (Some(dir), _) => {
-                    with_params(&params, |p| export::export(p, &dir, frames, frame_seconds, start_seconds))
+                    with_params(&params, |p| ply::export(p, &dir, frames, frame_seconds, start_seconds))
                 }
                 (None, Some(out)) => plume::plume(&params, target_height_km, &out),
                 (None, None) => ExitCode::from(2),
@@ -237,6 +276,34 @@ fn main() -> ExitCode {
             };
             bench::run(&opts, &out)
         }
+        Command::Export {
+            scene,
+            ticks,
+            frames,
+            every,
+            ash_voxel,
+            air_voxel,
+            max_voxels,
+            no_detail,
+            quality,
+            expect,
+            out,
+        } => export::run(&export::ExportArgs {
+            scene,
+            ticks,
+            frames,
+            every,
+            quality: quality.map(Quality::level),
+            settings: volcano::export::ExportSettings {
+                ash_voxel_m: ash_voxel,
+                air_voxel_m: air_voxel,
+                max_voxels,
+                detail_spheres: !no_detail,
+                ..Default::default()
+            },
+            expect,
+            out,
+        }),
         Command::Eruption { scenario, seconds, grid, preset, out } => {
             eruption::run(scenario, seconds, grid, preset.preset(), &out)
         }

@@ -3,7 +3,7 @@
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use std::hint::black_box;
-use volcano_export::splat::{Combine, Sphere, splat_spheres};
+use volcano_export::splat::{Combine, Fill, Sphere, splat_spheres};
 use volcano_export::vdb::{FloatGrid, GridClass, Transform, write_vdb};
 
 /// 20,000 spheres of 60–300 m in a 20 km column of 2 km radius (a column's s1 and s2 spheres
@@ -32,12 +32,12 @@ fn bench(c: &mut Criterion) {
     g.bench_function("splat_20k_spheres_50m", |b| {
         b.iter(|| {
             let mut grid = FloatGrid::new("ash", GridClass::FogVolume, t).unwrap();
-            splat_spheres(&mut grid, s.iter().copied(), Combine::Max, u64::MAX).unwrap();
+            splat_spheres(&mut grid, s.iter().copied(), Fill::Density, Combine::Max, u64::MAX).unwrap();
             black_box(grid.active_voxel_count())
         })
     });
     let mut grid = FloatGrid::new("ash", GridClass::FogVolume, t).unwrap();
-    splat_spheres(&mut grid, s.iter().copied(), Combine::Max, u64::MAX).unwrap();
+    splat_spheres(&mut grid, s.iter().copied(), Fill::Density, Combine::Max, u64::MAX).unwrap();
     g.bench_function("write_vdb_20k_spheres_50m", |b| {
         b.iter(|| {
             let mut out = std::io::Cursor::new(Vec::new());

@@ -3,7 +3,7 @@
 //! reached the disk. On an error the temporary file is removed.
 
 use std::fs::File;
-use std::io::{BufWriter, Write};
+use std::io::BufWriter;
 use std::path::Path;
 
 use crate::vdb::VdbError;
@@ -22,8 +22,13 @@ where
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
     };
-    let tmp =
-        tempfile::Builder::new().prefix(".volcano-").suffix(".part").tempfile_in(dir).map_err(file_error)?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".volcano-").suffix(".part");
+    // A temporary file is private (0600) by default; the finished file is an ordinary one
+    // (0666 less the process's umask, as `File::create` makes).
+    #[cfg(unix)]
+    builder.permissions(std::os::unix::fs::PermissionsExt::from_mode(0o666));
+    let tmp = builder.tempfile_in(dir).map_err(file_error)?;
     let (file, tmp_path) = tmp.into_parts();
     let mut w = BufWriter::new(file);
     write(&mut w)?;
@@ -36,6 +41,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write;
 
     #[test]
     fn an_error_leaves_nothing_behind() {
@@ -50,6 +56,22 @@ mod tests {
         write_atomically::<VdbError>(&path, |w| Ok(w.write_all(b"whole")?)).unwrap();
         assert_eq!(std::fs::read(&path).unwrap(), b"whole");
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+        #[cfg(unix)]
+        {
+            use std::os::unix::fs::PermissionsExt;
+            let mode = std::fs::metadata(&path).unwrap().permissions().mode();
+            assert_eq!(mode & 0o044, 0o044 & !umask(), "readable by others as a created file: {mode:o}");
+        }
+    }
+
+    /// The process's umask, read back from a file `File::create` makes.
+    #[cfg(unix)]
+    fn umask() -> u32 {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("probe");
+        std::fs::File::create(&p).unwrap();
+        !std::fs::metadata(&p).unwrap().permissions().mode() & 0o777
     }
 
     #[test]

@@ -33,6 +33,16 @@ pub enum Combine {
     Add,
 }
 
+/// What a sphere puts in the voxels it covers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Fill {
+    /// A density: `density × coverage`, normalised to the sphere's volume (mass kept).
+    Density,
+    /// An intensive value (a temperature): the sphere's value in every voxel whose centre is
+    /// within half a voxel of its surface, whatever the coverage.
+    Value,
+}
+
 /// What a splat did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct SplatReport {
@@ -44,11 +54,12 @@ pub struct SplatReport {
     pub voxel_writes: u64,
 }
 
-/// Splats `spheres` onto `grid`, refusing to grow it past `max_active` active voxels (the
+/// Splats `spheres` onto `grid` (their `density` read as the value of `fill`), refusing to grow it past `max_active` active voxels (the
 /// grid is left as it was before the sphere that would have crossed the limit).
 pub fn splat_spheres(
     grid: &mut FloatGrid,
     spheres: impl IntoIterator<Item = Sphere>,
+    fill: Fill,
     combine: Combine,
     max_active: u64,
 ) -> Result<SplatReport, VdbError> {
@@ -98,13 +109,19 @@ pub fn splat_spheres(
             cells.push((c.map(|x| x.round() as i32), 1.0));
             sum = 1.0;
         }
-        let scale = 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) / sum;
+        let scale = match fill {
+            Fill::Density => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) / sum,
+            Fill::Value => 1.0,
+        };
         let new = cells.iter().filter(|(ijk, _)| !grid.is_active(*ijk)).count() as u64;
         if active + new > max_active {
             return Err(VdbError::TooManyVoxels { grid: grid.name().to_owned(), limit: max_active });
         }
         for &(ijk, cov) in &cells {
-            let v = (s.density as f64 * cov * scale) as f32;
+            let v = match fill {
+                Fill::Density => (s.density as f64 * cov * scale) as f32,
+                Fill::Value => s.density,
+            };
             grid.update(ijk, |old| match combine {
                 Combine::Max => old.max(v),
                 Combine::Add => old + v,
@@ -132,7 +149,7 @@ mod tests {
     fn a_large_sphere_is_full_inside_empty_outside_and_keeps_its_mass() {
         let mut g = grid(2.0);
         let s = Sphere { center: [3.3, -1.7, 0.9], radius: 20.0, density: 1.5 };
-        splat_spheres(&mut g, [s], Combine::Add, u64::MAX).unwrap();
+        splat_spheres(&mut g, [s], Fill::Density, Combine::Add, u64::MAX).unwrap();
         let mass = 1.5 * 4.0 / 3.0 * std::f64::consts::PI * 20f64.powi(3);
         assert!((g.integral() / mass - 1.0).abs() < 1e-6, "{} vs {mass}", g.integral());
         for (ijk, v) in g.iter_active() {
@@ -154,7 +171,7 @@ mod tests {
     fn a_sphere_smaller_than_a_voxel_keeps_its_mass() {
         let mut g = grid(10.0);
         let s = Sphere { center: [4.0, 4.0, 4.0], radius: 1.0, density: 2.0 };
-        splat_spheres(&mut g, [s], Combine::Add, u64::MAX).unwrap();
+        splat_spheres(&mut g, [s], Fill::Density, Combine::Add, u64::MAX).unwrap();
         let mass = 2.0 * 4.0 / 3.0 * std::f64::consts::PI;
         assert!((g.integral() / mass - 1.0).abs() < 1e-6);
         assert_eq!(g.active_voxel_count(), 1);
@@ -164,11 +181,25 @@ mod tests {
     fn max_is_the_union_add_the_sum() {
         let s = Sphere { center: [0.0; 3], radius: 8.0, density: 1.0 };
         let (mut a, mut m) = (grid(1.0), grid(1.0));
-        splat_spheres(&mut a, [s, s], Combine::Add, u64::MAX).unwrap();
-        splat_spheres(&mut m, [s, s], Combine::Max, u64::MAX).unwrap();
+        splat_spheres(&mut a, [s, s], Fill::Density, Combine::Add, u64::MAX).unwrap();
+        splat_spheres(&mut m, [s, s], Fill::Density, Combine::Max, u64::MAX).unwrap();
         assert!((m.get([0, 0, 0]) - 1.0).abs() < 0.01, "{}", m.get([0, 0, 0]));
         assert_eq!(a.active_voxel_count(), m.active_voxel_count());
         assert!(m.iter_active().all(|(ijk, v)| a.get(ijk) == 2.0 * v));
+    }
+
+    /// A temperature is the sphere's own in every voxel it reaches, and the hotter of two
+    /// overlapping spheres wins.
+    #[test]
+    fn an_intensive_value_is_not_diluted() {
+        let mut g = grid(1.0);
+        let hot = Sphere { center: [0.0; 3], radius: 3.0, density: 900.0 };
+        let warm = Sphere { center: [2.0, 0.0, 0.0], radius: 3.0, density: 400.0 };
+        splat_spheres(&mut g, [hot, warm], Fill::Value, Combine::Max, u64::MAX).unwrap();
+        assert_eq!(g.get([0, 0, 0]), 900.0);
+        assert_eq!(g.get([-3, 0, 0]), 900.0, "the surface voxel is not a fraction of it");
+        assert_eq!(g.get([5, 0, 0]), 400.0);
+        assert!(g.iter_active().all(|(_, v)| v == 900.0 || v == 400.0));
     }
 
     #[test]
@@ -180,11 +211,11 @@ mod tests {
             Sphere { center: [0.0; 3], radius: 1.0, density: f32::INFINITY },
             Sphere { center: [1e12, 0.0, 0.0], radius: 1.0, density: 1.0 },
         ];
-        let r = splat_spheres(&mut g, bad, Combine::Max, u64::MAX).unwrap();
+        let r = splat_spheres(&mut g, bad, Fill::Density, Combine::Max, u64::MAX).unwrap();
         assert_eq!((r.spheres, r.skipped), (0, 4));
         assert_eq!(g.active_voxel_count(), 0);
         let big = Sphere { center: [0.0; 3], radius: 10.0, density: 1.0 };
-        let e = splat_spheres(&mut g, [big], Combine::Max, 1000).unwrap_err();
+        let e = splat_spheres(&mut g, [big], Fill::Density, Combine::Max, 1000).unwrap_err();
         assert!(matches!(e, VdbError::TooManyVoxels { limit: 1000, .. }));
         assert_eq!(g.active_voxel_count(), 0, "nothing written past the budget");
     }

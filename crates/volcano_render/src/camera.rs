@@ -156,6 +156,9 @@ fn wrap_angle(a: f32) -> f32 {
     if w <= -PI { w + TAU } else { w }
 }
 
+/// Vertical field of view of [`camera_bundle`]'s camera (degrees).
+pub const CAMERA_FOV_DEG: f32 = 50.0;
+
 /// Components of a scene camera: [`Camera3d`] with a perspective projection for kilometre
 /// scenes, tonemapping and exposure ([`sky_camera_components`]), [`VolcanoViewer`],
 /// [`VolcanoSkyCamera`] (so `VolcanoSkyPlugin`, when added, gives it the skybox and fog), a
@@ -164,7 +167,7 @@ fn wrap_angle(a: f32) -> f32 {
 pub fn camera_bundle(orbit: OrbitCamera) -> impl Bundle {
     let near = 1.0;
     let projection = Projection::Perspective(PerspectiveProjection {
-        fov: 50f32.to_radians(),
+        fov: CAMERA_FOV_DEG.to_radians(),
         near,
         far: 400_000.0,
         near_clip_plane: Vec4::new(0.0, 0.0, -1.0, -near),

@@ -47,7 +47,8 @@ use bevy::render::RenderApp;
 
 pub use ash_fall::{AshFallBuildStatus, AshFallDraw, AshFallRenderPlugin, AshFallSettings, AshFallVolume};
 pub use camera::{
-    GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer, camera_bundle, glow_bloom,
+    CAMERA_FOV_DEG, GlowCamera, OrbitCamera, OrbitCameraPlugin, PointerCaptured, VolcanoViewer,
+    camera_bundle, glow_bloom,
 };
 pub use clouds::{CloudDraw, CloudMaterial, CloudRenderPlugin, CloudRenderSettings, CloudVolume};
 pub use headless::{CaptureStatus, HeadlessCapturePlugin, headless_default_plugins, write_png_rgb};

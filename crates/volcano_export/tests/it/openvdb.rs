@@ -5,7 +5,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use volcano_export::splat::{Combine, Sphere, splat_spheres};
+use volcano_export::splat::{Combine, Fill, Sphere, splat_spheres};
 use volcano_export::vdb::{FloatGrid, GridClass, MetaValue, Transform, expectation, write_vdb_file};
 
 /// Runs the OpenVDB check on `vdb` against `grids`; panics with its output on a mismatch. The
@@ -48,7 +48,7 @@ fn openvdb_reads_every_grid_and_value_we_wrote() {
         Sphere { center: [-10_500.0, 200.0, 11_000.0], radius: 12.0, density: 0.5 },
         Sphere { center: [10_400.0, -10_300.0, 3.0], radius: 1.0, density: 3.0 },
     ];
-    splat_spheres(&mut ash, spheres, Combine::Max, u64::MAX).unwrap();
+    splat_spheres(&mut ash, spheres, Fill::Density, Combine::Max, u64::MAX).unwrap();
     ash.insert_meta("units", MetaValue::String("kg/m^3".into())).unwrap();
 
     let mut one =

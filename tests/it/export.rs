@@ -1,0 +1,193 @@
+//! `volcano::export`: a running world's spheres and air in OpenVDB grids at the right places
+//! and values, the frame's files written whole, read back, and opened by OpenVDB itself.
+
+use std::path::Path;
+use std::process::Command;
+use std::time::Duration;
+
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano::atmosphere::{AirLayer, Atmosphere};
+use volcano::export::vdb::{FloatGrid, expectation, read_vdb};
+use volcano::export::{ExportError, ExportSettings, FrameView, capture_frame, write_frame};
+use volcano::plume::components::{PlumeSlice, S1};
+use volcano::prelude::*;
+
+use crate::worlds;
+
+fn app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+    app
+}
+
+fn grid<'a>(grids: &'a [FloatGrid], name: &str) -> &'a FloatGrid {
+    grids.iter().find(|g| g.name() == name).unwrap_or_else(|| panic!("no grid {name}"))
+}
+
+fn voxel_at(g: &FloatGrid, p: Vec3) -> [i32; 3] {
+    g.transform().world_to_index(p.as_dvec3().to_array()).map(|x| x.round() as i32)
+}
+
+/// A Plinian column 6 s after the start, parents only on 10 m voxels: the voxel at every
+/// large sphere's centre holds its density (the union of spheres of one slice is that dense),
+/// and the temperature there is its slice's (or a hotter overlapping slice's).
+#[test]
+fn every_sphere_is_where_the_world_has_it_with_its_density_and_temperature() {
+    let mut app = app();
+    let terrain = worlds::small_island();
+    app.world_mut().spawn(terrain);
+    app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), Eruption::plinian(), Transform::default()));
+    for _ in 0..300 {
+        app.update();
+    }
+    let settings = ExportSettings { ash_voxel_m: 10.0, detail_spheres: false, ..default() };
+    let frame = capture_frame(app.world_mut(), &settings, FrameView::default()).unwrap();
+    let (ash, temp) = (grid(&frame.grids, "ash"), grid(&frame.grids, "temperature"));
+    assert!(frame.grids.iter().all(|g| g.name() != "cloud"), "no atmosphere, no cloud grid");
+
+    let world = app.world_mut();
+    let slices: Vec<(Entity, f64, f64)> = world
+        .query::<(Entity, &PlumeSlice)>()
+        .iter(world)
+        .map(|(e, s)| (e, s.state.density, s.state.temperature))
+        .collect();
+    let hottest = slices.iter().map(|s| s.2).fold(0.0, f64::max);
+    let mut checked = 0;
+    for (s1, t) in world.query::<(&S1, &Transform)>().iter(world) {
+        let &(_, density, temperature) = slices.iter().find(|s| s.0 == s1.slice).unwrap();
+        if t.scale.x < 30.0 {
+            continue;
+        }
+        let ijk = voxel_at(ash, t.translation);
+        let a = ash.get(ijk) as f64;
+        assert!(
+            a >= 0.97 * density,
+            "sphere of r {} at {}: ash {a}, slice density {density}",
+            t.scale.x,
+            t.translation
+        );
+        let k = temp.get(ijk) as f64;
+        assert!(
+            k >= temperature - 1e-3 && k <= hottest + 1e-3,
+            "temperature {k} at a sphere of a {temperature} K slice"
+        );
+        checked += 1;
+    }
+    assert!(checked > 100, "only {checked} large spheres");
+    assert!(frame.info.spheres as usize >= checked);
+}
+
+/// Ash put into every layer of a block of 4 × 4 cells, away from the island, is exported as
+/// `ash_fall` over that block at the right altitudes, and its mass is the atmosphere's to 3 %
+/// (the export samples the layers' blend on 200 m voxels); condensed water put into one layer
+/// of a block elsewhere is a `cloud` over that block, around that layer.
+#[test]
+fn the_airs_ash_and_clouds_are_where_the_layers_hold_them() {
+    let mut app = app();
+    let terrain = worlds::small_island();
+    worlds::air_over(&mut app.world_mut().commands(), &terrain, 16);
+    app.world_mut().flush();
+    let world = app.world_mut();
+    let (n, dx) = {
+        let a = world.query::<&Atmosphere>().single(world).unwrap();
+        (a.n, a.dx)
+    };
+    // Cells 1..5 × 1..5 (grid x and y = world x and z), 0.5 g/m³ in every layer.
+    let cells: Vec<usize> = (1..5).flat_map(|j| (1..5).map(move |i| j * n + i)).collect();
+    // Cells 9..13 × 2..6 of layer 2: 3 g/m³ of condensed water.
+    let wet: Vec<usize> = (2..6).flat_map(|j| (9..13).map(move |i| j * n + i)).collect();
+    let mut books_kg = 0.0;
+    let mut stack = (f64::MAX, f64::MIN);
+    let mut wet_layer = (0.0, 0.0);
+    for mut layer in world.query::<&mut AirLayer>().iter_mut(world) {
+        let h = layer.fields.thickness;
+        if layer.index == 2 {
+            wet_layer = (layer.fields.bottom, layer.fields.bottom + h);
+            for &c in &wet {
+                layer.fields.w.data_mut()[c] = 3.0;
+            }
+        }
+        stack = (stack.0.min(layer.fields.bottom), stack.1.max(layer.fields.bottom + h));
+        for &c in &cells {
+            layer.fields.ash.data_mut()[c] = 0.5;
+            books_kg += 0.5e-3 * h * dx * dx;
+        }
+    }
+    let settings = ExportSettings { air_voxel_m: dx / 8.0, ..default() };
+    let frame = capture_frame(world, &settings, FrameView::default()).unwrap();
+    let fall = grid(&frame.grids, "ash_fall");
+    let mass = fall.integral();
+    assert!((mass / books_kg - 1.0).abs() < 0.03, "exported {mass} kg, atmosphere {books_kg} kg");
+    let half = 0.5 * n as f64 * dx;
+    for (ijk, _) in fall.iter_active() {
+        let [x, y, z] = fall.transform().index_to_world(ijk);
+        // Inside the block, to the bilinear reach of one cell.
+        for (c, axis) in [(x, "x"), (z, "z")] {
+            let cell = (c + half) / dx;
+            assert!((0.5..5.5).contains(&cell), "ash at {axis} cell {cell}");
+        }
+        assert!(y >= stack.0 && y <= stack.1, "ash at {y} m, stack {stack:?}");
+    }
+    let cloud = grid(&frame.grids, "cloud");
+    assert!(cloud.active_voxel_count() > 100, "{} cloud voxels", cloud.active_voxel_count());
+    let (lo, hi) = (wet_layer.0 - (wet_layer.1 - wet_layer.0), wet_layer.1 + (wet_layer.1 - wet_layer.0));
+    for (ijk, _) in cloud.iter_active() {
+        let [x, y, z] = cloud.transform().index_to_world(ijk);
+        let (ci, cj) = ((x + half) / dx, (z + half) / dx);
+        assert!((8.5..13.5).contains(&ci) && (1.5..6.5).contains(&cj), "cloud over cell ({ci}, {cj})");
+        assert!(y >= lo && y <= hi, "cloud at {y} m, layer 2 spans {wet_layer:?}");
+    }
+}
+
+/// `write_frame` writes the `.vdb` and the `.json`; both read back; OpenVDB opens every grid
+/// (tools/check_vdb.py, python3-openvdb); bad settings and an unwritable folder are errors
+/// that leave nothing behind.
+#[test]
+fn a_frame_is_written_whole_and_openvdb_reads_it() {
+    let mut app = app();
+    app.world_mut().spawn(worlds::small_island());
+    app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), Eruption::plinian(), Transform::default()));
+    for _ in 0..100 {
+        app.update();
+    }
+    let bad = ExportSettings { ash_voxel_m: f64::NAN, ..default() };
+    assert!(matches!(
+        capture_frame(app.world_mut(), &bad, FrameView::default()),
+        Err(ExportError::Settings(_))
+    ));
+    let frame = capture_frame(app.world_mut(), &ExportSettings::default(), FrameView::default()).unwrap();
+
+    let dir = tempfile::tempdir().unwrap();
+    let (vdb, json) = write_frame(dir.path(), 3, &frame).unwrap();
+    assert!(vdb.ends_with("frame_0003.vdb") && json.ends_with("frame_0003.json"));
+    let (grids, meta) = read_vdb(&std::fs::read(&vdb).unwrap()).unwrap();
+    assert_eq!(grids.iter().map(|g| g.name.as_str()).collect::<Vec<_>>(), ["ash", "temperature"]);
+    assert!(meta.contains_key("creator"));
+    for (read, written) in grids.iter().zip(&frame.grids) {
+        assert_eq!(read.active.len() as u64, written.active_voxel_count());
+        assert!(written.iter_active().all(|(ijk, v)| read.active.get(&ijk) == Some(&v)));
+    }
+    let info: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
+    assert_eq!(info["up"], "y");
+    assert_eq!(info["tick"], frame.info.tick);
+    assert_eq!(info["grids"][0]["active_voxels"], frame.grids[0].active_voxel_count());
+
+    if std::env::var_os("VOLCANO_SKIP_OPENVDB").is_none() {
+        let refs: Vec<&FloatGrid> = frame.grids.iter().collect();
+        let expect = dir.path().join("expect.json");
+        std::fs::write(&expect, expectation(&refs, 2_000).to_string()).unwrap();
+        let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/check_vdb.py");
+        let out = Command::new("/usr/bin/python3").arg(script).arg(&vdb).arg(&expect).output().unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "OpenVDB check:\n{text}");
+    }
+
+    let missing = dir.path().join("no/such/folder");
+    let e = write_frame(&missing, 0, &frame).unwrap_err();
+    assert!(e.to_string().contains("no/such/folder"), "{e}");
+    let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 3, "the frame's two files and the expectation, no temporary: {names:?}");
+}
