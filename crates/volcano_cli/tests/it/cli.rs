@@ -216,3 +216,57 @@ fn bench_times_every_domain_of_the_eruption_scene() {
     assert_eq!(bad.status.code(), Some(2));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `volcano export` writes whole frames (the `.vdb`, its `.json`, the expectation) and refuses
+/// bad input with a message naming it, leaving no file behind.
+#[test]
+fn export_writes_frames_and_refuses_bad_input() {
+    let dir = std::env::temp_dir().join(format!("volcano-export-test-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let o = volcano()
+        .args(["export", "--scene", "plinian_plume", "--ticks", "50", "--frames", "2", "--every", "25"])
+        .args(["--ash-voxel", "40", "--expect", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "export failed: {stderr}");
+    assert_eq!(
+        stderr.lines().filter(|l| l.starts_with("frame ")).count(),
+        2,
+        "a progress line per frame: {stderr}"
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    let want: Vec<String> = (0..2)
+        .flat_map(|f| ["expect.json", "json", "vdb"].map(|ext| format!("frame_{f:04}.{ext}")))
+        .collect();
+    assert_eq!(names, want);
+    let info: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("frame_0001.json")).unwrap()).unwrap();
+    assert_eq!(info["tick"], 75);
+    assert!(info["view"]["camera"]["vertical_fov_deg"].as_f64().is_some(), "the scene's camera: {info}");
+
+    let bad: [(&[&str], &str); 5] = [
+        (&["--scene", "atlantis", "--ticks", "1"], "unknown scene"),
+        (&["--ticks", "1", "--frames", "0"], "--frames"),
+        (&["--ticks", "1", "--frames", "3", "--every", "0"], "--every"),
+        (&["--ticks", "1", "--ash-voxel", "-5"], "ash_voxel_m"),
+        (&["--ticks", "99999999999"], "--ticks"),
+    ];
+    for (args, message) in bad {
+        let out = dir.join("bad");
+        let o = volcano().arg("export").args(args).arg("--out").arg(&out).output().unwrap();
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {stderr}");
+        assert!(stderr.contains(message), "{args:?}: {stderr}");
+        assert!(!out.exists(), "{args:?} created the folder");
+    }
+    let o = volcano().args(["export", "--ticks", "1", "--out", "/proc/volcano-export"]).output().unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("/proc/volcano-export"));
+    let _ = std::fs::remove_dir_all(dir);
+}
