@@ -6,7 +6,16 @@ use std::fs::File;
 use std::io::BufWriter;
 use std::path::Path;
 
-use crate::vdb::VdbError;
+/// Creating, flushing or renaming the file failed: nothing was left at `path`. Each format's
+/// error type converts it into its own variant.
+#[derive(Debug, thiserror::Error)]
+#[error("cannot write {path}: {source}")]
+pub struct FileError {
+    /// The file.
+    pub path: String,
+    /// Why.
+    pub source: std::io::Error,
+}
 
 /// Runs `write` on a buffered temporary file beside `path` and renames it to `path` if it
 /// succeeds.
@@ -15,9 +24,9 @@ pub fn write_atomically<E>(
     write: impl FnOnce(&mut BufWriter<File>) -> Result<(), E>,
 ) -> Result<(), E>
 where
-    E: From<VdbError>,
+    E: From<FileError>,
 {
-    let file_error = |source: std::io::Error| VdbError::File { path: path.display().to_string(), source };
+    let file_error = |source: std::io::Error| FileError { path: path.display().to_string(), source };
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d,
         _ => Path::new("."),
@@ -41,6 +50,7 @@ where
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::vdb::VdbError;
     use std::io::Write;
 
     #[test]

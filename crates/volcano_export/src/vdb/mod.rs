@@ -61,6 +61,12 @@ pub enum VdbError {
     Format(String),
 }
 
+impl From<crate::atomic::FileError> for VdbError {
+    fn from(e: crate::atomic::FileError) -> Self {
+        VdbError::File { path: e.path, source: e.source }
+    }
+}
+
 /// Writes `grids` to `path` through a temporary file in the same folder, renamed to `path`
 /// once complete: an error (a full disk, a refused grid) leaves no file at `path` and no
 /// temporary one beside it.
