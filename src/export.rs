@@ -86,6 +86,9 @@ pub enum ExportError {
     /// A grid could not be built or written.
     #[error("{0}")]
     Volume(#[from] VdbError),
+    /// A file could not be created, flushed or renamed (nothing was left at its path).
+    #[error("{0}")]
+    File(#[from] volcano_export::atomic::FileError),
     /// The frame's JSON could not be written.
     #[error("cannot write {path}: {message}")]
     Json {
