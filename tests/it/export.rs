@@ -10,6 +10,7 @@ use bevy::time::TimeUpdateStrategy;
 use volcano::atmosphere::{AirLayer, Atmosphere};
 use volcano::export::vdb::{FloatGrid, expectation, read_vdb};
 use volcano::export::{ExportError, ExportSettings, FrameView, capture_frame, write_frame};
+use volcano::lava::{LavaField, LavaState};
 use volcano::plume::components::{PlumeSlice, S1};
 use volcano::prelude::*;
 
@@ -190,4 +191,88 @@ fn a_frame_is_written_whole_and_openvdb_reads_it() {
     assert!(e.to_string().contains("no/such/folder"), "{e}");
     let names: Vec<_> = std::fs::read_dir(dir.path()).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 3, "the frame's two files and the expectation, no temporary: {names:?}");
+}
+
+/// A lava flow on the island's flank after 10 s: its surface mesh covers the cells the lava
+/// covers, at the lava's surface, with the top of the crust's temperature per vertex (the
+/// crust only cooling the top, fresh lava glowing, every vertex between the air's and the
+/// eruption's); `terrain.glb` and `frame_NNNN.glb` read back with the `gltf` crate's own checks.
+#[test]
+fn the_lava_is_a_mesh_where_it_flows_with_its_surface_temperature() {
+    let mut app = app();
+    let terrain = worlds::small_island();
+    let source = Vec2::new(1_800.0, 300.0);
+    let placement = volcano::lava::Placement {
+        nx: 48,
+        ny: 48,
+        ..volcano::lava::Placement::downslope_of(&terrain, source, 48, 1.0).unwrap()
+    };
+    let world = app.world_mut();
+    let mut commands = world.commands();
+    worlds::lava(&mut commands, &terrain, placement, source, 2.0);
+    commands.spawn(terrain);
+    world.flush();
+    for _ in 0..500 {
+        app.update();
+    }
+    let frame = capture_frame(app.world_mut(), &ExportSettings::default(), FrameView::default()).unwrap();
+    assert_eq!(frame.info.meshes, ["lava_0"]);
+    let mesh = &frame.meshes[0];
+    let world = app.world_mut();
+    let (field, state) = world.query::<(&LavaField, &LavaState)>().single(world).unwrap();
+    let flow = &state.flow;
+    let (h, ground) = (flow.thickness(), flow.ground().data());
+    let temps = mesh.temperature.as_ref().unwrap();
+    let core_max = flow.temperature().data().iter().copied().fold(0.0, f64::max);
+    let mut covered_quads = 0;
+    for j in 0..flow.ny() - 1 {
+        for i in 0..flow.nx() - 1 {
+            let ks = [
+                j * flow.nx() + i,
+                j * flow.nx() + i + 1,
+                (j + 1) * flow.nx() + i,
+                (j + 1) * flow.nx() + i + 1,
+            ];
+            covered_quads +=
+                ks.iter().all(|&k| h.data()[k] + flow.solid().data()[k] > field.params.min_thickness)
+                    as usize;
+        }
+    }
+    assert!(covered_quads > 20, "{covered_quads} quads of lava");
+    assert_eq!(mesh.indices.len(), 6 * covered_quads);
+    for &v in &mesh.indices {
+        let k = v as usize;
+        let (i, j) = (k % flow.nx(), k / flow.nx());
+        let xz = h.position(i, j);
+        assert_eq!(mesh.positions[k], [xz.x, (ground[k] + h.data()[k].max(0.0)) as f32, xz.y]);
+        let t = temps[k] as f64;
+        assert!(t >= field.params.air_temperature - 1e-3 && t <= core_max + 1e-3, "vertex at {t} K");
+    }
+    // The crust only cools the top: no liquid vertex above its own core, and the fresh lava
+    // near the source still glows (above 1,000 K) after 10 s.
+    let core = flow.temperature().data();
+    for (k, &t) in temps.iter().enumerate() {
+        if h.data()[k] > field.params.min_thickness {
+            assert!(t as f64 <= core[k] + 1e-3, "top {t} K over a {} K core", core[k]);
+        }
+    }
+    let hottest = temps.iter().copied().fold(0.0, f32::max);
+    assert!(hottest > 1_000.0, "hottest top {hottest} K");
+    let dir = tempfile::tempdir().unwrap();
+    write_frame(dir.path(), 0, &frame).unwrap();
+    let terrain =
+        volcano::export::capture_terrain(world, &ExportSettings { terrain_max_side: 33, ..default() })
+            .unwrap()
+            .unwrap();
+    assert_eq!(terrain.positions.len(), 33 * 33, "65 samples a side at stride 2");
+    volcano::export::write_terrain(dir.path(), &terrain).unwrap();
+    for name in ["frame_0000.glb", "terrain.glb"] {
+        let glb = gltf::Gltf::from_slice(&std::fs::read(dir.path().join(name)).unwrap()).unwrap();
+        let blob = glb.blob.as_deref().unwrap();
+        let mesh = glb.document.meshes().next().unwrap();
+        let prim = mesh.primitives().next().unwrap();
+        let reader = prim.reader(|_| Some(blob));
+        let n = reader.read_positions().unwrap().count();
+        assert!(n > 1000, "{name}: {n} vertices");
+    }
 }

@@ -1,7 +1,8 @@
 //! `volcano export`: runs a built-in scene headless and writes frames an offline renderer
 //! opens (docs/EXPORT.md): per frame `frame_NNNN.vdb` (OpenVDB grids `ash`, `temperature`,
-//! `cloud`, `ash_fall`, world metres, y up) and `frame_NNNN.json` (time, camera, sun, grids),
-//! each written under a temporary name and renamed when complete; `--expect` adds
+//! `cloud`, `ash_fall`, world metres, y up), `frame_NNNN.glb` (lava surfaces and fold ropes,
+//! when the scene has lava) and `frame_NNNN.json` (time, camera, sun, grids), and once
+//! `terrain.glb`, each written under a temporary name and renamed when complete; `--expect` adds
 //! `frame_NNNN.expect.json` for `tools/check_vdb.py` (the check with OpenVDB itself). One
 //! frame is held in memory at a time.
 
@@ -12,7 +13,9 @@ use std::time::{Duration, Instant};
 use bevy::prelude::*;
 use bevy::time::TimeUpdateStrategy;
 use volcano::export::vdb::{FloatGrid, expectation};
-use volcano::export::{ExportSettings, FrameView, capture_frame, frame_paths, write_frame};
+use volcano::export::{
+    ExportSettings, FrameView, capture_frame, capture_terrain, frame_paths, write_frame, write_terrain,
+};
 use volcano::prelude::*;
 
 /// What `volcano export` was asked for.
@@ -92,6 +95,16 @@ pub fn run(args: &ExportArgs) -> ExitCode {
         if let Err(e) = write_frame(&args.out, frame, &captured) {
             eprintln!("error: frame {frame}: {e}");
             return ExitCode::FAILURE;
+        }
+        // The terrain once, with the first frame (lava that froze into it shows in the frames'
+        // lava surfaces).
+        if frame == 0 {
+            let written = capture_terrain(app.world_mut(), &args.settings)
+                .and_then(|t| t.map(|t| write_terrain(&args.out, &t)).transpose());
+            if let Err(e) = written {
+                eprintln!("error: terrain: {e}");
+                return ExitCode::FAILURE;
+            }
         }
         if args.expect
             && let Err(e) = write_expectation(&args.out, frame, &captured.grids)

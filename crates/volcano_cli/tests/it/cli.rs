@@ -241,9 +241,10 @@ fn export_writes_frames_and_refuses_bad_input() {
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    let want: Vec<String> = (0..2)
+    let mut want: Vec<String> = (0..2)
         .flat_map(|f| ["expect.json", "json", "vdb"].map(|ext| format!("frame_{f:04}.{ext}")))
         .collect();
+    want.push("terrain.glb".into());
     assert_eq!(names, want);
     let info: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("frame_0001.json")).unwrap()).unwrap();

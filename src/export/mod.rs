@@ -1,8 +1,10 @@
 //! Offline export of a running volcano (docs/EXPORT.md): [`capture_frame`] reads a world's
-//! plume, currents and atmosphere into OpenVDB grids, [`write_frame`] writes a frame folder's
-//! files (`frame_NNNN.vdb` and `frame_NNNN.json`, each whole or not at all). The command line
-//! is `volcano export`; the writer and the splatting are the engine-free `volcano_export`
-//! crate, re-exported here as [`vdb`] and [`splat`].
+//! plume, currents and atmosphere into OpenVDB grids and its lava into glTF meshes,
+//! [`write_frame`] writes a frame folder's files (`frame_NNNN.vdb`, `frame_NNNN.glb` when
+//! there is lava, `frame_NNNN.json`), [`capture_terrain`] and [`write_terrain`] the terrain
+//! once (`terrain.glb`); each file is written whole or not at all. The command line is
+//! `volcano export`; the writers and the splatting are the engine-free `volcano_export`
+//! crate, re-exported here as [`vdb`], [`gltf`] and [`splat`].
 //!
 //! Grids, in Bevy's world frame (metres, **y up**; `tools/blender_load.py` turns them z-up):
 //! - `ash` (kg/m³): every sphere of the column, the umbrella and the pyroclastic currents, at
@@ -26,7 +28,12 @@ use volcano_plume::components::{PlumeSlice, S1};
 use volcano_plume::pyroclastic::PyroParticle;
 use volcano_plume::view::{for_each_sphere, gather_parents};
 
-pub use volcano_export::{splat, vdb};
+pub use volcano_export::{gltf, splat, vdb};
+
+mod meshes;
+pub use meshes::{fold_lines, lava_mesh, lava_meshes, terrain_mesh};
+
+use gltf::{GltfError, LineData, MeshData};
 
 use splat::{Combine, Fill, Sphere, splat_spheres};
 use vdb::{FloatGrid, GridClass, MetaValue, Transform, VdbError};
@@ -49,6 +56,8 @@ pub struct ExportSettings {
     pub cloud_clusters: usize,
     /// See `cloud_clusters`.
     pub cloud_fragmentation: f64,
+    /// Most samples along a side of the terrain mesh (every n-th height is kept above it).
+    pub terrain_max_side: usize,
 }
 
 impl Default for ExportSettings {
@@ -60,19 +69,21 @@ impl Default for ExportSettings {
             max_voxels: 60_000_000,
             cloud_clusters: 8,
             cloud_fragmentation: 0.3,
+            terrain_max_side: 513,
         }
     }
 }
 
 impl ExportSettings {
     /// Voxels of 0.5 m to 10 km, a budget of at least one voxel, 1 to 64 clusters, a
-    /// fragmentation in [0, 1].
+    /// fragmentation in [0, 1], a terrain mesh of 2 to 8,193 samples a side.
     pub fn validate(&self) -> Result<(), ConfigError> {
         in_range("ash_voxel_m", self.ash_voxel_m, 0.5, 10_000.0)?;
         in_range("air_voxel_m", self.air_voxel_m, 0.5, 10_000.0)?;
         in_range("max_voxels", self.max_voxels as f64, 1.0, f64::MAX)?;
         in_range("cloud_clusters", self.cloud_clusters as f64, 1.0, 64.0)?;
         in_range("cloud_fragmentation", self.cloud_fragmentation, 0.0, 1.0)?;
+        in_range("terrain_max_side", self.terrain_max_side as f64, 2.0, 8_193.0)?;
         Ok(())
     }
 }
@@ -86,6 +97,9 @@ pub enum ExportError {
     /// A grid could not be built or written.
     #[error("{0}")]
     Volume(#[from] VdbError),
+    /// A mesh could not be written.
+    #[error("{0}")]
+    Mesh(#[from] GltfError),
     /// A file could not be created, flushed or renamed (nothing was left at its path).
     #[error("{0}")]
     File(#[from] volcano_export::atomic::FileError),
@@ -187,6 +201,8 @@ pub struct FrameInfo {
     pub view: FrameView,
     /// The grids of the `.vdb`.
     pub grids: Vec<GridInfo>,
+    /// Meshes and line sets of the frame's `.glb` (none: no `.glb`).
+    pub meshes: Vec<String>,
     /// Spheres splatted into `ash`.
     pub spheres: u64,
     /// Spheres skipped (non-finite or empty).
@@ -200,11 +216,15 @@ pub struct FrameInfo {
 pub struct ExportFrame {
     /// `ash`, `temperature`, and `cloud`, `ash_fall` when the world has an atmosphere.
     pub grids: Vec<FloatGrid>,
+    /// Lava surfaces.
+    pub meshes: Vec<MeshData>,
+    /// Fold ropes.
+    pub lines: Vec<LineData>,
     /// The JSON side.
     pub info: FrameInfo,
 }
 
-/// Reads the world's plume spheres, pyroclastic currents and atmosphere into a frame.
+/// Reads the world's plume spheres, pyroclastic currents, atmosphere and lava into a frame.
 pub fn capture_frame(
     world: &mut World,
     settings: &ExportSettings,
@@ -220,17 +240,19 @@ pub fn capture_frame(
         g.insert_meta("volcano_time_s", MetaValue::Double(time_s))?;
         g.insert_meta("volcano_up_axis", MetaValue::String("y".into()))?;
     }
+    let (meshes, lines) = lava_meshes(world);
     let info = FrameInfo {
         time_s,
         tick,
         up: "y",
         view,
         grids: grids.iter().map(grid_info).collect(),
+        meshes: meshes.iter().map(|m| m.name.clone()).chain(lines.iter().map(|l| l.name.clone())).collect(),
         spheres,
         skipped_spheres: skipped,
         settings: settings.clone(),
     };
-    Ok(ExportFrame { grids, info })
+    Ok(ExportFrame { grids, meshes, lines, info })
 }
 
 fn units(name: &str) -> &'static str {
@@ -370,18 +392,40 @@ fn air_grids(world: &mut World, settings: &ExportSettings) -> Result<Vec<FloatGr
     Ok(vec![cloud, ash_fall])
 }
 
-/// The files of frame `index` in `dir`.
+/// The first terrain's mesh (entity order), `None` without a terrain.
+pub fn capture_terrain(
+    world: &mut World,
+    settings: &ExportSettings,
+) -> Result<Option<MeshData>, ExportError> {
+    settings.validate()?;
+    let mut q = world.query::<(Entity, &volcano_core::Terrain)>();
+    Ok(q.iter(world).min_by_key(|(e, _)| *e).map(|(_, t)| terrain_mesh(t, settings.terrain_max_side)))
+}
+
+/// Writes `dir/terrain.glb`; returns its path.
+pub fn write_terrain(dir: &Path, terrain: &MeshData) -> Result<PathBuf, ExportError> {
+    let path = dir.join("terrain.glb");
+    gltf::write_glb_file(&path, std::slice::from_ref(terrain), &[])?;
+    Ok(path)
+}
+
+/// The files of frame `index` in `dir`: its `.vdb` and its `.json` (and its `.glb` beside them
+/// when it has lava).
 pub fn frame_paths(dir: &Path, index: u32) -> (PathBuf, PathBuf) {
     (dir.join(format!("frame_{index:04}.vdb")), dir.join(format!("frame_{index:04}.json")))
 }
 
-/// Writes frame `index` of `dir`: its grids as `frame_NNNN.vdb` and its [`FrameInfo`] as
-/// `frame_NNNN.json`, each through a temporary file renamed when complete.
+/// Writes frame `index` of `dir`: its grids as `frame_NNNN.vdb`, its lava as `frame_NNNN.glb`
+/// (if it has any) and its [`FrameInfo`] as `frame_NNNN.json`, each through a temporary file
+/// renamed when complete.
 pub fn write_frame(dir: &Path, index: u32, frame: &ExportFrame) -> Result<(PathBuf, PathBuf), ExportError> {
     let (vdb_path, json_path) = frame_paths(dir, index);
     let grids: Vec<&FloatGrid> = frame.grids.iter().collect();
     let file_meta = [("creator", MetaValue::String(format!("volcano {}", env!("CARGO_PKG_VERSION"))))];
     vdb::write_vdb_file(&vdb_path, &grids, &file_meta)?;
+    if !frame.meshes.is_empty() || !frame.lines.is_empty() {
+        gltf::write_glb_file(&vdb_path.with_extension("glb"), &frame.meshes, &frame.lines)?;
+    }
     let text = serde_json::to_string_pretty(&frame.info)
         .map_err(|e| ExportError::Json { path: json_path.display().to_string(), message: e.to_string() })?;
     volcano_export::atomic::write_atomically::<ExportError>(&json_path, |w| {

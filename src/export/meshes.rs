@@ -1,0 +1,192 @@
+//! The terrain and the lava as glTF meshes (world metres, y up, as glTF itself): the terrain
+//! heightfield (decimated to a vertex budget), each lava field's surface over the cells its
+//! lava covers with the top of the crust's temperature per vertex (`_TEMPERATURE`, K, the
+//! emission a renderer gives it: thesis §5.3's crust over the core), and its fold ropes
+//! (§5.4) as line strips along each fold's chain.
+
+use bevy::prelude::*;
+use volcano_core::Terrain;
+use volcano_export::gltf::{LineData, MeshData};
+use volcano_lava::view::surface_temperature;
+use volcano_lava::{LavaField, LavaState};
+
+/// Linear albedo of the terrain (a dry volcanic grey-brown) and of lava surfaces (basalt; the
+/// glow is the temperature's).
+const TERRAIN_ALBEDO: [f32; 4] = [0.18, 0.16, 0.14, 1.0];
+const LAVA_ALBEDO: [f32; 4] = [0.16, 0.15, 0.14, 1.0];
+/// Colour of the fold ropes.
+const ROPE_COLOUR: [f32; 4] = [0.1, 0.09, 0.08, 1.0];
+
+/// Normals of a row-major `nx × ny` heightfield of spacing `cell` by central differences.
+fn normals(y: &[f32], nx: usize, ny: usize, cell: f32) -> Vec<[f32; 3]> {
+    let mut out = Vec::with_capacity(nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(nx - 1));
+            let (j0, j1) = (j.saturating_sub(1), (j + 1).min(ny - 1));
+            let at = |a: usize, b: usize| y[b * nx + a];
+            let dx = if i1 > i0 { (at(i1, j) - at(i0, j)) / ((i1 - i0) as f32 * cell) } else { 0.0 };
+            let dz = if j1 > j0 { (at(i, j1) - at(i, j0)) / ((j1 - j0) as f32 * cell) } else { 0.0 };
+            out.push(Vec3::new(-dx, 1.0, -dz).normalize_or(Vec3::Y).to_array());
+        }
+    }
+    out
+}
+
+/// Two triangles per quad of samples `(i, j)–(i+1, j+1)` for which `keep(k)` holds at all four
+/// corners; counter-clockwise seen from above (+y), glTF's front face.
+fn quads(nx: usize, ny: usize, keep: impl Fn(usize) -> bool) -> Vec<u32> {
+    let mut idx = Vec::new();
+    for j in 0..ny.saturating_sub(1) {
+        for i in 0..nx.saturating_sub(1) {
+            let (a, b, c, d) = (j * nx + i, j * nx + i + 1, (j + 1) * nx + i, (j + 1) * nx + i + 1);
+            if [a, b, c, d].into_iter().all(&keep) {
+                idx.extend([a, c, b, b, c, d].map(|v| v as u32));
+            }
+        }
+    }
+    idx
+}
+
+/// The terrain's heightfield, every `stride`-th sample with `stride` the smallest that keeps
+/// each side at most `max_side` samples.
+pub fn terrain_mesh(terrain: &Terrain, max_side: usize) -> MeshData {
+    let h = terrain.heights();
+    let (nx, ny) = (h.nx(), h.ny());
+    let stride = nx.max(ny).div_ceil(max_side.max(2)).max(1);
+    let (mx, my) = ((nx - 1) / stride + 1, (ny - 1) / stride + 1);
+    let mut positions = Vec::with_capacity(mx * my);
+    let mut heights = Vec::with_capacity(mx * my);
+    for j in 0..my {
+        for i in 0..mx {
+            let (si, sj) = (i * stride, j * stride);
+            let p = h.position(si, sj);
+            let y = h.get(si, sj);
+            positions.push([p.x, y, p.y]);
+            heights.push(y);
+        }
+    }
+    MeshData {
+        name: "terrain".into(),
+        normals: Some(normals(&heights, mx, my, (h.cell() * stride as f64) as f32)),
+        indices: quads(mx, my, |_| true),
+        positions,
+        colors: None,
+        temperature: None,
+        emissive: None,
+        base_color: TERRAIN_ALBEDO,
+    }
+}
+
+/// A lava field's surface (ground + frozen + liquid lava at each cell centre) over the quads
+/// whose four cells hold more than `min_thickness` of lava, liquid or frozen; `None` if no
+/// quad does. `_TEMPERATURE` is the top of the crust's ([`surface_temperature`]) where the
+/// lava is liquid, the air's where it froze.
+pub fn lava_mesh(name: &str, field: &LavaField, state: &LavaState) -> Option<MeshData> {
+    let flow = &state.flow;
+    let (nx, ny) = (flow.nx(), flow.ny());
+    let (h, ground, solid, temp) =
+        (flow.thickness(), flow.ground().data(), flow.solid().data(), flow.temperature().data());
+    let p = &field.params;
+    let covered = |k: usize| h.data()[k].max(0.0) + solid[k].max(0.0) > p.min_thickness;
+    let indices = quads(nx, ny, covered);
+    if indices.is_empty() {
+        return None;
+    }
+    let mut positions = Vec::with_capacity(nx * ny);
+    let mut heights = Vec::with_capacity(nx * ny);
+    let mut temperature = Vec::with_capacity(nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            let k = j * nx + i;
+            let xz = h.position(i, j);
+            let y = (ground[k] + h.data()[k].max(0.0)) as f32;
+            positions.push([xz.x, y, xz.y]);
+            heights.push(y);
+            let liquid = h.data()[k] > p.min_thickness;
+            let crust = state.surface.crust.get(k).copied().unwrap_or(0.0);
+            let t = if liquid { surface_temperature(p, temp[k], crust) } else { p.air_temperature };
+            temperature.push(t as f32);
+        }
+    }
+    Some(MeshData {
+        name: name.into(),
+        normals: Some(normals(&heights, nx, ny, flow.cell() as f32)),
+        indices,
+        positions,
+        colors: None,
+        temperature: Some(temperature),
+        emissive: None,
+        base_color: LAVA_ALBEDO,
+    })
+}
+
+/// A lava field's fold ropes: each fold's chain as segments between consecutive particles, at
+/// the lava surface of the particle's cell plus its offset and roll height, lifted by half its
+/// diameter (the rope's axis). `None` without folds.
+pub fn fold_lines(name: &str, state: &LavaState) -> Option<LineData> {
+    let flow = &state.flow;
+    let (h, ground) = (flow.thickness(), flow.ground().data());
+    let particles = &state.folds.particles;
+    let mut positions = Vec::with_capacity(particles.len());
+    for f in particles {
+        let xz = Vec2::new(f.pos.x as f32, f.pos.y as f32);
+        let surface = flow.cell_at(xz).map_or(0.0, |(i, j)| {
+            let k = j * flow.nx() + i;
+            ground[k] + h.data()[k].max(0.0)
+        });
+        let y = surface + f.offset + f.roll_height + 0.5 * f.thickness;
+        positions.push([xz.x, y as f32, xz.y]);
+    }
+    let n = positions.len() as u32;
+    let mut indices = Vec::new();
+    for fold in &state.folds.folds {
+        for w in fold.chain.windows(2) {
+            if w[0] < n && w[1] < n {
+                indices.extend([w[0], w[1]]);
+            }
+        }
+    }
+    if indices.is_empty() {
+        return None;
+    }
+    Some(LineData { name: name.into(), positions, indices, color: ROPE_COLOUR })
+}
+
+/// Every lava field's surface and ropes, named `lava_N` / `folds_N` in entity order.
+pub fn lava_meshes(world: &mut World) -> (Vec<MeshData>, Vec<LineData>) {
+    let mut fields: Vec<(Entity, &LavaField, &LavaState)> =
+        world.query::<(Entity, &LavaField, &LavaState)>().iter(world).collect();
+    fields.sort_by_key(|(e, ..)| *e);
+    let (mut meshes, mut lines) = (Vec::new(), Vec::new());
+    for (n, (_, field, state)) in fields.iter().enumerate() {
+        meshes.extend(lava_mesh(&format!("lava_{n}"), field, state));
+        lines.extend(fold_lines(&format!("folds_{n}"), state));
+    }
+    (meshes, lines)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quads_face_up_and_skip_uncovered_corners() {
+        let idx = quads(3, 3, |k| k != 8);
+        assert_eq!(idx.len(), 3 * 6, "the quad touching sample 8 is dropped");
+        // Counter-clockwise from above: (a → c → b) has a +y normal for x right, z down-grid.
+        let p = |v: u32| Vec3::new((v % 3) as f32, 0.0, (v / 3) as f32);
+        let n = (p(idx[1]) - p(idx[0])).cross(p(idx[2]) - p(idx[0]));
+        assert!(n.y > 0.0, "{n}");
+    }
+
+    #[test]
+    fn a_slope_tilts_the_normals_downhill() {
+        // y = x / 2 on a 4 × 2 grid of 1 m: the normal leans towards −x.
+        let y: Vec<f32> = (0..8).map(|k| (k % 4) as f32 * 0.5).collect();
+        let n = normals(&y, 4, 2, 1.0);
+        for v in n {
+            assert!((v[0] + 0.5 / 1.25f32.sqrt()).abs() < 1e-6 && v[2] == 0.0, "{v:?}");
+        }
+    }
+}
