@@ -34,6 +34,8 @@ pub(crate) enum Hide {
     AshFall,
     /// The grey ash deposit on the terrain.
     Deposit,
+    /// The column's, umbrella's and currents' ash (billboards and detail spheres).
+    Ash,
 }
 
 /// Parses `--camera FX,FY,FZ,YAW,PITCH,DISTANCE`.
@@ -223,6 +225,7 @@ pub(crate) fn render(
             Hide::Clouds => world.resource_mut::<volcano::render::CloudRenderSettings>().enabled = false,
             Hide::AshFall => world.resource_mut::<volcano::render::AshFallSettings>().enabled = false,
             Hide::Deposit => world.resource_mut::<volcano::render::DepositTint>().enabled = false,
+            Hide::Ash => world.resource_mut::<volcano::plume::PlumeViewSettings>().enabled = false,
         }
     }
     if bloom {

@@ -113,9 +113,50 @@ fn follow_sun(sun: Query<&GlobalTransform, With<DirectionalLight>>, mut light: R
     }
 }
 
-/// The main view off means no instances (the debug views draw their own).
-fn apply_mode(mode: Res<PlumeRenderMode>, mut settings: ResMut<PlumeViewSettings>) {
-    if mode.is_changed() && settings.enabled != mode.ash() {
-        settings.enabled = mode.ash();
+/// The main view off means no instances (the debug views draw their own): a debug view turns
+/// [`PlumeViewSettings::enabled`] off, going back to the main view turns it on again. The main
+/// view from the start leaves it as the game set it (a game or tool may hide the ash).
+fn apply_mode(
+    mode: Res<PlumeRenderMode>,
+    mut last: Local<Option<bool>>,
+    mut settings: ResMut<PlumeViewSettings>,
+) {
+    let ash = mode.ash();
+    let before = last.replace(ash);
+    if before != Some(ash) && (before.is_some() || !ash) && settings.enabled != ash {
+        settings.enabled = ash;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn run(mode: PlumeRenderMode, enabled: bool) -> App {
+        let mut app = App::new();
+        app.insert_resource(mode)
+            .insert_resource(PlumeViewSettings { enabled, ..Default::default() })
+            .add_systems(Update, apply_mode);
+        app.update();
+        app
+    }
+
+    fn enabled(app: &App) -> bool {
+        app.world().resource::<PlumeViewSettings>().enabled
+    }
+
+    #[test]
+    fn the_main_view_keeps_the_games_choice_and_debug_views_switch_the_ash() {
+        // Hidden by the game before the first frame: stays hidden under the main view.
+        let mut app = run(PlumeRenderMode::Ash, false);
+        assert!(!enabled(&app));
+        app.update();
+        assert!(!enabled(&app));
+        // A debug view turns it off, the main view back on.
+        let mut app = run(PlumeRenderMode::DebugSpheres, true);
+        assert!(!enabled(&app));
+        *app.world_mut().resource_mut::<PlumeRenderMode>() = PlumeRenderMode::Ash;
+        app.update();
+        assert!(enabled(&app));
     }
 }
