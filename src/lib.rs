@@ -143,4 +143,6 @@ mod guide {
     struct Assets;
     #[doc = include_str!("../docs/SAVING.md")]
     struct Saving;
+    #[doc = include_str!("../docs/EXPORT.md")]
+    struct Export;
 }

@@ -62,3 +62,46 @@ fn two_grids_of_one_name_are_refused() {
     let mut out = std::io::Cursor::new(Vec::new());
     assert!(matches!(write_vdb(&mut out, &[&g, &g], &[]), Err(VdbError::Name(_))));
 }
+
+/// A sink that takes `room` bytes and then fails as a full disk does.
+struct FullDisk {
+    inner: std::io::Cursor<Vec<u8>>,
+    room: usize,
+}
+
+impl std::io::Write for FullDisk {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let left = self.room.saturating_sub(self.inner.get_ref().len());
+        if left == 0 {
+            return Err(std::io::Error::new(std::io::ErrorKind::StorageFull, "no space left on device"));
+        }
+        self.inner.write(&buf[..buf.len().min(left)])
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl std::io::Seek for FullDisk {
+    fn seek(&mut self, pos: std::io::SeekFrom) -> std::io::Result<u64> {
+        self.inner.seek(pos)
+    }
+}
+
+/// A disk that fills at any point of a file is an error saying so, never a panic or a file
+/// that claims to be complete.
+#[test]
+fn a_disk_that_fills_is_an_error() {
+    let mut g = FloatGrid::new("g", GridClass::FogVolume, Transform::new(1.0, [0.0; 3]).unwrap()).unwrap();
+    for i in 0..500 {
+        g.set([i, i % 7, -i], 1.0 + i as f32).unwrap();
+    }
+    let mut all = std::io::Cursor::new(Vec::new());
+    write_vdb(&mut all, &[&g], &[]).unwrap();
+    let whole = all.into_inner().len();
+    for room in [0, 10, 100, whole / 2, whole - 1] {
+        let mut disk = FullDisk { inner: std::io::Cursor::new(Vec::new()), room };
+        let e = write_vdb(&mut disk, &[&g], &[]).expect_err(&format!("room {room} of {whole}"));
+        assert!(e.to_string().contains("no space left"), "{room}: {e}");
+    }
+}
