@@ -80,9 +80,14 @@ pub fn run(args: &ExportArgs) -> ExitCode {
         .insert_resource(Time::<Fixed>::from_hz(crate::TICK_HZ))
         .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_secs_f64(1.0 / crate::TICK_HZ)));
     let started = Instant::now();
+    let last_tick = args.ticks + args.every * (args.frames as u64 - 1);
+    let mut bar = Progress::new(last_tick);
     for frame in 0..args.frames {
         let target = args.ticks + args.every * frame as u64;
-        while app.world().get_resource::<SimTick>().is_none_or(|t| t.0 < target) {
+        while let Some(tick) =
+            app.world().get_resource::<SimTick>().map_or(Some(0), |t| (t.0 < target).then_some(t.0))
+        {
+            bar.show(tick, frame, args.frames, started);
             app.update();
         }
         let captured = match capture_frame(app.world_mut(), &args.settings, view) {
@@ -116,6 +121,7 @@ pub fn run(args: &ExportArgs) -> ExitCode {
         let mb = std::fs::metadata(&vdb).map_or(0.0, |m| m.len() as f64 / 1e6);
         let grids: Vec<String> =
             captured.info.grids.iter().map(|g| format!("{} {}", g.name, g.active_voxels)).collect();
+        bar.clear();
         eprintln!(
             "frame {}/{}: t = {:.0} s, {} spheres, active voxels: {}; {} ({mb:.1} MB), {:.1} s elapsed",
             frame + 1,
@@ -128,6 +134,46 @@ pub fn run(args: &ExportArgs) -> ExitCode {
         );
     }
     ExitCode::SUCCESS
+}
+
+/// A one-line bar on a terminal's stderr while the scene runs between frames (nothing when
+/// stderr is a file or a pipe: the per-frame lines are the log there).
+struct Progress {
+    last_tick: u64,
+    on: bool,
+    shown: Option<Instant>,
+}
+
+impl Progress {
+    fn new(last_tick: u64) -> Self {
+        use std::io::IsTerminal;
+        Self { last_tick: last_tick.max(1), on: std::io::stderr().is_terminal(), shown: None }
+    }
+
+    /// Redraws at most five times a second: ticks done of the last frame's, frames written.
+    fn show(&mut self, tick: u64, frame: u32, frames: u32, started: Instant) {
+        if !self.on || self.shown.is_some_and(|t| t.elapsed() < Duration::from_millis(200)) {
+            return;
+        }
+        self.shown = Some(Instant::now());
+        let done = tick as f64 / self.last_tick as f64;
+        let width = 30;
+        let filled = ((done * width as f64) as usize).min(width);
+        eprint!(
+            "\r[{}{}] {:>3.0} %  tick {tick}/{}  frames written {frame}/{frames}  {:.0} s ",
+            "#".repeat(filled),
+            "-".repeat(width - filled),
+            100.0 * done,
+            self.last_tick,
+            started.elapsed().as_secs_f64()
+        );
+    }
+
+    fn clear(&mut self) {
+        if self.on && self.shown.take().is_some() {
+            eprint!("\r{}\r", " ".repeat(90));
+        }
+    }
 }
 
 /// `frame_NNNN.expect.json`: what `tools/check_vdb.py` compares the `.vdb` with.

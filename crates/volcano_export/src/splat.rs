@@ -67,6 +67,7 @@ pub fn splat_spheres(
     let h = t.voxel_size();
     let mut report = SplatReport::default();
     let mut cells: Vec<([i32; 3], f64)> = Vec::new();
+    let mut values: Vec<([i32; 3], f32)> = Vec::new();
     let mut active = grid.active_voxel_count();
     for s in spheres {
         let valid = s.center.iter().all(|c| c.is_finite())
@@ -90,16 +91,28 @@ pub fn splat_spheres(
         }
         cells.clear();
         let mut sum = 0.0;
-        for i in lo[0]..=hi[0] {
-            for j in lo[1]..=hi[1] {
-                for k in lo[2]..=hi[2] {
-                    let d =
-                        ((i as f64 - c[0]).powi(2) + (j as f64 - c[1]).powi(2) + (k as f64 - c[2]).powi(2))
-                            .sqrt();
-                    let cov = (r - d + 0.5).clamp(0.0, 1.0);
-                    if cov > 0.0 {
-                        cells.push(([i as i32, j as i32, k as i32], cov));
-                        sum += cov;
+        // Leaf by leaf (8³ blocks), so that the grid looks each leaf up once.
+        let block = |a: usize| {
+            (lo[a].div_euclid(8)..=hi[a].div_euclid(8))
+                .map(move |b| (b * 8).max(lo[a])..=(b * 8 + 7).min(hi[a]))
+        };
+        for xs in block(0) {
+            for ys in block(1) {
+                for zs in block(2) {
+                    for i in xs.clone() {
+                        for j in ys.clone() {
+                            for k in zs.clone() {
+                                let d = ((i as f64 - c[0]).powi(2)
+                                    + (j as f64 - c[1]).powi(2)
+                                    + (k as f64 - c[2]).powi(2))
+                                .sqrt();
+                                let cov = (r - d + 0.5).clamp(0.0, 1.0);
+                                if cov > 0.0 {
+                                    cells.push(([i as i32, j as i32, k as i32], cov));
+                                    sum += cov;
+                                }
+                            }
+                        }
                     }
                 }
             }
@@ -113,20 +126,22 @@ pub fn splat_spheres(
             Fill::Density => 4.0 / 3.0 * std::f64::consts::PI * r.powi(3) / sum,
             Fill::Value => 1.0,
         };
-        let new = cells.iter().filter(|(ijk, _)| !grid.is_active(*ijk)).count() as u64;
-        if active + new > max_active {
-            return Err(VdbError::TooManyVoxels { grid: grid.name().to_owned(), limit: max_active });
-        }
-        for &(ijk, cov) in &cells {
+        values.clear();
+        values.extend(cells.iter().map(|&(ijk, cov)| {
             let v = match fill {
                 Fill::Density => (s.density as f64 * cov * scale) as f32,
                 Fill::Value => s.density,
             };
-            grid.update(ijk, |old| match combine {
-                Combine::Max => old.max(v),
-                Combine::Add => old + v,
-            })?;
+            (ijk, v)
+        }));
+        let new = grid.count_inactive(&values);
+        if active + new > max_active {
+            return Err(VdbError::TooManyVoxels { grid: grid.name().to_owned(), limit: max_active });
         }
+        grid.update_cells(&values, |old, v| match combine {
+            Combine::Max => old.max(v),
+            Combine::Add => old + v,
+        })?;
         active += new;
         report.spheres += 1;
         report.voxel_writes += cells.len() as u64;

@@ -218,6 +218,55 @@ impl FloatGrid {
         Ok(())
     }
 
+    /// How many of `cells` are not active yet (each leaf looked up once per run of cells in
+    /// it, as a sphere's voxels come).
+    pub fn count_inactive(&self, cells: &[(Coord, f32)]) -> u64 {
+        let mut leaf: Option<(Coord, Option<&Leaf>)> = None;
+        let mut n = 0;
+        for &(ijk, _) in cells {
+            let origin = leaf_origin(ijk);
+            if leaf.is_none_or(|(o, _)| o != origin) {
+                leaf = Some((origin, self.leaves.get(&origin)));
+            }
+            let k = leaf_offset(ijk);
+            let on = leaf.and_then(|(_, l)| l).is_some_and(|l| l.active[k >> 6] >> (k & 63) & 1 == 1);
+            n += !on as u64;
+        }
+        n
+    }
+
+    /// Sets each of `cells` to `combine(old, value)`, as [`FloatGrid::update`] does one voxel,
+    /// looking each leaf up once per run of cells in it. Stops at the first non-finite result
+    /// (the cells before it are written).
+    pub fn update_cells(
+        &mut self,
+        cells: &[(Coord, f32)],
+        combine: impl Fn(f32, f32) -> f32,
+    ) -> Result<(), VdbError> {
+        let mut i = 0;
+        while i < cells.len() {
+            let origin = leaf_origin(cells[i].0);
+            let run = cells[i..].iter().take_while(|(c, _)| leaf_origin(*c) == origin).count();
+            let leaf = self.leaves.entry(origin).or_insert_with(Leaf::empty);
+            for &(ijk, v) in &cells[i..i + run] {
+                let k = leaf_offset(ijk);
+                let value = combine(leaf.values[k], v);
+                if !value.is_finite() {
+                    return Err(VdbError::NonFinite { grid: self.name.clone(), ijk });
+                }
+                leaf.values[k] = value;
+                let bit = 1u64 << (k & 63);
+                if value != 0.0 {
+                    leaf.active[k >> 6] |= bit;
+                } else {
+                    leaf.active[k >> 6] &= !bit;
+                }
+            }
+            i += run;
+        }
+        Ok(())
+    }
+
     /// Drops leaves without an active voxel (a written grid has none).
     pub fn prune(&mut self) {
         self.leaves.retain(|_, l| l.count_on() > 0);
