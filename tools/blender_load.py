@@ -34,11 +34,12 @@ import argparse
 import json
 import math
 import os
+import struct
 import sys
 
 import bpy
 import numpy
-from mathutils import Quaternion, Vector
+from mathutils import Quaternion, Vector, kdtree
 
 # Blender 3.4's glTF importer still says `numpy.bool`, an alias NumPy 1.24 removed (Debian 12
 # ships both); the builtin is what it meant.
@@ -145,6 +146,52 @@ def lava_emission(obj):
         links.new(scale.outputs["Value"], bsdf.inputs["Emission Strength"])
 
 
+def glb_attribute(path, mesh_name, attribute):
+    """`(positions, values)` of a float vertex attribute of a mesh in a .glb, read from the
+    file itself: Blender 3.4's glTF importer drops custom attributes such as `_TEMPERATURE`."""
+    with open(path, "rb") as f:
+        data = f.read()
+    json_len = struct.unpack_from("<I", data, 12)[0]
+    doc = json.loads(data[20:20 + json_len])
+    bin_at = 20 + json_len + 8
+
+    def accessor(i, width):
+        acc = doc["accessors"][i]
+        view = doc["bufferViews"][acc["bufferView"]]
+        start = bin_at + view.get("byteOffset", 0) + acc.get("byteOffset", 0)
+        flat = struct.unpack_from(f"<{acc['count'] * width}f", data, start)
+        return [flat[k * width:(k + 1) * width] for k in range(acc["count"])]
+
+    for mesh in doc.get("meshes", []):
+        if mesh.get("name") != mesh_name:
+            continue
+        attrs = mesh["primitives"][0]["attributes"]
+        if attribute not in attrs:
+            return None
+        return accessor(attrs["POSITION"], 3), [v[0] for v in accessor(attrs[attribute], 1)]
+    return None
+
+
+def copy_attribute(obj, path, attribute):
+    """Gives the imported mesh `attribute` as a point attribute, each vertex taking the value
+    of the file's vertex at its position (the importer drops unused vertices and may reorder
+    the rest)."""
+    found = glb_attribute(path, obj.data.name, attribute) or glb_attribute(path, obj.name, attribute)
+    if not found:
+        return False
+    positions, values = found
+    tree = kdtree.KDTree(len(positions))
+    for k, p in enumerate(positions):
+        tree.insert(bevy_to_blender(p), k)
+    tree.balance()
+    world = obj.matrix_world
+    attr = obj.data.attributes.new(attribute, "FLOAT", "POINT")
+    for v, a in zip(obj.data.vertices, attr.data):
+        _, k, _ = tree.find(world @ v.co)
+        a.value = values[k]
+    return True
+
+
 def load_meshes(folder, frame):
     for name in ["terrain.glb", f"frame_{frame:04d}.glb"]:
         path = os.path.join(folder, name)
@@ -154,7 +201,9 @@ def load_meshes(folder, frame):
         bpy.ops.import_scene.gltf(filepath=path)
         for obj in set(bpy.data.objects) - before:
             if obj.type == "MESH" and obj.name.startswith("lava"):
-                lava_emission(obj)
+                bpy.context.view_layer.update()
+                if copy_attribute(obj, path, "_TEMPERATURE"):
+                    lava_emission(obj)
 
 
 def set_view(info, width, height):
