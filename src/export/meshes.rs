@@ -180,6 +180,56 @@ mod tests {
         assert!(n.y > 0.0, "{n}");
     }
 
+    /// Two folds over a 1 m sheet on ground at 10 m: one segment per pair of chain neighbours,
+    /// each particle at the lava surface plus its offset, roll height and half its diameter.
+    #[test]
+    fn fold_ropes_follow_their_chains_on_the_surface() {
+        use volcano_core::grid::Grid2;
+        use volcano_lava::model::breakout::BreakoutState;
+        use volcano_lava::model::folds::{Fold, FoldParticle};
+        use volcano_lava::{Edges, FlowField, FoldSystem, SurfaceState};
+        let ground = Grid2::new(8, 8, 1.0, Vec2::ZERO, 10.0).unwrap();
+        let mut flow = FlowField::new(ground, Edges::default(), 300.0).unwrap();
+        flow.place_volume(Vec2::splat(3.5), 10.0, 64.0, 1_400.0).unwrap();
+        let particle = |x: f64, fold: u32| FoldParticle {
+            pos: bevy::math::DVec2::new(x, 3.0),
+            spring_vel: Default::default(),
+            vel: Default::default(),
+            tangent: bevy::math::DVec2::Y,
+            thickness: 0.2,
+            age: 0.0,
+            offset: -0.05,
+            roll_height: 0.02,
+            roll_angle: 0.0,
+            fold,
+            blocked_by: None,
+        };
+        let mut folds = FoldSystem::new(0);
+        folds.particles =
+            vec![particle(1.0, 0), particle(2.0, 0), particle(3.0, 0), particle(5.0, 1), particle(6.0, 1)];
+        folds.folds = vec![
+            Fold { chain: vec![0, 1, 2], follower: None, first: true },
+            Fold { chain: vec![3, 4], follower: None, first: true },
+        ];
+        let state = LavaState {
+            surface: SurfaceState::new(8, 8),
+            breakouts: BreakoutState::new(64),
+            folds,
+            flow,
+            last_substeps: 0,
+            mobility_capped: false,
+            folds_at_cap: false,
+            imprint: None,
+        };
+        let lines = fold_lines("folds_0", &state).unwrap();
+        assert_eq!(lines.indices, [0, 1, 1, 2, 3, 4]);
+        for p in &lines.positions {
+            assert!((p[1] - (11.0 - 0.05 + 0.02 + 0.1)).abs() < 1e-5, "{p:?}");
+        }
+        assert_eq!(lines.positions[4][0], 6.0);
+        assert_eq!(lines.positions[4][2], 3.0);
+    }
+
     #[test]
     fn a_slope_tilts_the_normals_downhill() {
         // y = x / 2 on a 4 × 2 grid of 1 m: the normal leans towards −x.
