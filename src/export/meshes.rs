@@ -8,7 +8,7 @@ use bevy::prelude::*;
 use volcano_core::Terrain;
 use volcano_export::gltf::{LineData, MeshData};
 use volcano_lava::view::surface_temperature;
-use volcano_lava::{LavaField, LavaState};
+use volcano_lava::{FlowField, FoldSystem, LavaField, LavaState};
 
 /// Linear albedo of the terrain (a dry volcanic grey-brown) and of lava surfaces (basalt; the
 /// glow is the temperature's).
@@ -124,10 +124,9 @@ pub fn lava_mesh(name: &str, field: &LavaField, state: &LavaState) -> Option<Mes
 /// A lava field's fold ropes: each fold's chain as segments between consecutive particles, at
 /// the lava surface of the particle's cell plus its offset and roll height, lifted by half its
 /// diameter (the rope's axis). `None` without folds.
-pub fn fold_lines(name: &str, state: &LavaState) -> Option<LineData> {
-    let flow = &state.flow;
+pub fn fold_lines(name: &str, flow: &FlowField, folds: &FoldSystem) -> Option<LineData> {
     let (h, ground) = (flow.thickness(), flow.ground().data());
-    let particles = &state.folds.particles;
+    let particles = &folds.particles;
     let mut positions = Vec::with_capacity(particles.len());
     for f in particles {
         let xz = Vec2::new(f.pos.x as f32, f.pos.y as f32);
@@ -140,7 +139,7 @@ pub fn fold_lines(name: &str, state: &LavaState) -> Option<LineData> {
     }
     let n = positions.len() as u32;
     let mut indices = Vec::new();
-    for fold in &state.folds.folds {
+    for fold in &folds.folds {
         for w in fold.chain.windows(2) {
             if w[0] < n && w[1] < n {
                 indices.extend([w[0], w[1]]);
@@ -161,7 +160,7 @@ pub fn lava_meshes(world: &mut World) -> (Vec<MeshData>, Vec<LineData>) {
     let (mut meshes, mut lines) = (Vec::new(), Vec::new());
     for (n, (_, field, state)) in fields.iter().enumerate() {
         meshes.extend(lava_mesh(&format!("lava_{n}"), field, state));
-        lines.extend(fold_lines(&format!("folds_{n}"), state));
+        lines.extend(fold_lines(&format!("folds_{n}"), &state.flow, &state.folds));
     }
     (meshes, lines)
 }
@@ -185,9 +184,8 @@ mod tests {
     #[test]
     fn fold_ropes_follow_their_chains_on_the_surface() {
         use volcano_core::grid::Grid2;
-        use volcano_lava::model::breakout::BreakoutState;
-        use volcano_lava::model::folds::{Fold, FoldParticle};
-        use volcano_lava::{Edges, FlowField, FoldSystem, SurfaceState};
+        use volcano_lava::Edges;
+        use volcano_lava::view::{Fold, FoldParticle};
         let ground = Grid2::new(8, 8, 1.0, Vec2::ZERO, 10.0).unwrap();
         let mut flow = FlowField::new(ground, Edges::default(), 300.0).unwrap();
         flow.place_volume(Vec2::splat(3.5), 10.0, 64.0, 1_400.0).unwrap();
@@ -211,17 +209,7 @@ mod tests {
             Fold { chain: vec![0, 1, 2], follower: None, first: true },
             Fold { chain: vec![3, 4], follower: None, first: true },
         ];
-        let state = LavaState {
-            surface: SurfaceState::new(8, 8),
-            breakouts: BreakoutState::new(64),
-            folds,
-            flow,
-            last_substeps: 0,
-            mobility_capped: false,
-            folds_at_cap: false,
-            imprint: None,
-        };
-        let lines = fold_lines("folds_0", &state).unwrap();
+        let lines = fold_lines("folds_0", &flow, &folds).unwrap();
         assert_eq!(lines.indices, [0, 1, 1, 2, 3, 4]);
         for p in &lines.positions {
             assert!((p[1] - (11.0 - 0.05 + 0.02 + 0.1)).abs() < 1e-5, "{p:?}");

@@ -3,10 +3,8 @@
 
 use std::path::Path;
 use std::process::Command;
-use std::time::Duration;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano::atmosphere::{AirLayer, Atmosphere};
 use volcano::export::vdb::{FloatGrid, expectation, read_vdb};
 use volcano::export::{ExportError, ExportSettings, FrameView, capture_frame, write_frame};
@@ -17,11 +15,7 @@ use volcano::prelude::*;
 use crate::worlds;
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
-    app
+    crate::worlds::sim_app()
 }
 
 fn grid<'a>(grids: &'a [FloatGrid], name: &str) -> &'a FloatGrid {

@@ -11,20 +11,13 @@
 //! rebuilds its lava from scratch), and the atmosphere's pipeline component missing from the
 //! copy (its weather never steps).
 
-use std::time::Duration;
-
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use bevy_world_serialization::DynamicWorldBuilder;
 use volcano::plume::{DepositMap, S1};
 use volcano::prelude::*;
 
 fn app() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
-    app
+    crate::worlds::sim_app()
 }
 
 /// Everything the simulation holds that the test compares, as text (`Debug` prints every

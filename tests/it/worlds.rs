@@ -1,9 +1,21 @@
 //! The small worlds several of these tests build: terrains, the weather over them, lava on a
 //! flank and a collapsing eruption.
 
+use std::time::Duration;
+
 use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
 use volcano::lava::Placement;
 use volcano::prelude::*;
+
+/// A headless simulation at the thesis' 50 Hz, one base tick per update.
+pub fn sim_app() -> App {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
+        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+    app
+}
 
 /// A 12.8 km cone with a shallow crater, so a collapse spills onto the flanks.
 pub fn collapsing_cone() -> Terrain {

@@ -35,6 +35,10 @@ pub struct ExportArgs {
     pub settings: ExportSettings,
     /// Also write the expectation `tools/check_vdb.py` reads.
     pub expect: bool,
+    /// Camera instead of the scene's.
+    pub camera: Option<volcano::scenes::CameraSpec>,
+    /// Sun azimuth and elevation (degrees) instead of the scene's.
+    pub sun: Option<(f32, f32)>,
     /// Output folder.
     pub out: PathBuf,
 }
@@ -71,7 +75,14 @@ pub fn run(args: &ExportArgs) -> ExitCode {
         eprintln!("error: cannot create {}: {e}", args.out.display());
         return ExitCode::FAILURE;
     }
-    let view = FrameView::of_scene(plugin.spec());
+    let mut spec = plugin.spec().clone();
+    if let Some(c) = args.camera {
+        spec.camera = c;
+    }
+    if let Some((azimuth_deg, elevation_deg)) = args.sun {
+        spec.sun = volcano::scenes::SunSpec { azimuth_deg, elevation_deg, ..spec.sun };
+    }
+    let view = FrameView::of_scene(&spec);
     let mut app = App::new();
     if let Some(q) = args.quality {
         app.insert_resource(q);

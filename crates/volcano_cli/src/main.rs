@@ -217,6 +217,13 @@ enum Command {
         /// Also write `frame_NNNN.expect.json` for `tools/check_vdb.py`.
         #[arg(long)]
         expect: bool,
+        /// Camera written with the frames instead of the scene's:
+        /// `FX,FY,FZ,YAW,PITCH,DISTANCE` (focus in world metres, angles in degrees).
+        #[arg(long, value_parser = parse_camera, allow_hyphen_values = true)]
+        camera: Option<CameraSpec>,
+        /// Sun instead of the scene's: `AZIMUTH,ELEVATION` in degrees (the scene's illuminance).
+        #[arg(long, value_parser = parse_sun, allow_hyphen_values = true)]
+        sun: Option<(f32, f32)>,
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
@@ -287,6 +294,8 @@ fn main() -> ExitCode {
             no_detail,
             quality,
             expect,
+            camera,
+            sun,
             out,
         } => export::run(&export::ExportArgs {
             scene,
@@ -302,6 +311,8 @@ fn main() -> ExitCode {
                 ..Default::default()
             },
             expect,
+            camera,
+            sun,
             out,
         }),
         Command::Eruption { scenario, seconds, grid, preset, out } => {

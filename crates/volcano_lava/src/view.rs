@@ -8,7 +8,7 @@
 
 mod maps;
 
-pub use crate::model::folds::FoldParticle;
+pub use crate::model::folds::{Fold, FoldParticle};
 pub use crate::model::thermal::surface_temperature;
 pub use maps::write_maps;
 

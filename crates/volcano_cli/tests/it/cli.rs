@@ -225,7 +225,7 @@ fn export_writes_frames_and_refuses_bad_input() {
     let _ = std::fs::remove_dir_all(&dir);
     let o = volcano()
         .args(["export", "--scene", "plinian_plume", "--ticks", "50", "--frames", "2", "--every", "25"])
-        .args(["--ash-voxel", "40", "--expect", "--out"])
+        .args(["--ash-voxel", "40", "--expect", "--camera", "0,2000,0,90,10,8000", "--sun", "90,30", "--out"])
         .arg(&dir)
         .output()
         .unwrap();
@@ -249,7 +249,13 @@ fn export_writes_frames_and_refuses_bad_input() {
     let info: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("frame_0001.json")).unwrap()).unwrap();
     assert_eq!(info["tick"], 75);
-    assert!(info["view"]["camera"]["vertical_fov_deg"].as_f64().is_some(), "the scene's camera: {info}");
+    // The camera asked for: 8 km east of a focus 2 km up (yaw 90°), 10° above it; the sun due
+    // east, 30° up.
+    let eye: Vec<f64> = (0..3).map(|a| info["view"]["camera"]["position"][a].as_f64().unwrap()).collect();
+    let want = [8000.0 * 10f64.to_radians().cos(), 2000.0 + 8000.0 * 10f64.to_radians().sin(), 0.0];
+    assert!(eye.iter().zip(want).all(|(a, b)| (a - b).abs() < 1.0), "camera at {eye:?}, want {want:?}");
+    let sun = info["view"]["sun"]["direction"][0].as_f64().unwrap();
+    assert!((sun - 30f64.to_radians().cos()).abs() < 1e-4, "sun {sun}");
 
     let bad: [(&[&str], &str); 5] = [
         (&["--scene", "atlantis", "--ticks", "1"], "unknown scene"),

@@ -185,20 +185,9 @@ pub enum GltfError {
     /// Writing failed.
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    /// Writing `path` failed: nothing was left at that path.
-    #[error("cannot write {path}: {source}")]
-    File {
-        /// The file.
-        path: String,
-        /// Why.
-        source: std::io::Error,
-    },
-}
-
-impl From<crate::atomic::FileError> for GltfError {
-    fn from(e: crate::atomic::FileError) -> Self {
-        GltfError::File { path: e.path, source: e.source }
-    }
+    /// Creating, flushing or renaming a file failed: nothing was left at its path.
+    #[error("{0}")]
+    File(#[from] crate::atomic::FileError),
 }
 
 /// Writes `meshes` and `lines` as one binary glTF to `w`. Everything is checked first: on an

@@ -7,6 +7,17 @@ use std::collections::{BTreeMap, HashMap};
 
 use super::{Coord, VdbError};
 
+/// Metadata entries the writer sets on every grid (a grid's own metadata cannot replace them).
+pub const RESERVED_META: [&str; 7] = [
+    "class",
+    "name",
+    "file_bbox_min",
+    "file_bbox_max",
+    "file_voxel_count",
+    "is_saved_as_half_float",
+    "file_compression",
+];
+
 /// Voxels along each side of a leaf (OpenVDB's `LeafNode<float, 3>`).
 pub const LEAF_DIM: i32 = 8;
 /// Voxels in a leaf.
@@ -106,6 +117,16 @@ impl Leaf {
     pub fn count_on(&self) -> u64 {
         self.active.iter().map(|w| w.count_ones() as u64).sum()
     }
+    /// Sets voxel `k`: active unless the value is zero.
+    fn put(&mut self, k: usize, value: f32) {
+        self.values[k] = value;
+        let bit = 1u64 << (k & 63);
+        if value != 0.0 {
+            self.active[k >> 6] |= bit;
+        } else {
+            self.active[k >> 6] &= !bit;
+        }
+    }
 }
 
 /// Offset of voxel `ijk` in its leaf.
@@ -161,7 +182,7 @@ impl FloatGrid {
     /// Adds or replaces a metadata entry; the standard names are refused.
     pub fn insert_meta(&mut self, name: &str, value: MetaValue) -> Result<(), VdbError> {
         check_name(name)?;
-        if super::write::RESERVED_META.contains(&name) {
+        if RESERVED_META.contains(&name) {
             return Err(VdbError::Metadata(format!("`{name}` is written by the writer itself")));
         }
         if let MetaValue::Float(v) = value
@@ -207,14 +228,7 @@ impl FloatGrid {
         if value == 0.0 && !self.leaves.contains_key(&origin) {
             return Ok(());
         }
-        let leaf = self.leaves.entry(origin).or_insert_with(Leaf::empty);
-        leaf.values[n] = value;
-        let bit = 1u64 << (n & 63);
-        if value != 0.0 {
-            leaf.active[n >> 6] |= bit;
-        } else {
-            leaf.active[n >> 6] &= !bit;
-        }
+        self.leaves.entry(origin).or_insert_with(Leaf::empty).put(n, value);
         Ok(())
     }
 
@@ -254,13 +268,7 @@ impl FloatGrid {
                 if !value.is_finite() {
                     return Err(VdbError::NonFinite { grid: self.name.clone(), ijk });
                 }
-                leaf.values[k] = value;
-                let bit = 1u64 << (k & 63);
-                if value != 0.0 {
-                    leaf.active[k >> 6] |= bit;
-                } else {
-                    leaf.active[k >> 6] &= !bit;
-                }
+                leaf.put(k, value);
             }
             i += run;
         }

@@ -48,23 +48,12 @@ pub enum VdbError {
     /// Reading or writing failed (the path is in the message where known).
     #[error("{0}")]
     Io(#[from] std::io::Error),
-    /// Writing `path` failed: nothing was left at that path.
-    #[error("cannot write {path}: {source}")]
-    File {
-        /// The file.
-        path: String,
-        /// Why.
-        source: std::io::Error,
-    },
+    /// Creating, flushing or renaming a file failed: nothing was left at its path.
+    #[error("{0}")]
+    File(#[from] crate::atomic::FileError),
     /// A file this reader does not understand.
     #[error("not a volume this reader understands: {0}")]
     Format(String),
-}
-
-impl From<crate::atomic::FileError> for VdbError {
-    fn from(e: crate::atomic::FileError) -> Self {
-        VdbError::File { path: e.path, source: e.source }
-    }
 }
 
 /// Writes `grids` to `path` through a temporary file in the same folder, renamed to `path`

@@ -29,16 +29,6 @@ pub const LIBRARY_VERSION: (u32, u32) = (10, 0);
 pub const COMPRESS_ACTIVE_MASK: u32 = 0x2;
 /// The tree type of a float grid with OpenVDB's standard node sizes.
 pub const TREE_TYPE: &str = "Tree_float_5_4_3";
-/// Metadata entries the writer sets on every grid.
-pub const RESERVED_META: [&str; 7] = [
-    "class",
-    "name",
-    "file_bbox_min",
-    "file_bbox_max",
-    "file_voxel_count",
-    "is_saved_as_half_float",
-    "file_compression",
-];
 /// `NO_MASK_OR_INACTIVE_VALS`: every inactive value is the background; only the active values
 /// follow.
 const NO_MASK_OR_INACTIVE_VALS: u8 = 0;

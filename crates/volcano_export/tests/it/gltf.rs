@@ -294,7 +294,7 @@ fn bad_input_is_refused_and_nothing_is_written() {
 fn an_unwritable_folder_is_an_error_naming_the_file() {
     let path = std::path::Path::new("/nonexistent-volcano-dir/x.glb");
     let e = write_glb_file(path, &[tetrahedron()], &[]).unwrap_err();
-    assert!(matches!(e, GltfError::File { .. }), "{e:?}");
+    assert!(matches!(e, GltfError::File(_)), "{e:?}");
     assert!(e.to_string().contains("/nonexistent-volcano-dir/x.glb"), "{e}");
 }
 
