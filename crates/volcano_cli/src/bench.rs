@@ -45,6 +45,12 @@ struct Stamps {
     at: [Option<Instant>; SETS.len() - 1],
     /// Summed time of each set between the first and last stamp (index = set index).
     total: [Duration; SETS.len()],
+    /// The pool threads' clocks, once the pools exist (`None`: not split by domain).
+    clocks: Option<cpu::PoolClocks>,
+    /// The compute pool's CPU seconds at each stamp of the current tick.
+    pool_at: [Option<f64>; SETS.len() - 1],
+    /// The compute pool's CPU seconds while each set ran (index = set index).
+    pool_total: [f64; SETS.len()],
 }
 
 fn stamp<const I: usize>(mut s: ResMut<Stamps>) {
@@ -53,6 +59,12 @@ fn stamp<const I: usize>(mut s: ResMut<Stamps>) {
         s.total[I] += now - prev;
     }
     s.at[I] = Some(now);
+    if let Some(cpu) = s.clocks.as_ref().map(cpu::PoolClocks::compute_s) {
+        if let Some(prev) = I.checked_sub(1).and_then(|p| s.pool_at[p]) {
+            s.pool_total[I] += cpu - prev;
+        }
+        s.pool_at[I] = Some(cpu);
+    }
 }
 
 /// Quantiles and means of the run, in milliseconds.
@@ -277,7 +289,16 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     while tick(&app) < warmup {
         app.update();
     }
-    app.world_mut().resource_mut::<Stamps>().total = Default::default();
+    {
+        let mut stamps = app.world_mut().resource_mut::<Stamps>();
+        stamps.total = Default::default();
+        // The pools exist once the app has run.
+        stamps.clocks = cpu::PoolClocks::find();
+        stamps.pool_at = Default::default();
+        stamps.pool_total = Default::default();
+    }
+    let pool_start =
+        app.world().resource::<Stamps>().clocks.as_ref().map(|c| (c.compute_s(), c.async_compute_s()));
     let mut times = TickTimes::with_capacity(ticks);
     // Summed set times (ms) on weather ticks and on the others.
     let (mut weather_sets, mut other_sets) = ([0.0; SETS.len()], [0.0; SETS.len()]);
@@ -360,7 +381,19 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     }
     let timed = (tick(&app) - first).max(1) as f64;
     let simulated_s = (tick(&app) - first) as f64 / crate::TICK_HZ;
-    let cpu_bill = cpu_start.zip(cpu::Reading::now()).map(|(a, b)| a.bill_to(b, simulated_s));
+    let mut cpu_bill = cpu_start.zip(cpu::Reading::now()).map(|(a, b)| a.bill_to(b, simulated_s));
+    let stamps = app.world().resource::<Stamps>();
+    if let (Some(bill), Some((c0, a0)), Some(clocks)) =
+        (cpu_bill.as_mut(), pool_start, stamps.clocks.as_ref())
+    {
+        let per_s = |x: f64| x / simulated_s.max(1e-9);
+        let mut split: std::collections::BTreeMap<&'static str, f64> =
+            by_domain(&stamps.pool_total).map(|(name, x)| (name, per_s(x))).into_iter().collect();
+        let in_sets: f64 = stamps.pool_total.iter().sum();
+        *split.entry("weather").or_default() += per_s(clocks.async_compute_s() - a0);
+        split.insert("other", per_s((clocks.compute_s() - c0 - in_sets).max(0.0)));
+        bill.pools_by_domain = Some(split);
+    }
     let weather_waits = weather(&mut app).2 - waits_before;
     let total = app.world().resource::<Stamps>().total;
     let sorted = &mut times.all;

@@ -167,6 +167,15 @@ fn bench_times_every_domain_of_the_eruption_scene() {
         cpu["pools"].as_f64().unwrap(),
     );
     assert!((process - main - pools).abs() < 1e-9 && pools >= 0.0, "{text}");
+    // The pools by domain, from each pool thread's own clock: every domain's share is there and
+    // they add up to the pools' bill from the process's clock (a pool thread the bench did not
+    // find, or a share counted twice, would not).
+    let split = cpu["pools_by_domain"].as_object().expect("pools_by_domain on Linux");
+    for d in ["plume", "pyroclastic", "coupling", "weather", "lava", "other"] {
+        assert!(split.get(d).and_then(|x| x.as_f64()).is_some_and(|x| x >= 0.0), "{d}: {text}");
+    }
+    let sum: f64 = split.values().filter_map(|x| x.as_f64()).sum();
+    assert!((sum - pools).abs() <= 0.05 * pools + 0.01, "split {sum} vs pools {pools}: {text}");
     let ticks_s = 60.0 / 50.0;
     assert!(
         main * ticks_s >= 0.5 * p50 * 60.0 / 1e3,
