@@ -231,7 +231,10 @@ pub fn capture_frame(
     view: FrameView,
 ) -> Result<ExportFrame, ExportError> {
     settings.validate()?;
-    let time_s = world.get_resource::<Time<Fixed>>().map_or(0.0, |t| t.elapsed_secs_f64());
+    // The volcano's own clock: base ticks run times the timestep and the simulation speed,
+    // not the game's fixed clock (a paused or sped-up volcano differs from it).
+    let time_s =
+        world.get_resource::<volcano_core::SimControl>().map_or(0.0, |c| c.simulated().as_secs_f64());
     let tick = world.get_resource::<volcano_core::SimTick>().map_or(0, |t| t.0);
     let (mut grids, spheres, skipped) = column_grids(world, settings)?;
     grids.extend(air_grids(world, settings)?);

@@ -145,6 +145,8 @@ fn a_frame_is_written_whole_and_openvdb_reads_it() {
     let mut app = app();
     app.world_mut().spawn(worlds::small_island());
     app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), Eruption::plinian(), Transform::default()));
+    // At twice the game's speed the frame's time is the volcano's, not the fixed clock's.
+    app.world_mut().resource_mut::<SimControl>().set_speed(2.0).unwrap();
     for _ in 0..100 {
         app.update();
     }
@@ -168,6 +170,13 @@ fn a_frame_is_written_whole_and_openvdb_reads_it() {
     let info: serde_json::Value = serde_json::from_slice(&std::fs::read(&json).unwrap()).unwrap();
     assert_eq!(info["up"], "y");
     assert_eq!(info["tick"], frame.info.tick);
+    let ticks = frame.info.tick as f64;
+    assert!(ticks > 90.0, "{ticks} ticks");
+    assert!(
+        (frame.info.time_s - 2.0 * 0.02 * ticks).abs() < 1e-9,
+        "{} s after {ticks} ticks at speed 2",
+        frame.info.time_s
+    );
     assert_eq!(info["grids"][0]["active_voxels"], frame.grids[0].active_voxel_count());
 
     if std::env::var_os("VOLCANO_SKIP_OPENVDB").is_none() {
