@@ -290,15 +290,25 @@ fn column_grids(
     world: &mut World,
     settings: &ExportSettings,
 ) -> Result<(Vec<FloatGrid>, u64, u64), VdbError> {
-    let slice_temperature: bevy::platform::collections::HashMap<Entity, f64> =
-        world.query::<(Entity, &PlumeSlice)>().iter(world).map(|(e, s)| (e, s.state.temperature)).collect();
-    let mut temperature_of: bevy::platform::collections::HashMap<u64, f32> = world
+    use bevy::platform::collections::HashMap;
+    // Parents are told apart by (volcano, current or not, id): ids are per volcano, and a
+    // particle's and an s1 sphere's come from different counters.
+    let slices: HashMap<Entity, (Entity, f64)> = world
+        .query::<(Entity, &PlumeSlice)>()
+        .iter(world)
+        .map(|(e, s)| (e, (s.volcano, s.state.temperature)))
+        .collect();
+    let mut temperature_of: HashMap<(Entity, bool, u64), f32> = world
         .query::<&S1>()
         .iter(world)
-        .filter_map(|s| slice_temperature.get(&s.slice).map(|&t| (s.id, t as f32)))
+        .filter_map(|s| slices.get(&s.slice).map(|&(v, t)| ((v, false, s.id), t as f32)))
         .collect();
-    temperature_of
-        .extend(world.query::<&PyroParticle>().iter(world).map(|p| (p.id, p.particle.temperature as f32)));
+    temperature_of.extend(
+        world
+            .query::<&PyroParticle>()
+            .iter(world)
+            .map(|p| ((p.volcano, true, p.id), p.particle.temperature as f32)),
+    );
     let (eruptions, parents) = gather_parents(world);
 
     let h = settings.ash_voxel_m;
@@ -306,7 +316,11 @@ fn column_grids(
     let mut temperature = new_grid("temperature", GridClass::Unknown, h, [0.0; 3])?;
     let (mut ash_spheres, mut hot_spheres) = (Vec::new(), Vec::new());
     for p in &parents {
-        let temp = if p.umbrella || p.cloud { None } else { temperature_of.get(&p.id).copied() };
+        let volcano = eruptions.get(p.eruption).map(|e| e.entity);
+        let temp = match (p.umbrella || p.cloud, volcano) {
+            (false, Some(v)) => temperature_of.get(&(v, p.flow, p.id)).copied(),
+            _ => None,
+        };
         let mut add = |center: bevy::math::DVec3, radius: f64, density: f64| {
             let c = center.to_array();
             ash_spheres.push(Sphere { center: c, radius, density: density as f32 });

@@ -32,10 +32,64 @@ fn voxel_at(g: &FloatGrid, p: Vec3) -> [i32; 3] {
 #[test]
 fn every_sphere_is_where_the_world_has_it_with_its_density_and_temperature() {
     let mut app = app();
-    let terrain = worlds::small_island();
-    app.world_mut().spawn(terrain);
+    app.world_mut().spawn(worlds::small_island());
     app.world_mut().spawn((Volcano::new(100.0, 5).unwrap(), Eruption::plinian(), Transform::default()));
-    for _ in 0..300 {
+    spheres_hold_their_slices_density_and_temperature(app, 300, 100);
+}
+
+/// An s1 sphere and a pyroclastic particle with the same id (`slice << 8 | ring` and
+/// `slice << 16 | k` meet: s1 id 65,536 is slice 256's first sphere, particle 65,536 is slice
+/// 1's first particle), far apart: each voxel takes its own sphere's temperature.
+#[test]
+fn a_particle_and_an_s1_sphere_with_one_id_keep_their_own_temperatures() {
+    use rand_chacha::rand_core::SeedableRng;
+    use volcano::plume::components::{PlumeSlice, S1};
+    use volcano::plume::pyroclastic::PyroParticle;
+    use volcano::plume::{PlumeParams, Slice};
+    let mut world = World::new();
+    let volcano = world.spawn((Eruption::plinian(), volcano::core::VolcanoRng::new(1))).id();
+    let mut state = Slice::at_vent(&PlumeParams::default());
+    state.temperature = 1_000.0;
+    let slice = world
+        .spawn(PlumeSlice {
+            volcano,
+            index: 256,
+            vent: Vec3::ZERO,
+            state: state.clone(),
+            ring_phase: 0.0,
+            ash_pending: 0.0,
+            secondary: false,
+        })
+        .id();
+    let sphere =
+        volcano::plume::model::spheres::S1Sphere { ring_angle: 0.0, size_factor: 1.0, radial_factor: 1.0 };
+    world.spawn((
+        S1 { slice, sphere, spin: 0.0, id: 65_536 },
+        Transform::from_xyz(0.0, 500.0, 0.0).with_scale(Vec3::splat(50.0)),
+    ));
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let mut particle = volcano::plume::model::pyroclastic::collapse(&state, 30.0, 1, &mut rng)[0];
+    particle.temperature = 500.0;
+    world.spawn((
+        PyroParticle { volcano, particle, vent: Vec3::ZERO, id: 65_536, buoyant: false },
+        Transform::from_xyz(2_000.0, 100.0, 0.0),
+    ));
+    let settings = ExportSettings { ash_voxel_m: 10.0, detail_spheres: false, ..default() };
+    let frame = capture_frame(&mut world, &settings, FrameView::default()).unwrap();
+    let temp = grid(&frame.grids, "temperature");
+    assert_eq!(temp.get(voxel_at(temp, Vec3::new(0.0, 500.0, 0.0))), 1_000.0, "the s1 sphere's slice");
+    assert_eq!(temp.get(voxel_at(temp, Vec3::new(2_000.0, 100.0, 0.0))), 500.0, "the particle's own");
+}
+
+/// Runs `updates`, exports parents only on 10 m voxels and checks every large s1 sphere (more
+/// than `min_spheres` of them) and every particle; returns the frame's sphere count and the
+/// particles checked.
+fn spheres_hold_their_slices_density_and_temperature(
+    mut app: App,
+    updates: u32,
+    min_spheres: usize,
+) -> (u64, usize) {
+    for _ in 0..updates {
         app.update();
     }
     let settings = ExportSettings { ash_voxel_m: 10.0, detail_spheres: false, ..default() };
@@ -71,8 +125,15 @@ fn every_sphere_is_where_the_world_has_it_with_its_density_and_temperature() {
         );
         checked += 1;
     }
-    assert!(checked > 100, "only {checked} large spheres");
+    assert!(checked > min_spheres, "only {checked} large spheres");
     assert!(frame.info.spheres as usize >= checked);
+    let mut particles = 0;
+    for (p, t) in world.query::<(&volcano::plume::pyroclastic::PyroParticle, &Transform)>().iter(world) {
+        let k = temp.get(voxel_at(temp, t.translation)) as f64;
+        assert!(k >= p.particle.temperature - 1e-3, "{k} K at a {} K particle", p.particle.temperature);
+        particles += 1;
+    }
+    (frame.info.spheres, particles)
 }
 
 /// Ash put into every layer of a block of 4 × 4 cells, away from the island, is exported as

@@ -69,6 +69,8 @@ pub struct ParentSphere {
 /// Per-eruption data the views need.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EruptionView {
+    /// The volcano entity (parents name it by their index in the list, [`ParentSphere::eruption`]).
+    pub entity: Entity,
     /// The volcano's seed (detail spheres derive from `(seed, parent id, index)`).
     pub seed: u64,
     /// Sphere counts.
@@ -86,6 +88,7 @@ pub fn gather_parents(world: &mut World) -> (Vec<EruptionView>, Vec<ParentSphere
         .iter(world)
         .map(|(e, er, rng, vent)| {
             let view = EruptionView {
+                entity: e,
                 seed: rng.seed(),
                 spheres: er.spheres.clone(),
                 rho0: er.params.rho0 as f32,
@@ -495,6 +498,7 @@ mod tests {
 
     fn view(s2: u32) -> Vec<EruptionView> {
         vec![EruptionView {
+            entity: Entity::PLACEHOLDER,
             seed: 3,
             spheres: SphereParams { s2_per_s1: s2, ..Default::default() },
             rho0: 200.0,

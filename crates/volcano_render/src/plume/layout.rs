@@ -244,7 +244,13 @@ mod tests {
 
     fn view(s2: u32, s3: u32) -> Vec<EruptionView> {
         let spheres = SphereParams { s2_per_s1: s2, s3_per_s2: s3, ..Default::default() };
-        vec![EruptionView { seed: 0x5eed_0000_0000_0042, spheres, rho0: 200.0, vent: Vec3::ZERO }]
+        vec![EruptionView {
+            entity: Entity::PLACEHOLDER,
+            seed: 0x5eed_0000_0000_0042,
+            spheres,
+            rho0: 200.0,
+            vent: Vec3::ZERO,
+        }]
     }
 
     fn assert_close(a: &AshInstance, b: &AshInstance, scale: f32, what: &str) {

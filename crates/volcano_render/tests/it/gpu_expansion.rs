@@ -141,8 +141,13 @@ fn expand_on_gpu(list: &AshParents) -> (Vec<AshInstance>, Vec<u32>) {
 /// arbitrarily, dense to dilute (so the plan thins), kilometres from the origin.
 fn column() -> (Vec<EruptionView>, Vec<ParentSphere>) {
     let spheres = SphereParams { s2_per_s1: 40, s3_per_s2: 3, ..Default::default() };
-    let eruptions =
-        vec![EruptionView { seed: 0x1234_5678_9abc_def0, spheres, rho0: 200.0, vent: Vec3::ZERO }];
+    let eruptions = vec![EruptionView {
+        entity: Entity::PLACEHOLDER,
+        seed: 0x1234_5678_9abc_def0,
+        spheres,
+        rho0: 200.0,
+        vent: Vec3::ZERO,
+    }];
     let parents = (0..60u64)
         .map(|i| ParentSphere {
             id: (i / 6 + 1000) << 8 | (i % 6),
