@@ -4,7 +4,7 @@
 //! there is lava, `frame_NNNN.json`), [`capture_terrain`] and [`write_terrain`] the terrain
 //! once (`terrain.glb`); each file is written whole or not at all. The command line is
 //! `volcano export`; the writers and the splatting are the engine-free `volcano_export`
-//! crate, re-exported here as [`vdb`], [`gltf`] and [`splat`].
+//! crate, re-exported here as [`vdb`], [`gltf`], [`splat`] and [`atomic`].
 //!
 //! Grids, in Bevy's world frame (metres, **y up**; `tools/blender_load.py` turns them z-up):
 //! - `ash` (kg/m³): every sphere of the column, the umbrella and the pyroclastic currents, at
@@ -14,13 +14,15 @@
 //!   voxels they cover (the hotter where they overlap); umbrella and clouds have none;
 //! - `cloud` (g/m³): the atmosphere's condensed water amplified onto voxels, as the cloud pass
 //!   draws it (thesis §4.2.6);
-//! - `ash_fall` (kg/m³): the ash the air carries (the coupling's tracer), on the same voxels.
+//! - `ash_fall` (kg/m³): the ash the air carries (the coupling's tracer), on the same voxels;
+//! - `air_temperature` (K): the layers' temperature on the same voxels, every voxel of the
+//!   box (read between the layers as the ash is).
 
 use std::path::{Path, PathBuf};
 
 use bevy::prelude::*;
 use serde::Serialize;
-use volcano_atmosphere::view::{AtmosphereState, VolumeSpec, ash_at, cloud_density};
+use volcano_atmosphere::view::{AtmosphereState, VolumeSpec, ash_at, cloud_density, layer_blend};
 use volcano_atmosphere::{AirLayer, Atmosphere};
 use volcano_core::ConfigError;
 use volcano_core::error::in_range;
@@ -28,7 +30,7 @@ use volcano_plume::components::{PlumeSlice, S1};
 use volcano_plume::pyroclastic::PyroParticle;
 use volcano_plume::view::{for_each_sphere, gather_parents};
 
-pub use volcano_export::{gltf, splat, vdb};
+pub use volcano_export::{atomic, gltf, splat, vdb};
 
 mod meshes;
 pub use meshes::{fold_lines, lava_mesh, lava_meshes, terrain_mesh};
@@ -43,7 +45,7 @@ use vdb::{FloatGrid, GridClass, MetaValue, Transform, VdbError};
 pub struct ExportSettings {
     /// Voxel edge of the `ash` and `temperature` grids (m).
     pub ash_voxel_m: f64,
-    /// Voxel edge of the `cloud` and `ash_fall` grids (m).
+    /// Voxel edge of the `cloud`, `ash_fall` and `air_temperature` grids (m).
     pub air_voxel_m: f64,
     /// Include the s2 and s3 detail spheres (the lobes of the look); without them the spheres
     /// are the s1 and umbrella parents only.
@@ -102,7 +104,7 @@ pub enum ExportError {
     Mesh(#[from] GltfError),
     /// A file could not be created, flushed or renamed (nothing was left at its path).
     #[error("{0}")]
-    File(#[from] volcano_export::atomic::FileError),
+    File(#[from] atomic::FileError),
     /// The frame's JSON could not be written.
     #[error("cannot write {path}: {message}")]
     Json {
@@ -214,7 +216,8 @@ pub struct FrameInfo {
 /// A captured frame: its grids and what its JSON says.
 #[derive(Debug, Clone)]
 pub struct ExportFrame {
-    /// `ash`, `temperature`, and `cloud`, `ash_fall` when the world has an atmosphere.
+    /// `ash`, `temperature`, and `cloud`, `ash_fall`, `air_temperature` when the world has an
+    /// atmosphere.
     pub grids: Vec<FloatGrid>,
     /// Lava surfaces.
     pub meshes: Vec<MeshData>,
@@ -261,7 +264,7 @@ pub fn capture_frame(
 fn units(name: &str) -> &'static str {
     match name {
         "ash" | "ash_fall" => "kg/m^3",
-        "temperature" => "K",
+        "temperature" | "air_temperature" => "K",
         "cloud" => "g/m^3",
         _ => "",
     }
@@ -352,8 +355,9 @@ fn atmosphere_state(world: &mut World) -> Option<(AtmosphereState, f64)> {
     Some((AtmosphereState { layers, ..shell }, threshold))
 }
 
-/// `cloud` and `ash_fall` on cubic voxels over the atmosphere's footprint, from its lowest
-/// layer's floor to one thickness above its top layer (where the cloud pass draws).
+/// `cloud`, `ash_fall` and `air_temperature` on cubic voxels over the atmosphere's
+/// footprint, from its lowest layer's floor to one thickness above its top layer (where the
+/// cloud pass draws).
 fn air_grids(world: &mut World, settings: &ExportSettings) -> Result<Vec<FloatGrid>, ExportError> {
     let Some((state, threshold)) = atmosphere_state(world) else { return Ok(Vec::new()) };
     let extent = state.grid.extent();
@@ -362,8 +366,11 @@ fn air_grids(world: &mut World, settings: &ExportSettings) -> Result<Vec<FloatGr
     let z_min = state.layers.first().map_or(0.0, |l| l.bottom.max(0.0));
     let z_top = state.layers.last().map_or(1000.0, |l| l.altitude + l.thickness);
     let nz = (((z_top - z_min) / h).ceil() as usize).max(1);
-    if (nxy * nxy * nz) as u64 > settings.max_voxels.saturating_mul(8) {
-        return Err(VdbError::TooManyVoxels { grid: "cloud".into(), limit: settings.max_voxels }.into());
+    // `air_temperature` fills the box: every air grid fits the budget if the box does.
+    if (nxy * nxy * nz) as u64 > settings.max_voxels {
+        return Err(
+            VdbError::TooManyVoxels { grid: "air_temperature".into(), limit: settings.max_voxels }.into()
+        );
     }
     let spec = VolumeSpec { nxy, nz, z_min, z_max: z_min + nz as f64 * h, seed: 7 };
     let mut memory = Default::default();
@@ -380,33 +387,37 @@ fn air_grids(world: &mut World, settings: &ExportSettings) -> Result<Vec<FloatGr
     let origin = [-0.5 * extent + 0.5 * h, z_min + 0.5 * h, -0.5 * extent + 0.5 * h];
     let mut cloud = new_grid("cloud", GridClass::FogVolume, h, origin)?;
     let mut ash_fall = new_grid("ash_fall", GridClass::FogVolume, h, origin)?;
+    let mut air_temperature = new_grid("air_temperature", GridClass::Unknown, h, origin)?;
     let layers: Vec<&volcano_atmosphere::LayerFields> = state.layers.iter().collect();
-    let mut active = 0u64;
     for iz in 0..nz {
         for jy in 0..nxy {
             for ix in 0..nxy {
                 let ijk = [ix as i32, iz as i32, jy as i32];
                 let w = water[(iz * nxy + jy) * nxy + ix];
                 let [x, y, z] = cloud.transform().index_to_world(ijk);
+                let xz = Vec2::new(x as f32, z as f32);
                 // g/m³ → kg/m³.
-                let a = (ash_at(&layers, x as f32, y, z as f32) * 1e-3) as f32;
-                for (g, v) in [(&mut cloud, w), (&mut ash_fall, a)] {
+                let a = (ash_at(&layers, xz.x, y, xz.y) * 1e-3) as f32;
+                let t = air_temperature_at(&layers, xz, y);
+                for (g, v) in [(&mut cloud, w), (&mut ash_fall, a), (&mut air_temperature, t)] {
                     if v > 0.0 {
-                        active += 1;
-                        if active > 2 * settings.max_voxels {
-                            return Err(VdbError::TooManyVoxels {
-                                grid: g.name().into(),
-                                limit: settings.max_voxels,
-                            }
-                            .into());
-                        }
                         g.set(ijk, v)?;
                     }
                 }
             }
         }
     }
-    Ok(vec![cloud, ash_fall])
+    Ok(vec![cloud, ash_fall, air_temperature])
+}
+
+/// The air's temperature (K) at world `(x, z)` = `xz` and `altitude`, read as the ash is
+/// ([`layer_blend`]: linear between adjacent layers' centres, bilinear in each layer's field);
+/// 0 outside the stack.
+fn air_temperature_at(layers: &[&volcano_atmosphere::LayerFields], xz: Vec2, altitude: f64) -> f32 {
+    let Some((lo, hi, w)) = layer_blend(layers, altitude) else { return 0.0 };
+    let at = |k: usize| layers[k].t.sample(xz, volcano_core::Boundary::Clamp);
+    let (a, b) = (at(lo), at(hi));
+    (a as f64 + (b as f64 - a as f64) * w) as f32
 }
 
 /// The first terrain's mesh (entity order), `None` without a terrain.
@@ -445,7 +456,7 @@ pub fn write_frame(dir: &Path, index: u32, frame: &ExportFrame) -> Result<(PathB
     }
     let text = serde_json::to_string_pretty(&frame.info)
         .map_err(|e| ExportError::Json { path: json_path.display().to_string(), message: e.to_string() })?;
-    volcano_export::atomic::write_atomically::<ExportError>(&json_path, |w| {
+    atomic::write_atomically::<ExportError>(&json_path, |w| {
         use std::io::Write;
         w.write_all(text.as_bytes()).map_err(|e| VdbError::Io(e).into())
     })?;

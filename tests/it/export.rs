@@ -158,8 +158,13 @@ fn the_airs_ash_and_clouds_are_where_the_layers_hold_them() {
     let mut books_kg = 0.0;
     let mut stack = (f64::MAX, f64::MIN);
     let mut wet_layer = (0.0, 0.0);
+    let mut centres: Vec<(f64, f32)> = Vec::new();
     for mut layer in world.query::<&mut AirLayer>().iter_mut(world) {
         let h = layer.fields.thickness;
+        // A temperature a layer's own: 250 K + 10 K per layer up.
+        let t = 250.0 + 10.0 * layer.index as f32;
+        layer.fields.t.data_mut().fill(t);
+        centres.push((layer.fields.altitude, t));
         if layer.index == 2 {
             wet_layer = (layer.fields.bottom, layer.fields.bottom + h);
             for &c in &wet {
@@ -187,6 +192,26 @@ fn the_airs_ash_and_clouds_are_where_the_layers_hold_them() {
         }
         assert!(y >= stack.0 && y <= stack.1, "ash at {y} m, stack {stack:?}");
     }
+    // The air's temperature: inside the stack, between the temperatures of the layers whose
+    // centres bracket the voxel (its own layer's below the lowest centre and above the top
+    // one); nothing above the stack. A swapped axis puts layers' temperatures at the wrong
+    // altitudes.
+    centres.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let air = grid(&frame.grids, "air_temperature");
+    let mut inside = 0;
+    for (ijk, t) in air.iter_active() {
+        let y = air.transform().index_to_world(ijk)[1];
+        assert!(y <= stack.1, "air temperature {t} K at {y} m, above the stack's top {}", stack.1);
+        inside += 1;
+        let k = centres.partition_point(|c| c.0 <= y);
+        let (lo, hi) = match k {
+            0 => (centres[0].1, centres[0].1),
+            k if k == centres.len() => (centres[k - 1].1, centres[k - 1].1),
+            k => (centres[k - 1].1, centres[k].1),
+        };
+        assert!(t >= lo - 1e-3 && t <= hi + 1e-3, "{t} K at {y} m, between layers of {lo} and {hi} K");
+    }
+    assert!(inside > 1_000, "{inside} air voxels");
     let cloud = grid(&frame.grids, "cloud");
     assert!(cloud.active_voxel_count() > 100, "{} cloud voxels", cloud.active_voxel_count());
     let (lo, hi) = (wet_layer.0 - (wet_layer.1 - wet_layer.0), wet_layer.1 + (wet_layer.1 - wet_layer.0));

@@ -1,10 +1,10 @@
 //! `volcano export`: runs a built-in scene headless and writes frames an offline renderer
 //! opens (docs/EXPORT.md): per frame `frame_NNNN.vdb` (OpenVDB grids `ash`, `temperature`,
-//! `cloud`, `ash_fall`, world metres, y up), `frame_NNNN.glb` (lava surfaces and fold ropes,
-//! when the scene has lava) and `frame_NNNN.json` (time, camera, sun, grids), and once
-//! `terrain.glb`, each written under a temporary name and renamed when complete; `--expect` adds
-//! `frame_NNNN.expect.json` for `tools/check_vdb.py` (the check with OpenVDB itself). One
-//! frame is held in memory at a time.
+//! `cloud`, `ash_fall`, `air_temperature`; world metres, y up), `frame_NNNN.glb` (lava
+//! surfaces and fold ropes, when the scene has lava) and `frame_NNNN.json` (time, camera,
+//! sun, grids), and once `terrain.glb`, each written under a temporary name and renamed when
+//! complete; `--expect` adds `frame_NNNN.expect.json` for `tools/check_vdb.py` (the check
+//! with OpenVDB itself). One frame is held in memory at a time.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -191,6 +191,10 @@ impl Progress {
 fn write_expectation(dir: &Path, frame: u32, grids: &[FloatGrid]) -> Result<(), String> {
     let refs: Vec<&FloatGrid> = grids.iter().collect();
     let path = dir.join(format!("frame_{frame:04}.expect.json"));
-    std::fs::write(&path, expectation(&refs, 5_000).to_string())
-        .map_err(|e| format!("{}: {e}", path.display()))
+    let text = expectation(&refs, 5_000).to_string();
+    volcano::export::atomic::write_atomically::<volcano::export::ExportError>(&path, |w| {
+        use std::io::Write;
+        w.write_all(text.as_bytes()).map_err(|e| volcano::export::vdb::VdbError::Io(e).into())
+    })
+    .map_err(|e| e.to_string())
 }

@@ -184,8 +184,9 @@ enum Command {
         out: PathBuf,
     },
     /// Run a built-in scene headless and write frames for an offline renderer
-    /// (docs/EXPORT.md): OpenVDB volumes (`ash`, `temperature`, `cloud`, `ash_fall`; world
-    /// metres, y up) and a JSON of time, camera and sun per frame.
+    /// (docs/EXPORT.md): OpenVDB volumes (`ash`, `temperature`, `cloud`, `ash_fall`,
+    /// `air_temperature`; world metres, y up), glTF meshes of the lava and the terrain, and a
+    /// JSON of time, camera and sun per frame.
     Export {
         /// Built-in scene (`volcano scenes` lists them).
         #[arg(long, default_value = "eruption")]
@@ -202,7 +203,7 @@ enum Command {
         /// Voxel edge of `ash` and `temperature` (m).
         #[arg(long, default_value_t = 50.0, allow_negative_numbers = true)]
         ash_voxel: f64,
-        /// Voxel edge of `cloud` and `ash_fall` (m).
+        /// Voxel edge of `cloud`, `ash_fall` and `air_temperature` (m).
         #[arg(long, default_value_t = 250.0, allow_negative_numbers = true)]
         air_voxel: f64,
         /// Most active voxels in one grid.
