@@ -79,8 +79,8 @@ pub fn terrain_mesh(terrain: &Terrain, max_side: usize) -> MeshData {
 }
 
 /// A lava field's surface (ground + frozen + liquid lava at each cell centre) over the quads
-/// whose four cells hold more than `min_thickness` of lava, liquid or frozen; `None` if no
-/// quad does. `_TEMPERATURE` is the top of the crust's ([`surface_temperature`]) where the
+/// whose four cells hold more than `min_thickness` of lava, liquid or frozen, with a vertex
+/// for each cell those quads use; `None` if no quad does. `_TEMPERATURE` is the top of the crust's ([`surface_temperature`]) where the
 /// lava is liquid, the air's where it froze.
 pub fn lava_mesh(name: &str, field: &LavaField, state: &LavaState) -> Option<MeshData> {
     let flow = &state.flow;
@@ -93,26 +93,35 @@ pub fn lava_mesh(name: &str, field: &LavaField, state: &LavaState) -> Option<Mes
     if indices.is_empty() {
         return None;
     }
-    let mut positions = Vec::with_capacity(nx * ny);
     let mut heights = Vec::with_capacity(nx * ny);
-    let mut temperature = Vec::with_capacity(nx * ny);
-    for j in 0..ny {
-        for i in 0..nx {
-            let k = j * nx + i;
-            let xz = h.position(i, j);
-            let y = (ground[k] + h.data()[k].max(0.0)) as f32;
-            positions.push([xz.x, y, xz.y]);
-            heights.push(y);
-            let liquid = h.data()[k] > p.min_thickness;
-            let crust = state.surface.crust.get(k).copied().unwrap_or(0.0);
-            let t = if liquid { surface_temperature(p, temp[k], crust) } else { p.air_temperature };
-            temperature.push(t as f32);
+    for (k, g) in ground.iter().enumerate() {
+        heights.push((g + h.data()[k].max(0.0)) as f32);
+    }
+    let all_normals = normals(&heights, nx, ny, flow.cell() as f32);
+    // Only the cells a covered quad uses become vertices (a flow covers a small part of its
+    // grid), renumbered in grid order.
+    let mut vertex = vec![u32::MAX; nx * ny];
+    for &k in &indices {
+        vertex[k as usize] = 0;
+    }
+    let (mut positions, mut normals_out, mut temperature) = (Vec::new(), Vec::new(), Vec::new());
+    for (k, v) in vertex.iter_mut().enumerate() {
+        if *v == u32::MAX {
+            continue;
         }
+        *v = positions.len() as u32;
+        let xz = h.position(k % nx, k / nx);
+        positions.push([xz.x, heights[k], xz.y]);
+        normals_out.push(all_normals[k]);
+        let liquid = h.data()[k] > p.min_thickness;
+        let crust = state.surface.crust.get(k).copied().unwrap_or(0.0);
+        let t = if liquid { surface_temperature(p, temp[k], crust) } else { p.air_temperature };
+        temperature.push(t as f32);
     }
     Some(MeshData {
         name: name.into(),
-        normals: Some(normals(&heights, nx, ny, flow.cell() as f32)),
-        indices,
+        normals: Some(normals_out),
+        indices: indices.iter().map(|&k| vertex[k as usize]).collect(),
         positions,
         colors: None,
         temperature: Some(temperature),

@@ -329,18 +329,26 @@ fn the_lava_is_a_mesh_where_it_flows_with_its_surface_temperature() {
     }
     assert!(covered_quads > 20, "{covered_quads} quads of lava");
     assert_eq!(mesh.indices.len(), 6 * covered_quads);
-    for &v in &mesh.indices {
-        let k = v as usize;
-        let (i, j) = (k % flow.nx(), k / flow.nx());
-        let xz = h.position(i, j);
-        assert_eq!(mesh.positions[k], [xz.x, (ground[k] + h.data()[k].max(0.0)) as f32, xz.y]);
-        let t = temps[k] as f64;
+    // A vertex for each cell the covered quads use, at that cell's lava surface.
+    let mut used = std::collections::HashSet::new();
+    for (v, p) in mesh.positions.iter().enumerate() {
+        let (i, j) = flow.cell_at(Vec2::new(p[0], p[2])).unwrap();
+        let k = j * flow.nx() + i;
+        assert!(used.insert(k), "cell {k} twice");
+        assert_eq!(h.position(i, j), Vec2::new(p[0], p[2]));
+        assert_eq!(p[1], (ground[k] + h.data()[k].max(0.0)) as f32);
+        let t = temps[v] as f64;
         assert!(t >= field.params.air_temperature - 1e-3 && t <= core_max + 1e-3, "vertex at {t} K");
     }
+    assert!(mesh.indices.iter().all(|&v| (v as usize) < mesh.positions.len()));
+    let referenced: std::collections::HashSet<u32> = mesh.indices.iter().copied().collect();
+    assert_eq!(referenced.len(), mesh.positions.len(), "every vertex is used");
     // The crust only cools the top: no liquid vertex above its own core, and the fresh lava
     // near the source still glows (above 1,000 K) after 10 s.
     let core = flow.temperature().data();
-    for (k, &t) in temps.iter().enumerate() {
+    for (p, &t) in mesh.positions.iter().zip(temps) {
+        let (i, j) = flow.cell_at(Vec2::new(p[0], p[2])).unwrap();
+        let k = j * flow.nx() + i;
         if h.data()[k] > field.params.min_thickness {
             assert!(t as f64 <= core[k] + 1e-3, "top {t} K over a {} K core", core[k]);
         }
@@ -355,13 +363,12 @@ fn the_lava_is_a_mesh_where_it_flows_with_its_surface_temperature() {
             .unwrap();
     assert_eq!(terrain.positions.len(), 33 * 33, "65 samples a side at stride 2");
     volcano::export::write_terrain(dir.path(), &terrain).unwrap();
-    for name in ["frame_0000.glb", "terrain.glb"] {
+    for (name, vertices) in [("frame_0000.glb", frame.meshes[0].positions.len()), ("terrain.glb", 33 * 33)] {
         let glb = gltf::Gltf::from_slice(&std::fs::read(dir.path().join(name)).unwrap()).unwrap();
         let blob = glb.blob.as_deref().unwrap();
         let mesh = glb.document.meshes().next().unwrap();
         let prim = mesh.primitives().next().unwrap();
         let reader = prim.reader(|_| Some(blob));
-        let n = reader.read_positions().unwrap().count();
-        assert!(n > 1000, "{name}: {n} vertices");
+        assert_eq!(reader.read_positions().unwrap().count(), vertices, "{name}");
     }
 }
