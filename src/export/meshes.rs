@@ -5,7 +5,7 @@
 //! (§5.4) as line strips along each fold's chain.
 
 use bevy::prelude::*;
-use volcano_core::Terrain;
+use volcano_core::{Boundary, Grid2, Terrain};
 use volcano_export::gltf::{LineData, MeshData};
 use volcano_lava::view::surface_temperature;
 use volcano_lava::{FlowField, FoldSystem, LavaField, LavaState};
@@ -17,20 +17,16 @@ const LAVA_ALBEDO: [f32; 4] = [0.16, 0.15, 0.14, 1.0];
 /// Colour of the fold ropes.
 const ROPE_COLOUR: [f32; 4] = [0.1, 0.09, 0.08, 1.0];
 
-/// Normals of a row-major `nx × ny` heightfield of spacing `cell` by central differences.
-fn normals(y: &[f32], nx: usize, ny: usize, cell: f32) -> Vec<[f32; 3]> {
-    let mut out = Vec::with_capacity(nx * ny);
-    for j in 0..ny {
-        for i in 0..nx {
-            let (i0, i1) = (i.saturating_sub(1), (i + 1).min(nx - 1));
-            let (j0, j1) = (j.saturating_sub(1), (j + 1).min(ny - 1));
-            let at = |a: usize, b: usize| y[b * nx + a];
-            let dx = if i1 > i0 { (at(i1, j) - at(i0, j)) / ((i1 - i0) as f32 * cell) } else { 0.0 };
-            let dz = if j1 > j0 { (at(i, j1) - at(i, j0)) / ((j1 - j0) as f32 * cell) } else { 0.0 };
-            out.push(Vec3::new(-dx, 1.0, -dz).normalize_or(Vec3::Y).to_array());
-        }
-    }
-    out
+/// Unit normals of a heightfield, sample by sample in row order, from its central-difference
+/// gradient (one-sided at the edges, [`Grid2::gradient`]).
+fn normals(heights: &Grid2<f32>) -> Vec<[f32; 3]> {
+    (0..heights.ny())
+        .flat_map(|j| (0..heights.nx()).map(move |i| (i, j)))
+        .map(|(i, j)| {
+            let d = heights.gradient(i, j, Boundary::Clamp);
+            Vec3::new(-d.x, 1.0, -d.y).normalize_or(Vec3::Y).to_array()
+        })
+        .collect()
 }
 
 /// Two triangles per quad of samples `(i, j)–(i+1, j+1)` for which `keep(k)` holds at all four
@@ -66,9 +62,12 @@ pub fn terrain_mesh(terrain: &Terrain, max_side: usize) -> MeshData {
             heights.push(y);
         }
     }
+    // The sampled heights as a grid of `stride` cells (its dimensions are the terrain's, cut).
+    let normals = Grid2::from_vec(mx, my, h.cell() * stride as f64, h.origin(), heights)
+        .map_or_else(|_| vec![[0.0, 1.0, 0.0]; mx * my], |g| normals(&g));
     MeshData {
         name: "terrain".into(),
-        normals: Some(normals(&heights, mx, my, (h.cell() * stride as f64) as f32)),
+        normals: Some(normals),
         indices: quads(mx, my, |_| true),
         positions,
         colors: None,
@@ -93,11 +92,10 @@ pub fn lava_mesh(name: &str, field: &LavaField, state: &LavaState) -> Option<Mes
     if indices.is_empty() {
         return None;
     }
-    let mut heights = Vec::with_capacity(nx * ny);
-    for (k, g) in ground.iter().enumerate() {
-        heights.push((g + h.data()[k].max(0.0)) as f32);
-    }
-    let all_normals = normals(&heights, nx, ny, flow.cell() as f32);
+    let surface: Vec<f32> = ground.iter().zip(h.data()).map(|(g, d)| (g + d.max(0.0)) as f32).collect();
+    // The lava grid's own dimensions, so a grid of them always builds.
+    let Ok(surface) = Grid2::from_vec(nx, ny, flow.cell(), h.origin(), surface) else { return None };
+    let all_normals = normals(&surface);
     // Only the cells a covered quad uses become vertices (a flow covers a small part of its
     // grid), renumbered in grid order.
     let mut vertex = vec![u32::MAX; nx * ny];
@@ -111,7 +109,7 @@ pub fn lava_mesh(name: &str, field: &LavaField, state: &LavaState) -> Option<Mes
         }
         *v = positions.len() as u32;
         let xz = h.position(k % nx, k / nx);
-        positions.push([xz.x, heights[k], xz.y]);
+        positions.push([xz.x, surface.data()[k], xz.y]);
         normals_out.push(all_normals[k]);
         let liquid = h.data()[k] > p.min_thickness;
         let crust = state.surface.crust.get(k).copied().unwrap_or(0.0);
@@ -231,7 +229,8 @@ mod tests {
     fn a_slope_tilts_the_normals_downhill() {
         // y = x / 2 on a 4 × 2 grid of 1 m: the normal leans towards −x.
         let y: Vec<f32> = (0..8).map(|k| (k % 4) as f32 * 0.5).collect();
-        let n = normals(&y, 4, 2, 1.0);
+        let n = normals(&Grid2::from_vec(4, 2, 1.0, Vec2::ZERO, y).unwrap());
+        assert_eq!(n.len(), 8);
         for v in n {
             assert!((v[0] + 0.5 / 1.25f32.sqrt()).abs() < 1e-6 && v[2] == 0.0, "{v:?}");
         }

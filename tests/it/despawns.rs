@@ -6,7 +6,6 @@
 use std::time::Duration;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano::atmosphere::{AirLayer, WeatherPipelineStatus};
 use volcano::plume::{PlumeSlice, PyroParticle, S1};
 use volcano::prelude::*;
@@ -22,12 +21,8 @@ fn record(mut f: MessageReader<SimFault>, mut seen: ResMut<Faults>) {
 
 /// A collapsing eruption on a cone with the weather over it (every part of the volcano).
 fn world() -> (App, Entity) {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)))
-        .init_resource::<Faults>()
-        .add_systems(Last, record);
+    let mut app = worlds::sim_app(Duration::from_millis(20));
+    app.init_resource::<Faults>().add_systems(Last, record);
     let terrain = worlds::collapsing_cone();
     let world = app.world_mut();
     let mut commands = world.commands();

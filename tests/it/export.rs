@@ -15,7 +15,7 @@ use volcano::prelude::*;
 use crate::worlds;
 
 fn app() -> App {
-    crate::worlds::sim_app()
+    crate::worlds::sim_app(std::time::Duration::from_millis(20))
 }
 
 fn grid<'a>(grids: &'a [FloatGrid], name: &str) -> &'a FloatGrid {

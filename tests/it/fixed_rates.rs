@@ -49,10 +49,7 @@ fn run_at(step: Duration) -> Outcome {
     let terrain = worlds::small_island();
     let world = app.world_mut();
     let mut commands = world.commands();
-    worlds::air_over(&mut commands, &terrain, 16);
-    let source = Vec2::new(1_500.0, 0.0);
-    let placement = volcano::lava::Placement::downslope_of(&terrain, source, 32, 2.0).unwrap();
-    worlds::lava(&mut commands, &terrain, placement, source, LAVA_RATE);
+    worlds::air_and_flank_lava(&mut commands, &terrain, LAVA_RATE);
     commands.spawn(terrain);
     let eruption = Eruption::plinian();
     let interval = eruption.params.emission_interval();

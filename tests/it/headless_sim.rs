@@ -4,17 +4,13 @@
 use std::time::Duration;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano::prelude::*;
 
 fn headless_app(ticks_per_update: u32) -> App {
     let spec = volcano::scenes::by_name("eruption").unwrap();
     let terrain = spec.terrain.build().unwrap();
     let (volcano, transform) = spec.volcano.build().unwrap();
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20) * ticks_per_update));
+    let mut app = crate::worlds::sim_app(Duration::from_millis(20) * ticks_per_update);
     app.world_mut().spawn(terrain);
     app.world_mut().spawn((volcano, transform));
     app

@@ -4,7 +4,6 @@
 use std::time::Duration;
 
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano::prelude::*;
 
 const AWAY: Vec3 = Vec3::new(0.0, 0.0, -20_000.0);
@@ -12,10 +11,7 @@ const AWAY: Vec3 = Vec3::new(0.0, 0.0, -20_000.0);
 /// `VolcanoSimPlugins` on `MinimalPlugins`, the procedural stratovolcano and a Plinian volcano
 /// on its summit, both at `at`, after `updates` updates of one 20 ms base tick.
 fn erupt(at: Vec3, updates: u32) -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(50.0))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+    let mut app = crate::worlds::sim_app(Duration::from_millis(20));
     let terrain =
         StratovolcanoParams { resolution: 128, cell: 300.0, ..Default::default() }.generate().unwrap();
     app.world_mut().spawn((terrain, Transform::from_translation(at)));

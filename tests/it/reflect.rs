@@ -8,16 +8,12 @@ use std::time::Duration;
 
 use bevy::ecs::reflect::{ReflectComponent, ReflectResource};
 use bevy::prelude::*;
-use bevy::time::TimeUpdateStrategy;
 use volcano::prelude::*;
 
 #[test]
 fn every_volcano_component_and_resource_is_reflected() {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .add_plugins(VolcanoScenePlugin::builtin("eruption").unwrap().headless())
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
+    let mut app = crate::worlds::sim_app(Duration::from_millis(100));
+    app.add_plugins(VolcanoScenePlugin::builtin("eruption").unwrap().headless());
     for _ in 0..20 {
         app.update();
     }

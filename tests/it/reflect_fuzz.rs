@@ -9,7 +9,6 @@ use std::time::Duration;
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::prelude::*;
 use bevy::reflect::{PartialReflect, ReflectMut};
-use bevy::time::TimeUpdateStrategy;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use volcano::prelude::*;
@@ -124,17 +123,11 @@ fn edit(world: &mut World, target: &(Entity, String), rng: &mut ChaCha8Rng) -> O
 /// A small whole volcano: terrain, atmosphere, a plinian eruption, a lava field with a
 /// source and a zone.
 fn world() -> App {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(40)));
+    let mut app = worlds::sim_app(Duration::from_millis(40));
     let terrain = worlds::small_island();
     let world = app.world_mut();
     let mut commands = world.commands();
-    worlds::air_over(&mut commands, &terrain, 16);
-    let source = Vec2::new(1_500.0, 0.0);
-    let placement = volcano::lava::Placement::downslope_of(&terrain, source, 32, 2.0).unwrap();
-    worlds::lava(&mut commands, &terrain, placement, source, 0.2);
+    let source = worlds::air_and_flank_lava(&mut commands, &terrain, 0.2);
     commands.spawn(LavaZone::new(source + Vec2::new(0.0, 20.0), 5.0).unwrap());
     commands.spawn(terrain);
     commands.spawn((Volcano::new(100.0, 3).unwrap(), Eruption::plinian(), Transform::default()));

@@ -17,7 +17,7 @@ use volcano::plume::{DepositMap, S1};
 use volcano::prelude::*;
 
 fn app() -> App {
-    crate::worlds::sim_app()
+    crate::worlds::sim_app(std::time::Duration::from_millis(20))
 }
 
 /// Everything the simulation holds that the test compares, as text (`Debug` prints every

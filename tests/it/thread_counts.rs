@@ -9,7 +9,6 @@ use std::time::Duration;
 
 use bevy::prelude::*;
 use bevy::tasks::{AsyncComputeTaskPool, ComputeTaskPool, TaskPoolBuilder};
-use bevy::time::TimeUpdateStrategy;
 use volcano::atmosphere::AirLayer;
 use volcano::lava::LavaState;
 use volcano::plume::{DepositMap, PlumeAshBudget, PlumeSlice, PyroParticle, PyroclasticBudget, Umbrella};
@@ -32,10 +31,7 @@ fn fingerprint<T: std::fmt::Debug>(items: impl IntoIterator<Item = T>) -> (usize
 }
 
 fn simulate() -> Vec<(&'static str, (usize, u64))> {
-    let mut app = App::new();
-    app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
-        .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)));
+    let mut app = worlds::sim_app(Duration::from_millis(100));
     let terrain = worlds::collapsing_cone();
     let world = app.world_mut();
     let mut commands = world.commands();

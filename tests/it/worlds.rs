@@ -8,12 +8,13 @@ use bevy::time::TimeUpdateStrategy;
 use volcano::lava::Placement;
 use volcano::prelude::*;
 
-/// A headless simulation at the thesis' 50 Hz, one base tick per update.
-pub fn sim_app() -> App {
+/// A headless simulation at the thesis' 50 Hz, each update `frame` long (20 ms: one base tick
+/// per update).
+pub fn sim_app(frame: Duration) -> App {
     let mut app = App::new();
     app.add_plugins((MinimalPlugins, VolcanoSimPlugins))
         .insert_resource(Time::<Fixed>::from_hz(volcano::core::units::THESIS_TICK_HZ))
-        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(20)));
+        .insert_resource(TimeUpdateStrategy::ManualDuration(frame));
     app
 }
 
@@ -43,6 +44,16 @@ pub fn lava(commands: &mut Commands, terrain: &Terrain, placement: Placement, so
     let y = terrain.height_at(source.x, source.y);
     commands.spawn(LavaField::new(placement, LavaParams::default()).unwrap());
     commands.spawn(LavaSource::new(rate).unwrap().at(Vec3::new(source.x, y, source.y)).unwrap());
+}
+
+/// The weather over `terrain` (16 cells a side) and a 32 × 32 lava field of 2 m cells fed
+/// `rate` m³/s, downslope of world (1,500, 0) on the island's flank; returns that source.
+pub fn air_and_flank_lava(commands: &mut Commands, terrain: &Terrain, rate: f64) -> Vec2 {
+    air_over(commands, terrain, 16);
+    let source = Vec2::new(1_500.0, 0.0);
+    let placement = Placement::downslope_of(terrain, source, 32, 2.0).unwrap();
+    lava(commands, terrain, placement, source, rate);
+    source
 }
 
 /// A pyroclastic eruption, erupting from the start.
