@@ -11,7 +11,8 @@ use volcano_lava::scenario::{LavaScenario, ScenarioConfig, ScenarioKind};
 /// Options of `volcano lava`.
 #[derive(clap::Args, Debug)]
 pub struct LavaArgs {
-    /// obstacle | split | canyon | slope | incline | spread.
+    /// obstacle | split | canyon | slope | incline | spread | effusive (a vent's flow over a
+    /// 10 km valley, run until it stops or `--seconds`).
     #[arg(long, default_value = "obstacle")]
     scenario: String,
     /// Simulated seconds (default per scenario).
@@ -38,9 +39,15 @@ pub struct LavaArgs {
     /// Cells per side.
     #[arg(long)]
     grid: Option<usize>,
-    /// Cell size (m).
+    /// Cell size (m); `effusive`: the terrain's node spacing.
     #[arg(long, allow_negative_numbers = true)]
     cell: Option<f64>,
+    /// `effusive`: lava cells per terrain node side (default 4: 5 m cells on 20 m nodes).
+    #[arg(long)]
+    refine: Option<u32>,
+    /// `effusive`: the ground reaches sea level this far (m) downslope of the vent.
+    #[arg(long, allow_negative_numbers = true)]
+    sea_at: Option<f64>,
     /// Output directory.
     #[arg(long)]
     out: PathBuf,
@@ -58,6 +65,9 @@ fn write_summary(dir: &Path, json: &str) -> ExitCode {
 
 /// Runs a lava scenario.
 pub fn lava(a: &LavaArgs) -> ExitCode {
+    if a.scenario == "effusive" {
+        return effusive(a);
+    }
     let kind: ScenarioKind = match a.scenario.parse() {
         Ok(k) => k,
         Err(e) => {
@@ -89,6 +99,48 @@ pub fn lava(a: &LavaArgs) -> ExitCode {
         return ExitCode::FAILURE;
     }
     write_summary(&a.out, &json)
+}
+
+/// Runs the effusive scenario (`volcano_lava::scenario::effusive`): only its summary.
+fn effusive(a: &LavaArgs) -> ExitCode {
+    use volcano_lava::scenario::effusive::{EffusiveConfig, run_effusive};
+    let unused = [
+        ("--viscosity", a.viscosity.is_some()),
+        ("--isothermal", a.isothermal),
+        ("--volume", a.volume.is_some()),
+        ("--initial-radius", a.initial_radius.is_some()),
+        ("--grid", a.grid.is_some()),
+    ];
+    if let Some((flag, _)) = unused.iter().find(|(_, set)| *set) {
+        eprintln!("error: {flag} is not an option of the effusive scenario");
+        return ExitCode::from(2);
+    }
+    let d = EffusiveConfig::default();
+    let c = EffusiveConfig {
+        rate: a.rate.unwrap_or(d.rate),
+        seconds: a.seconds.unwrap_or(d.seconds),
+        slope_deg: a.slope_deg.unwrap_or(d.slope_deg),
+        node: a.cell.unwrap_or(d.node),
+        refine: a.refine.unwrap_or(d.refine),
+        sea_at_m: a.sea_at,
+        ..d
+    };
+    let tty = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let summary = run_effusive(&c, |t| {
+        if tty {
+            eprint!("\r{:.0} / {:.0} s simulated", t, c.seconds);
+        }
+    });
+    if tty {
+        eprintln!();
+    }
+    match summary {
+        Ok(s) => write_summary(&a.out, &serde_json::to_string_pretty(&s).unwrap_or_default()),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(2)
+        }
+    }
 }
 
 /// Options of `volcano atmosphere`.

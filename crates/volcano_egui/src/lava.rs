@@ -87,7 +87,7 @@ fn drag(ui: &mut egui::Ui, value: &mut f64, speed: f64, text: &str) -> bool {
 fn param_widgets(ui: &mut egui::Ui, p: &mut LavaParams) -> bool {
     let mut changed = false;
     egui::CollapsingHeader::new("Viscosity").default_open(true).show(ui, |ui| {
-        let vft = matches!(p.viscosity, ViscosityModel::Vft { .. });
+        let vft = !matches!(p.viscosity, ViscosityModel::Constant(_));
         ui.horizontal(|ui| {
             if ui.radio(vft, "VFT (FLOWGO basalt)").clicked() && !vft {
                 p.viscosity = ViscosityModel::FLOWGO_BASALT;
@@ -107,6 +107,12 @@ fn param_widgets(ui: &mut egui::Ui, p: &mut LavaParams) -> bool {
                 changed |= drag(ui, a, 0.01, "A (log10 Pa·s)");
                 changed |= drag(ui, b, 1.0, "B (K)");
                 changed |= drag(ui, c, 1.0, "C (K)");
+            }
+            ViscosityModel::Crystallising { phi_hot, phi_cold, .. } => {
+                ui.label("VFT melt with crystals (Einstein–Roscoe)");
+                changed |= slider(ui, phi_hot, 0.0..=0.5, "crystals, hot");
+                changed |= slider(ui, phi_cold, 0.0..=0.57, "crystals, cold");
+                *phi_cold = phi_cold.max(*phi_hot);
             }
         }
         changed |= slider(ui, &mut p.yield_strength, 0.0..=5000.0, "yield strength (Pa)");

@@ -14,6 +14,7 @@ pub mod folds;
 pub mod guard;
 pub mod imprint;
 pub mod params;
+pub mod runout;
 pub mod samples;
 pub mod scratch;
 pub mod surface;

@@ -1,6 +1,7 @@
 //! Headless scenarios (thesis Fig 5.10 terrains, plus `incline` and `spread` with analytic
 //! references) and the summary the CLI writes as `summary.json`.
 
+pub mod effusive;
 pub mod terrains;
 
 use std::str::FromStr;

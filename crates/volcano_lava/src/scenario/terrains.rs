@@ -4,6 +4,7 @@
 //! increasing `j`).
 
 use bevy::math::Vec2;
+use volcano_core::error::{in_range, positive};
 use volcano_core::terrain::centred_origin;
 use volcano_core::{ConfigError, Grid2, LandCover, Terrain};
 
@@ -130,6 +131,45 @@ pub fn scenario_terrain(
     }
     let cover = Grid2::new(nt, nt, cell, origin, LandCover::Ground)?;
     Terrain::new(heights, cover, f32::MIN)
+}
+
+/// A long valley for kilometre flows: `nx × ny` nodes of `cell` m centred on the origin, an
+/// incline of `slope_deg` descending toward +z from `top` m at the first row, with a gully
+/// along its middle `gully_depth` m deep (a cosine cross-section `gully_width` m wide; 0 = a
+/// plane). With `sea`, ground below 0 m is sea (water cover, sea level 0 m).
+pub fn runout_valley(
+    (nx, ny, cell): (usize, usize, f64),
+    slope_deg: f64,
+    top: f64,
+    (gully_depth, gully_width): (f64, f64),
+    sea: bool,
+) -> Result<Terrain, ConfigError> {
+    in_range("runout slope", slope_deg, 0.0, 60.0)?;
+    in_range("gully depth", gully_depth, 0.0, 1_000.0)?;
+    if gully_depth > 0.0 {
+        positive("gully width", gully_width)?;
+    }
+    let tan = slope_deg.to_radians().tan();
+    let origin =
+        Vec2::new(-(((nx - 1) as f64) * cell * 0.5) as f32, -(((ny - 1) as f64) * cell * 0.5) as f32);
+    let mut heights = Grid2::new(nx, ny, cell, origin, 0.0f32)?;
+    let mut cover = Grid2::new(nx, ny, cell, origin, LandCover::Ground)?;
+    for j in 0..ny {
+        for i in 0..nx {
+            let x = (i as f64 - (nx - 1) as f64 * 0.5) * cell;
+            let gully = if x.abs() < 0.5 * gully_width {
+                0.5 * gully_depth * (1.0 + (std::f64::consts::TAU * x / gully_width).cos())
+            } else {
+                0.0
+            };
+            let h = top - j as f64 * cell * tan - gully;
+            heights.set(i, j, h as f32);
+            if sea && h < 0.0 {
+                cover.set(i, j, LandCover::Water);
+            }
+        }
+    }
+    Terrain::new(heights, cover, if sea { 0.0 } else { f32::MIN })
 }
 
 #[cfg(test)]

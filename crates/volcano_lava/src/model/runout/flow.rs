@@ -1,0 +1,213 @@
+//! The flow substeps of a [`super::Runout`]: the same mass-exact lubrication scheme as a
+//! lava field's ([`crate::model::flow`], docs/physics/lava.md §6.1), over sparse tiles.
+//!
+//! Per substep: (0) tiles with lava on a side wake their neighbour there, so lava never
+//! reaches a face whose far cell is not stored (a face to a missing tile joins two dry cells
+//! and carries nothing); (1) cell mobilities `ρ g h³/(3η(T))`; (2) a flux per face owned by
+//! the cell west or south of it (`flux::face_flux`), reading across tile borders; (3) the
+//! global stable substep; (4) each cell's outgoing volume scaled to what it holds; (5) one
+//! volume per face, subtracted from its donor and added to its receiver as the same f64
+//! number, with heat and crust age moving at the donor's values. Lava reaching a cell beyond
+//! the terrain leaves (outflow).
+
+use super::tiles::{CellKind, EAST, NORTH, TILE, TILE_CELLS, Tiles};
+use crate::model::flux::{face_flux, mobility};
+use crate::model::params::{GRAVITY, LavaParams};
+
+/// What [`advance`] did.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct FlowStep {
+    pub substeps: u32,
+    pub mobility_capped: bool,
+    pub outflow: f64,
+    pub rounding: f64,
+}
+
+/// Per-tile work arrays of one substep.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Work {
+    mob: Vec<Vec<f64>>,
+    /// Flux (m²/s) across the east and north face of each cell.
+    fe: Vec<Vec<f64>>,
+    fn_: Vec<Vec<f64>>,
+    lim: Vec<Vec<f64>>,
+}
+
+fn resize(v: &mut Vec<Vec<f64>>, n: usize) {
+    v.resize_with(n, || vec![0.0; TILE_CELLS]);
+}
+
+/// The cell across a tile's east (or north) face of cell `k`: `(tile, cell)` or none.
+#[inline]
+fn across(tiles: &Tiles, ti: usize, k: usize, side: usize) -> Option<(usize, usize)> {
+    let (i, j) = (k % TILE, k / TILE);
+    match side {
+        EAST if i + 1 < TILE => Some((ti, k + 1)),
+        EAST => tiles.list[ti].nbr[EAST].map(|n| (n, j * TILE)),
+        _ if j + 1 < TILE => Some((ti, k + TILE)),
+        _ => tiles.list[ti].nbr[NORTH].map(|n| (n, i)),
+    }
+}
+
+/// Advances the tiles' lava by `dt` with CFL-limited substeps (at most `params.max_substeps`,
+/// the last one with a capped mobility if they run out). `wake` is called before each substep
+/// and must store the neighbours of every tile with lava on a side.
+pub(crate) fn advance(
+    tiles: &mut Tiles,
+    work: &mut Work,
+    cell: f64,
+    params: &LavaParams,
+    dt: f64,
+    mut wake: impl FnMut(&mut Tiles),
+) -> FlowStep {
+    let mut report = FlowStep::default();
+    let inv_dx = 1.0 / cell;
+    let area = cell * cell;
+    let yield_rg = params.yield_strength / (params.density * GRAVITY);
+    let rg3 = params.density * GRAVITY / 3.0;
+    let mut t_left = dt;
+    while t_left > 0.0 && report.substeps < params.max_substeps {
+        report.substeps += 1;
+        wake(tiles);
+        let n = tiles.list.len();
+        for v in [&mut work.mob, &mut work.fe, &mut work.fn_, &mut work.lim] {
+            resize(v, n);
+        }
+        // 1. mobilities.
+        for (tile, mob) in tiles.list.iter().zip(work.mob.iter_mut()) {
+            for k in 0..TILE_CELLS {
+                mob[k] = mobility(params.viscosity, rg3, tile.h[k], tile.t[k], 1.0);
+            }
+        }
+        // 2. fluxes of the east and north faces; the largest mobility and wave speed.
+        let (mut m_max, mut c_max) = (0.0f64, 0.0f64);
+        for ti in 0..n {
+            let a = &tiles.list[ti];
+            for side in [EAST, NORTH] {
+                for k in 0..TILE_CELLS {
+                    let q = match across(tiles, ti, k, side) {
+                        Some((tb, kb)) => {
+                            let b = &tiles.list[tb];
+                            let (q, m, w) = face_flux(
+                                inv_dx,
+                                yield_rg,
+                                (a.ground[k], a.h[k], work.mob[ti][k]),
+                                (b.ground[kb], b.h[kb], work.mob[tb][kb]),
+                            );
+                            m_max = m_max.max(m);
+                            c_max = c_max.max(w);
+                            q
+                        }
+                        None => 0.0,
+                    };
+                    if side == EAST { work.fe[ti][k] = q } else { work.fn_[ti][k] = q }
+                }
+            }
+        }
+        // 3. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
+        let mut stable = f64::INFINITY;
+        if m_max > 0.0 {
+            stable = stable.min(cell * cell / (4.0 * m_max));
+        }
+        if c_max > 0.0 {
+            stable = stable.min(cell / c_max);
+        }
+        let mut dt_s = t_left.min(params.cfl * stable);
+        let mut vol = cell; // face length: volume = q · dt · dx
+        if report.substeps == params.max_substeps && dt_s < t_left {
+            vol *= dt_s / t_left;
+            dt_s = t_left;
+            report.mobility_capped = true;
+        }
+        t_left -= dt_s;
+        if t_left < 1e-12 * dt {
+            t_left = 0.0;
+        }
+        let vol = vol * dt_s;
+        // 4. limiter: a cell's outgoing volume never exceeds what it holds.
+        for ti in 0..n {
+            let tile = &tiles.list[ti];
+            for k in 0..TILE_CELLS {
+                let mut out = work.fe[ti][k].max(0.0) + work.fn_[ti][k].max(0.0);
+                if let Some((tw, kw)) = behind(tiles, ti, k, EAST) {
+                    out += (-work.fe[tw][kw]).max(0.0);
+                }
+                if let Some((ts, ks)) = behind(tiles, ti, k, NORTH) {
+                    out += (-work.fn_[ts][ks]).max(0.0);
+                }
+                let (have, give) = (tile.h[k] * area, out * vol);
+                work.lim[ti][k] = if give > have { have / give } else { 1.0 };
+            }
+        }
+        // 5. face volumes (each computed once, signed a → b), applied to both cells.
+        for side in [EAST, NORTH] {
+            for ti in 0..n {
+                for k in 0..TILE_CELLS {
+                    let q = if side == EAST { work.fe[ti][k] } else { work.fn_[ti][k] };
+                    if q == 0.0 {
+                        continue;
+                    }
+                    let Some((tb, kb)) = across(tiles, ti, k, side) else { continue };
+                    let v = if q > 0.0 { q * vol * work.lim[ti][k] } else { q * vol * work.lim[tb][kb] };
+                    move_volume(tiles, (ti, k), (tb, kb), v / area);
+                }
+            }
+        }
+        // Round-off negatives are clamped to zero and tallied; lava beyond the terrain leaves.
+        for tile in &mut tiles.list {
+            for k in 0..TILE_CELLS {
+                if tile.h[k] < 0.0 {
+                    report.rounding -= tile.h[k] * area;
+                    tile.h[k] = 0.0;
+                }
+                if tile.kind[k] == CellKind::Outside && tile.h[k] > 0.0 {
+                    report.outflow += tile.h[k] * area;
+                    tile.h[k] = 0.0;
+                    tile.t[k] = params.air_temperature;
+                    tile.age[k] = 0.0;
+                }
+            }
+        }
+    }
+    report
+}
+
+/// The cell whose east (or north) face is cell `k`'s west (or south) face.
+#[inline]
+fn behind(tiles: &Tiles, ti: usize, k: usize, side: usize) -> Option<(usize, usize)> {
+    use super::tiles::{SOUTH, WEST};
+    let (i, j) = (k % TILE, k / TILE);
+    match side {
+        EAST if i > 0 => Some((ti, k - 1)),
+        EAST => tiles.list[ti].nbr[WEST].map(|n| (n, j * TILE + TILE - 1)),
+        _ if j > 0 => Some((ti, k - TILE)),
+        _ => tiles.list[ti].nbr[SOUTH].map(|n| (n, (TILE - 1) * TILE + i)),
+    }
+}
+
+/// Moves `dh` metres of lava (signed: positive from `a` to `b`) with its heat and age at the
+/// donor's values. The thickness change is the same f64 number on both sides.
+#[inline]
+fn move_volume(tiles: &mut Tiles, (ta, ka): (usize, usize), (tb, kb): (usize, usize), dh: f64) {
+    let (donor, receiver) = if dh > 0.0 { ((ta, ka), (tb, kb)) } else { ((tb, kb), (ta, ka)) };
+    let d = dh.abs();
+    if !(d > 0.0) {
+        return;
+    }
+    let (t_d, age_d) = {
+        let t = &tiles.list[donor.0];
+        (t.t[donor.1], t.age[donor.1])
+    };
+    {
+        let t = &mut tiles.list[donor.0];
+        t.h[donor.1] -= d;
+    }
+    let r = &mut tiles.list[receiver.0];
+    let k = receiver.1;
+    // h1 ≥ d > 0: the mix is finite.
+    let h0 = r.h[k].max(0.0);
+    let h1 = h0 + d;
+    r.t[k] = (h0 * r.t[k] + d * t_d) / h1;
+    r.age[k] = (h0 * r.age[k] + d * age_d) / h1;
+    r.h[k] += d;
+}
