@@ -278,6 +278,32 @@ mod tests {
     }
 
     #[test]
+    fn crystals_stiffen_a_cooling_basalt_by_einstein_roscoe() {
+        let (melt, lava) = (ViscosityModel::FLOWGO_BASALT, ViscosityModel::CHANNEL_BASALT);
+        lava.validate().unwrap();
+        // φ = 0.1 + 0.4 (1473 − T)/200; factor (1 − φ/0.6)^−2.5 (Roscoe 1952).
+        for (t, phi) in [(1473.0, 0.1), (1373.0, 0.3), (1273.0, 0.5), (1500.0, 0.1), (1000.0, 0.5)] {
+            let factor = lava.viscosity(t) / melt.viscosity(t);
+            let roscoe = (1.0f64 - phi / 0.6).powf(-2.5);
+            assert!((factor / roscoe - 1.0).abs() < 1e-9, "{t} K: {factor} vs {roscoe}");
+        }
+        let eta = |t| lava.viscosity(t);
+        assert!((60.0..200.0).contains(&eta(1450.0)), "{}", eta(1450.0));
+        assert!((2e3..1e4).contains(&eta(1350.0)), "{}", eta(1350.0));
+        assert!((1e5..4e5).contains(&eta(1280.0)), "{}", eta(1280.0));
+        let bad = ViscosityModel::Crystallising {
+            a: -4.52,
+            b: 5558.0,
+            c: 582.9,
+            t_hot: 1273.0,
+            phi_hot: 0.1,
+            t_cold: 1473.0,
+            phi_cold: 0.5,
+        };
+        assert!(bad.validate().is_err(), "t_cold above t_hot");
+    }
+
+    #[test]
     fn defaults_valid_and_kappa_is_table_5_2() {
         let p = LavaParams::default();
         p.validate().unwrap();

@@ -75,8 +75,8 @@ pub(crate) fn advance(
         }
         // 1. mobilities.
         for (tile, mob) in tiles.list.iter().zip(work.mob.iter_mut()) {
-            for k in 0..TILE_CELLS {
-                mob[k] = mobility(params.viscosity, rg3, tile.h[k], tile.t[k], 1.0);
+            for ((m, &h), &t) in mob.iter_mut().zip(&tile.h).zip(&tile.t) {
+                *m = mobility(params.viscosity, rg3, h, t, 1.0);
             }
         }
         // 2. fluxes of the east and north faces; the largest mobility and wave speed.
@@ -191,7 +191,7 @@ fn behind(tiles: &Tiles, ti: usize, k: usize, side: usize) -> Option<(usize, usi
 fn move_volume(tiles: &mut Tiles, (ta, ka): (usize, usize), (tb, kb): (usize, usize), dh: f64) {
     let (donor, receiver) = if dh > 0.0 { ((ta, ka), (tb, kb)) } else { ((tb, kb), (ta, ka)) };
     let d = dh.abs();
-    if !(d > 0.0) {
+    if d.is_nan() || d == 0.0 {
         return;
     }
     let (t_d, age_d) = {

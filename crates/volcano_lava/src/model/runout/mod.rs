@@ -343,14 +343,11 @@ impl Runout {
             tile.dry_steps = tile.dry_steps.saturating_add(1);
             drop[i] = tile.dry_steps > steps;
         }
-        for i in 0..n {
-            if !drop[i] {
-                continue;
-            }
-            let nbr = self.tiles.list[i].nbr;
+        for (tile, drop) in self.tiles.list.iter().zip(drop.iter_mut()) {
             // The neighbour's side facing this tile.
             let facing = [WEST, SOUTH, EAST, NORTH];
-            drop[i] = (0..4).all(|s| nbr[s].is_none_or(|j| !self.tiles.list[j].wet_side(facing[s])));
+            *drop =
+                *drop && (0..4).all(|s| tile.nbr[s].is_none_or(|j| !self.tiles.list[j].wet_side(facing[s])));
         }
         let slept = drop.iter().filter(|&&d| d).count() as u32;
         if slept > 0 {
