@@ -6,7 +6,7 @@ use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 use volcano_core::Terrain;
 use volcano_core::error::{ConfigError, finite, in_range};
-use volcano_lava::{LavaField, LavaParams, LavaSource, Placement, ScenarioKind};
+use volcano_lava::{LavaField, LavaParams, LavaSource, LavaVent, Placement, ScenarioKind, VentLavaSettings};
 
 /// A lava source of a scene.
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
@@ -101,6 +101,60 @@ impl LavaSceneSpec {
     }
 }
 
+/// Lava from the scene volcano's own vent (`vent_lava: Some((...))`): a `LavaVent` on the
+/// volcano, its runout over the whole terrain ([`volcano_lava::TerrainLava`]).
+#[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VentLavaSpec {
+    /// Effusion rate (m³/s).
+    pub rate: f64,
+    /// World (x, z) offset of the lava vent from the volcano's vent (m): a flank vent.
+    #[serde(default)]
+    pub offset: (f32, f32),
+    /// Radius of the fed disc (m).
+    #[serde(default = "vent_radius")]
+    pub radius: f64,
+    /// Simulated seconds of lava per second of the scene (`VentLavaSettings::time_scale`):
+    /// hours of an effusive eruption in a minute.
+    #[serde(default = "one")]
+    pub time_scale: f64,
+}
+
+fn vent_radius() -> f64 {
+    15.0
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl VentLavaSpec {
+    /// The vent component.
+    pub fn vent(&self) -> Result<LavaVent, ConfigError> {
+        let v = LavaVent {
+            offset: Vec2::new(self.offset.0, self.offset.1),
+            radius: self.radius,
+            ..LavaVent::effusive(self.rate)?
+        };
+        v.validate()?;
+        Ok(v)
+    }
+
+    /// The settings resource the scene sets (its time scale).
+    pub fn settings(&self) -> Result<VentLavaSettings, ConfigError> {
+        let s = VentLavaSettings { time_scale: self.time_scale, ..Default::default() };
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Checks every value.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.vent()?;
+        self.settings()?;
+        Ok(())
+    }
+}
+
 /// Terrain of a Fig 5.10 test table (`obstacle`, `split`, `canyon`, `slope`): `cells` × `cells`
 /// of `cell` m descending toward +z at `slope_deg`, centred on the origin, with `margin` cells
 /// of continued slope around it.
@@ -150,5 +204,10 @@ mod tests {
         assert!(table_terrain("obstacle", 64, 0.5, 80.0, 8).is_err());
         let t = table_terrain("obstacle", 64, 0.5, 3.0, 8).unwrap();
         assert_eq!(t.heights().nx(), 80);
+        let vent = VentLavaSpec { rate: 5.0, offset: (10.0, 0.0), radius: 15.0, time_scale: 60.0 };
+        vent.validate().unwrap();
+        assert!(VentLavaSpec { rate: f64::NAN, ..vent.clone() }.validate().is_err());
+        assert!(VentLavaSpec { time_scale: 0.0, ..vent.clone() }.validate().is_err());
+        assert!(VentLavaSpec { offset: (f32::INFINITY, 0.0), ..vent }.validate().is_err());
     }
 }

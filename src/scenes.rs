@@ -19,6 +19,7 @@ pub(crate) const BUILTIN: &[(&str, &str)] = &[
     ("eruption", include_str!("../assets/scenes/eruption.ron")),
     ("eruption_collapse", include_str!("../assets/scenes/eruption_collapse.ron")),
     ("eruption_night", include_str!("../assets/scenes/eruption_night.ron")),
+    ("effusive_night", include_str!("../assets/scenes/effusive_night.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
     ("lava_folds", include_str!("../assets/scenes/lava_folds.ron")),
@@ -228,6 +229,9 @@ pub struct SceneSpec {
     /// A lava field with its sources, if any.
     #[serde(default)]
     pub lava: Option<crate::lava_scene::LavaSceneSpec>,
+    /// Lava from the volcano's own vent, if any.
+    #[serde(default)]
+    pub vent_lava: Option<crate::lava_scene::VentLavaSpec>,
     /// A layered atmosphere over the terrain, if any.
     #[serde(default)]
     pub atmosphere: Option<SceneAtmosphere>,
@@ -269,6 +273,9 @@ impl SceneSpec {
         in_range("sun.illuminance_lux", self.sun.illuminance_lux as f64, 0.0, 1.0e6)?;
         if let Some(lava) = &self.lava {
             lava.validate()?;
+        }
+        if let Some(v) = &self.vent_lava {
+            v.validate()?;
         }
         if let Some(a) = &self.atmosphere {
             a.validate()?;
@@ -368,7 +375,16 @@ pub(crate) fn spawn_simulation(
         if let Some(preset) = spec.eruption {
             e.insert(preset.eruption());
         }
-        spawned.push(e.id());
+        // Validated with the scene.
+        let vent_lava = spec.vent_lava.as_ref().and_then(|v| Some((v.vent().ok()?, v.settings().ok()?)));
+        if let Some((vent, _)) = &vent_lava {
+            e.insert(vent.clone());
+        }
+        let id = e.id();
+        if let Some((_, settings)) = vent_lava {
+            commands.insert_resource(settings);
+        }
+        spawned.push(id);
     }
     if let Some(lava) = &spec.lava {
         spawned.extend(lava.spawn(commands));

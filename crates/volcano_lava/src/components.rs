@@ -262,7 +262,7 @@ impl LavaZone {
 pub struct LavaReached {
     /// The zone entity.
     pub entity: Entity,
-    /// The field whose lava reached it.
+    /// The field whose lava reached it, or the terrain whose vent lava ([`crate::LavaVent`]) did.
     pub field: Entity,
 }
 

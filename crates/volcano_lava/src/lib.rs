@@ -10,6 +10,7 @@
 pub mod components;
 pub mod model;
 pub mod plugin;
+pub mod vents;
 pub mod view;
 
 pub use model::budget::VolumeBudget;
@@ -23,7 +24,11 @@ pub use components::{
     LavaSourceStatus, LavaState, LavaZone, TerrainLink, field_placement,
 };
 pub use model::folds::{FoldParams, FoldSystem};
+pub use model::runout::{Runout, RunoutSettings, Vent};
 pub use model::surface::SurfaceState;
 pub use plugin::{LavaPlugin, LavaStep};
 pub use scenario::terrains::scenario_terrain;
 pub use scenario::{LavaScenario, LavaSummary, ScenarioConfig, ScenarioKind};
+pub use vents::{
+    LavaFlowFront, LavaFlowStopped, LavaVent, LavaVentOpened, LavaVentStatus, TerrainLava, VentLavaSettings,
+};

@@ -27,6 +27,14 @@ impl Plugin for LavaPlugin {
         app.add_sim_domain::<LavaStep>(SimSystems::Lava, Cadence::Substeps(1))
             .add_message::<LavaReached>()
             .add_message::<LavaBreakout>()
+            .add_message::<crate::vents::LavaVentOpened>()
+            .add_message::<crate::vents::LavaFlowFront>()
+            .add_message::<crate::vents::LavaFlowStopped>()
+            .init_resource::<crate::vents::VentLavaSettings>()
+            .register_type::<crate::vents::LavaVent>()
+            .register_type::<crate::vents::LavaVentStatus>()
+            .register_type::<crate::vents::TerrainLava>()
+            .register_type::<crate::vents::VentLavaSettings>()
             // Owned by volcano_core, like `TerrainChanged`.
             .add_message::<SimFault>()
             // Owned by volcano_core; registering twice is harmless.
@@ -38,7 +46,11 @@ impl Plugin for LavaPlugin {
             .register_type::<LavaZone>()
             .register_type::<LavaState>()
             .register_type::<BuiltFor>()
-            .add_systems(LavaStep, (build_fields, step_fields, check_zones, imprint_terrain).chain())
+            .add_systems(
+                LavaStep,
+                (build_fields, step_fields, crate::vents::step_vent_lava, check_zones, imprint_terrain)
+                    .chain(),
+            )
             // Patches spawned with the scene are built while it loads, not on its first tick
             // (a 256² patch takes ≈ 6 ms to resample its terrain and allocate its layers,
             // release); patches spawned later are built on their first lava step.
@@ -310,6 +322,8 @@ fn imprint_terrain(
 fn check_zones(
     mut zones: Query<(Entity, &mut LavaZone, Option<&Transform>)>,
     fields: Query<(Entity, &LavaField, &LavaState)>,
+    vent_lava: Query<(Entity, &crate::vents::TerrainLava)>,
+    vent_settings: Res<crate::vents::VentLavaSettings>,
     mut reached: MessageWriter<LavaReached>,
 ) {
     for (zone_entity, mut zone, transform) in &mut zones {
@@ -321,6 +335,17 @@ fn check_zones(
             if covered(&state.flow, centre, zone.radius, field.params.min_thickness) {
                 zone.reached = true;
                 reached.write(LavaReached { entity: zone_entity, field: field_entity });
+                break;
+            }
+        }
+        if zone.reached {
+            continue;
+        }
+        let min_h = vent_settings.params.min_thickness;
+        for (terrain, lava) in &vent_lava {
+            if lava.runout.covered(centre.as_dvec2(), zone.radius as f64, min_h) {
+                zone.reached = true;
+                reached.write(LavaReached { entity: zone_entity, field: terrain });
                 break;
             }
         }

@@ -99,22 +99,10 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
                 s.fy[ny * nx + i] = q;
             }
         }
-        // 2. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
-        let mut stable = f64::INFINITY;
-        if m_max > 0.0 {
-            stable = stable.min(dx * dx / (4.0 * m_max));
-        }
-        if c_max > 0.0 {
-            stable = stable.min(dx / c_max);
-        }
-        let mut dt_s = t_left.min(params.cfl * stable);
-        let mut scale = dx; // face length: volume = q · dt · dx
-        if report.substeps == params.max_substeps && dt_s < t_left {
-            // Out of substeps: finish the step but cap the mobility so it stays stable.
-            scale *= dt_s / t_left;
-            dt_s = t_left;
-            report.mobility_capped = true;
-        }
+        // 2. substep.
+        let sub = substep(dx, (m_max, c_max), params, report.substeps, t_left);
+        let (dt_s, scale) = (sub.dt, sub.face_volume);
+        report.mobility_capped |= sub.capped;
         t_left -= dt_s;
         if t_left < 1e-12 * dt {
             t_left = 0.0;
@@ -125,6 +113,42 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
     field.budget.outflow += report.outflow;
     field.time += dt;
     report
+}
+
+/// One substep's length and face volume factor, from [`substep`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Substep {
+    /// Its length (s).
+    pub dt: f64,
+    /// Face length times the mobility cap (m): volume across a face = q · dt · this.
+    pub face_volume: f64,
+    /// Out of substeps: the mobility was capped to finish the step stably.
+    pub capped: bool,
+}
+
+/// The stable substep of a flow with largest face mobility `m_max` and wave speed `c_max` on
+/// cells of `dx` m, `t_left` seconds from the step's end, as substep number `n`: the explicit
+/// diffusion limit `dx²/(4 D)` and the kinematic-wave limit `dx/c`, times `cfl`. The last
+/// allowed substep (`max_substeps`) finishes the step and caps the mobility instead.
+pub(crate) fn substep(
+    dx: f64,
+    (m_max, c_max): (f64, f64),
+    params: &LavaParams,
+    n: u32,
+    t_left: f64,
+) -> Substep {
+    let mut stable = f64::INFINITY;
+    if m_max > 0.0 {
+        stable = stable.min(dx * dx / (4.0 * m_max));
+    }
+    if c_max > 0.0 {
+        stable = stable.min(dx / c_max);
+    }
+    let dt = t_left.min(params.cfl * stable);
+    if n == params.max_substeps && dt < t_left {
+        return Substep { dt: t_left, face_volume: dx * (dt / t_left), capped: true };
+    }
+    Substep { dt, face_volume: dx, capped: false }
 }
 
 thread_local! {

@@ -12,3 +12,4 @@ mod placement;
 mod plugin;
 mod robustness;
 mod simd;
+mod vents;

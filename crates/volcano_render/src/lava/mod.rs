@@ -24,6 +24,7 @@ pub mod crust;
 mod folds;
 pub mod light;
 pub mod margin;
+mod runout;
 mod surface;
 
 use bevy::asset::RenderAssetUsages;
@@ -40,6 +41,7 @@ use crate::terrain::{MeshSurface, TerrainMesh};
 pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
 pub use folds::{FoldInstance, fold_transform};
 pub use light::{GlowLight, LavaGlow, glow_light, glow_lights, glow_range};
+pub use runout::RunoutTileSurface;
 pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
 
 /// How lava is drawn (a resource; switch it live from a panel).
@@ -158,6 +160,7 @@ impl Plugin for LavaRenderPlugin {
                     keep_surfaces_in_world_space.after(update_surfaces),
                     folds::update_fold_instances,
                     light::update_glow_lights.after(update_surfaces),
+                    runout::update_runout_tiles,
                 )
                     .before(TransformSystems::Propagate),
             );

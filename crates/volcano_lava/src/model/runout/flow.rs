@@ -11,6 +11,7 @@
 //! the terrain leaves (outflow).
 
 use super::tiles::{CellKind, EAST, NORTH, TILE, TILE_CELLS, Tiles};
+use crate::model::flow::substep;
 use crate::model::flux::{face_flux, mobility};
 use crate::model::params::{GRAVITY, LavaParams};
 
@@ -104,21 +105,10 @@ pub(crate) fn advance(
                 }
             }
         }
-        // 3. substep: explicit diffusion limit dx²/(4 D) and kinematic wave limit dx/c.
-        let mut stable = f64::INFINITY;
-        if m_max > 0.0 {
-            stable = stable.min(cell * cell / (4.0 * m_max));
-        }
-        if c_max > 0.0 {
-            stable = stable.min(cell / c_max);
-        }
-        let mut dt_s = t_left.min(params.cfl * stable);
-        let mut vol = cell; // face length: volume = q · dt · dx
-        if report.substeps == params.max_substeps && dt_s < t_left {
-            vol *= dt_s / t_left;
-            dt_s = t_left;
-            report.mobility_capped = true;
-        }
+        // 3. substep.
+        let sub = substep(cell, (m_max, c_max), params, report.substeps, t_left);
+        let (dt_s, vol) = (sub.dt, sub.face_volume);
+        report.mobility_capped |= sub.capped;
         t_left -= dt_s;
         if t_left < 1e-12 * dt {
             t_left = 0.0;

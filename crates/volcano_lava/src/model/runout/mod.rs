@@ -110,6 +110,8 @@ pub struct RunoutReport {
     pub outflow: f64,
     /// Vent volume that fell off the terrain or into the sea and was not emitted (m³).
     pub vent_lost: f64,
+    /// Vents that failed [`Vent::validate`] and emitted nothing.
+    pub vents_rejected: u32,
     /// Tiles woken this step.
     pub woke: u32,
     /// Tiles put to sleep this step.
@@ -124,10 +126,12 @@ pub struct Runout {
     tiles: Tiles,
     work: flow::Work,
     budget: VolumeBudget,
-    /// Frozen thickness not yet handed to the terrain, per terrain node (m, row-major key).
+    /// Frozen thickness not yet handed to the terrain, per terrain node (m), keyed (row,
+    /// column) so it iterates row-major.
     pending: std::collections::BTreeMap<(usize, usize), f64>,
-    /// Volume frozen or quenched into the ground so far (m³).
+    /// Simulated time (s).
     time: f64,
+    /// Air temperature (K): the temperature of dry cells.
     air: f64,
 }
 
@@ -180,8 +184,9 @@ impl Runout {
 
     /// Advances `dt` seconds: `vents` emit, the lava flows, cools and freezes. `terrain` is
     /// where new tiles sample their ground: hand it what froze ([`Runout::take_frozen`])
-    /// before the next step. Parameters must have passed their `validate` (vents too); a
-    /// non-positive or non-finite `dt` does nothing.
+    /// before the next step. Parameters must have passed their `validate`; an invalid vent
+    /// emits nothing and is counted in [`RunoutReport::vents_rejected`]; a non-positive or
+    /// non-finite `dt` does nothing.
     pub fn step(&mut self, terrain: &Terrain, params: &LavaParams, vents: &[Vent], dt: f64) -> RunoutReport {
         let mut report = RunoutReport::default();
         if !(dt.is_finite() && dt > 0.0) {
@@ -189,7 +194,11 @@ impl Runout {
         }
         let before = self.tiles.list.len();
         for vent in vents {
-            self.emit(terrain, vent, dt, &mut report);
+            if vent.validate().is_ok() {
+                self.emit(terrain, vent, dt, &mut report);
+            } else {
+                report.vents_rejected += 1;
+            }
         }
         let (grid, air) = (self.grid, self.air);
         let flow = flow::advance(&mut self.tiles, &mut self.work, grid.cell, params, dt, |tiles| {
@@ -374,6 +383,37 @@ impl Runout {
             out[(j - region.j0) * region.ni + (i - region.i0)] = v;
         }
         Some((region, out))
+    }
+
+    /// Whether any cell whose centre lies within `radius` m of world (x, z) `centre` holds
+    /// lava thicker than `min_h` m.
+    pub fn covered(&self, centre: DVec2, radius: f64, min_h: f64) -> bool {
+        let g = &self.grid;
+        let lo = ((centre - DVec2::splat(radius) - g.corner) / g.cell).floor();
+        let hi = ((centre + DVec2::splat(radius) - g.corner) / g.cell).floor();
+        if !(lo.is_finite() && hi.is_finite()) {
+            return false;
+        }
+        // Only the stored tiles can hold lava: visit those the disc touches.
+        self.tiles.list.iter().any(|tile| {
+            let (a0, b0) = (tile.key.0 as f64 * TILE as f64, tile.key.1 as f64 * TILE as f64);
+            let (a1, b1) = (a0 + TILE as f64 - 1.0, b0 + TILE as f64 - 1.0);
+            if a1 < lo.x || b1 < lo.y || a0 > hi.x || b0 > hi.y {
+                return false;
+            }
+            (0..TILE_CELLS).any(|k| {
+                let (a, b) = global(tile.key, k);
+                tile.h[k] > min_h && g.centre(a, b).distance(centre) <= radius
+            })
+        })
+    }
+
+    /// Cell `(a, b)`'s lava thickness (m), temperature (K), ground (m) and age (s), or `None`
+    /// if its tile is not stored (dry, its ground the terrain's).
+    pub fn cell_state(&self, a: i64, b: i64) -> Option<(f64, f64, f64, f64)> {
+        let tile = &self.tiles.list[self.tiles.get(tile_of(a, b))?];
+        let k = local(a, b);
+        Some((tile.h[k], tile.t[k], tile.ground[k], tile.age[k]))
     }
 
     /// Lava thickness (m) and temperature (K) at world (x, z), or `None` where no lava is.

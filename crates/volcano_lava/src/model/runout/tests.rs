@@ -146,4 +146,8 @@ fn bad_settings_and_vents_are_errors() {
     let rep = r.step(&terrain, &p, &[off], 1.0);
     assert_eq!(rep.emitted, 0.0);
     assert!(rep.vent_lost > 0.0);
+    // An invalid vent emits nothing and is counted; no NaN reaches the state.
+    let rep = r.step(&terrain, &p, &[Vent { rate: f64::NAN, ..v }], 1.0);
+    assert_eq!((rep.emitted, rep.vents_rejected), (0.0, 1));
+    assert_eq!(r.lava_volume(), 0.0);
 }

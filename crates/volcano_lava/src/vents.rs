@@ -1,0 +1,334 @@
+//! A volcano's own lava (docs/physics/lava.md §7): put a [`LavaVent`] on a `Volcano` and its
+//! lava runs over the terrain the volcano stands on, as far as it goes. The plugin keeps one
+//! [`TerrainLava`] (a [`Runout`]) per terrain with lava vents, steps it in `LavaStep`, writes
+//! what froze into the terrain ([`TerrainChanged`]) and tells the game where the flow is
+//! ([`LavaFlowFront`], [`LavaFlowStopped`], [`LavaVentOpened`]).
+
+use bevy::prelude::*;
+use volcano_core::prelude::*;
+use volcano_core::terrain::TerrainChanged;
+use volcano_core::volcano::{OnTerrain, VentPosition};
+
+use crate::model::params::{LavaParams, ViscosityModel};
+use crate::model::runout::{Runout, RunoutSettings, Vent};
+
+/// Lava from a volcano's vent: put it on a `Volcano` entity. The vent is the volcano's
+/// (`VentPosition`) moved by `offset` (a flank vent); while `active` it emits `rate` m³/s of
+/// lava at `temperature` over a disc of `radius`. Checked every step: an invalid value stops
+/// the vent and says why in [`LavaVentStatus::error`].
+#[derive(Component, Debug, Clone, PartialEq, Reflect)]
+#[require(LavaVentStatus)]
+#[reflect(Component, Default)]
+pub struct LavaVent {
+    /// Effusion rate (m³/s of lava, in [0, 10⁶]).
+    pub rate: f64,
+    /// Temperature of the lava (K, in [300, 2500]).
+    pub temperature: f64,
+    /// Radius of the fed disc (m, in [0, 5000]).
+    pub radius: f64,
+    /// World (x, z) offset of the vent from the volcano's vent (m).
+    pub offset: Vec2,
+    /// Whether it emits.
+    pub active: bool,
+}
+
+impl Default for LavaVent {
+    /// 5 m³/s of basalt at 1450 K from a 15 m disc at the volcano's vent.
+    fn default() -> Self {
+        Self { rate: 5.0, temperature: 1450.0, radius: 15.0, offset: Vec2::ZERO, active: true }
+    }
+}
+
+impl LavaVent {
+    /// An effusive vent at the volcano's vent emitting `rate` m³/s; errors on a bad rate.
+    pub fn effusive(rate: f64) -> Result<Self, ConfigError> {
+        let v = Self { rate, ..Self::default() };
+        v.validate()?;
+        Ok(v)
+    }
+
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.vent(Vec2::ZERO).validate()?;
+        if !self.offset.is_finite() {
+            return Err(ConfigError::InvalidParameter {
+                name: "lava vent offset",
+                value: f64::NAN,
+                reason: "must be finite".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The model's vent for a volcano whose vent is at world (x, z) `at`.
+    fn vent(&self, at: Vec2) -> Vent {
+        let c = (at + self.offset).as_dvec2();
+        Vent { centre: c, radius: self.radius, rate: self.rate, temperature: self.temperature }
+    }
+}
+
+/// What a [`LavaVent`]'s flow is doing (written by the plugin once per simulated second).
+#[derive(Component, Debug, Clone, PartialEq, Default, Reflect)]
+#[reflect(Component, Default)]
+pub struct LavaVentStatus {
+    /// Lava emitted so far (m³).
+    pub emitted_m3: f64,
+    /// Farthest lava from the vent (m).
+    pub runout_m: f64,
+    /// The flow's front (world x, z), the farthest liquid lava.
+    pub front: Option<Vec2>,
+    /// How fast the front moved away over the last second (m per simulated second).
+    pub front_speed_m_s: f32,
+    /// The front has not advanced for [`FRONT_STOP_S`].
+    pub stopped: bool,
+    /// Why the vent emits nothing (invalid values, no terrain under it).
+    pub error: Option<String>,
+}
+
+const SECOND: std::time::Duration = std::time::Duration::from_secs(1);
+
+/// Seconds without the front advancing a cell after which a flow counts as stopped.
+pub const FRONT_STOP_S: f64 = 600.0;
+
+/// The lava of every vent on one terrain (on the terrain entity; created by the plugin).
+/// Reflected as one opaque value.
+#[derive(Component, Debug, Clone, Reflect)]
+#[reflect(opaque)]
+#[reflect(Component)]
+pub struct TerrainLava {
+    /// The lava over the terrain.
+    pub runout: Runout,
+    /// What the last step did (its limiters: `mobility_capped`, `vents_rejected`).
+    pub last_step: crate::model::runout::RunoutReport,
+    /// The terrain placement it was built for (a moved terrain rebuilds it, losing its lava).
+    built_at: Vec2,
+}
+
+/// How vent lava behaves (a resource; checked every step, an invalid value pauses it).
+#[derive(Resource, Debug, Clone, PartialEq, Reflect)]
+#[reflect(Resource)]
+pub struct VentLavaSettings {
+    /// Resolution and tile sleeping.
+    pub runout: RunoutSettings,
+    /// The lava: a channel-fed crystallising basalt by default.
+    pub params: LavaParams,
+    /// Simulated seconds of vent lava per second of the lava clock (in [1, 10⁴]): an
+    /// effusive week shown in minutes. The flow's substeps follow (the cost grows with it).
+    pub time_scale: f64,
+}
+
+impl VentLavaSettings {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        self.runout.validate()?;
+        self.params.validate()?;
+        volcano_core::error::in_range("vent lava time_scale", self.time_scale, 1.0, 1e4)?;
+        Ok(())
+    }
+}
+
+impl Default for VentLavaSettings {
+    fn default() -> Self {
+        Self {
+            runout: RunoutSettings::default(),
+            params: LavaParams { viscosity: ViscosityModel::CHANNEL_BASALT, ..LavaParams::default() },
+            time_scale: 1.0,
+        }
+    }
+}
+
+/// A lava vent started emitting.
+#[derive(Message, Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct LavaVentOpened {
+    /// The volcano.
+    pub volcano: Entity,
+    /// World (x, z) of the vent.
+    pub position: Vec2,
+}
+
+/// Where a vent's flow front is (once per simulated second while it moves).
+#[derive(Message, Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct LavaFlowFront {
+    /// The volcano.
+    pub volcano: Entity,
+    /// World (x, z) of the front.
+    pub position: Vec2,
+    /// Its distance from the vent (m).
+    pub distance_m: f32,
+    /// Its speed away from the vent over the last second (m/s).
+    pub speed_m_s: f32,
+}
+
+/// A vent's flow front stopped (it did not advance for [`FRONT_STOP_S`]).
+#[derive(Message, Debug, Clone, Copy, PartialEq, Reflect)]
+pub struct LavaFlowStopped {
+    /// The volcano.
+    pub volcano: Entity,
+    /// How far the flow ran (m).
+    pub runout_m: f32,
+}
+
+/// Per-vent bookkeeping of the front between seconds.
+#[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
+pub(crate) struct FrontTrack {
+    last_runout: f64,
+    last_front: f64,
+    advanced_at: f64,
+    opened: bool,
+}
+
+type VentItem = (
+    Entity,
+    &'static LavaVent,
+    Option<&'static VentPosition>,
+    Option<&'static OnTerrain>,
+    &'static mut LavaVentStatus,
+    Option<&'static mut FrontTrack>,
+);
+
+/// Messages a vent step writes.
+#[derive(bevy::ecs::system::SystemParam)]
+pub(crate) struct VentMessages<'w> {
+    opened: MessageWriter<'w, LavaVentOpened>,
+    front: MessageWriter<'w, LavaFlowFront>,
+    stopped: MessageWriter<'w, LavaFlowStopped>,
+    changed: MessageWriter<'w, TerrainChanged>,
+}
+
+/// Gathers the vents by terrain, steps each terrain's runout, writes frozen lava into the
+/// terrain (change detection bypassed, one [`TerrainChanged`]) and, once per second, the
+/// vents' status and messages.
+pub(crate) fn step_vent_lava(
+    time: Res<Time>,
+    settings: Res<VentLavaSettings>,
+    mut commands: Commands,
+    mut vents: Query<VentItem>,
+    mut terrains: Query<(Entity, &mut Terrain, Option<&mut TerrainLava>)>,
+    mut out: VentMessages,
+) {
+    let dt = time.delta_secs_f64() * settings.time_scale;
+    if vents.is_empty() || dt.is_nan() || dt <= 0.0 {
+        return;
+    }
+    if let Err(e) = settings.validate() {
+        for (.., mut status, _) in &mut vents {
+            status.error = Some(format!("VentLavaSettings: {e}"));
+        }
+        return;
+    }
+    // Gather: each valid, active vent to its terrain, in entity order.
+    let mut by_terrain: Vec<(Entity, Entity, Vent)> = Vec::new();
+    for (e, vent, at, on, mut status, track) in &mut vents {
+        let error = match (vent.validate(), at, on) {
+            (Err(err), ..) => Some(err.to_string()),
+            (_, None, _) | (_, _, None) => Some("the volcano stands on no terrain".to_string()),
+            (Ok(()), Some(at), Some(on)) => {
+                if vent.active && vent.rate > 0.0 {
+                    by_terrain.push((on.0, e, vent.vent(Vec2::new(at.0.x, at.0.z))));
+                }
+                None
+            }
+        };
+        if status.error != error {
+            status.error = error;
+        }
+        if track.is_none() {
+            commands.entity(e).insert(FrontTrack::default());
+        }
+    }
+    by_terrain.sort_by_key(|(t, e, _)| (*t, *e));
+    let second =
+        volcano_core::clock::crossings(time.elapsed(), time.delta(), SECOND, std::time::Duration::ZERO) > 0;
+    let mut stepped: Vec<Entity> = by_terrain.iter().map(|(t, ..)| *t).collect();
+    stepped.dedup();
+    for terrain_entity in stepped {
+        let Ok((_, mut terrain, lava)) = terrains.get_mut(terrain_entity) else { continue };
+        let placement = terrain.placement();
+        let fresh = || Runout::new(&terrain, settings.runout, &settings.params);
+        let mut lava = match lava {
+            Some(l) if l.built_at == placement && l.runout.settings() == settings.runout => l,
+            Some(mut l) => {
+                warn!("terrain {terrain_entity}: moved or re-resolved; its vent lava starts again");
+                match fresh() {
+                    Ok(r) => l.runout = r,
+                    Err(e) => {
+                        warn!("terrain {terrain_entity}: no vent lava: {e}");
+                        continue;
+                    }
+                }
+                l.built_at = placement;
+                l
+            }
+            None => {
+                match fresh() {
+                    Ok(runout) => {
+                        commands.entity(terrain_entity).insert(TerrainLava {
+                            runout,
+                            last_step: Default::default(),
+                            built_at: placement,
+                        });
+                    }
+                    Err(e) => warn!("terrain {terrain_entity}: no vent lava: {e}"),
+                }
+                continue; // steps from the next tick, once inserted
+            }
+        };
+        let fed: Vec<Vent> =
+            by_terrain.iter().filter(|(t, ..)| *t == terrain_entity).map(|(.., v)| *v).collect();
+        let report = lava.runout.step(&terrain, &settings.params, &fed, dt);
+        if report.mobility_capped && !lava.last_step.mobility_capped {
+            warn!(
+                "terrain {terrain_entity}: vent lava at the substep cap ({} substeps): the flow is slowed to stay stable",
+                report.substeps
+            );
+        }
+        lava.last_step = report;
+        if let Some((region, dh)) = lava.runout.take_frozen() {
+            match terrain.bypass_change_detection().add_thickness(region, &dh) {
+                Ok(moved) if !moved.is_empty() => {
+                    out.changed.write(TerrainChanged { terrain: terrain_entity, region: moved });
+                }
+                Ok(_) => {}
+                Err(e) => warn!("terrain {terrain_entity}: frozen vent lava not written: {e}"),
+            }
+        }
+        let area = lava.runout.grid().cell() * lava.runout.grid().cell();
+        for (_, volcano, vent) in by_terrain.iter().filter(|(t, ..)| *t == terrain_entity) {
+            let Ok((.., mut status, track)) = vents.get_mut(*volcano) else { continue };
+            let cells = lava.runout.vent_cells(vent).len() as f64;
+            status.emitted_m3 += if cells > 0.0 { vent.rate * dt } else { 0.0 };
+            let Some(mut track) = track else { continue };
+            if !track.opened && cells > 0.0 {
+                track.opened = true;
+                out.opened.write(LavaVentOpened { volcano: *volcano, position: vent.centre.as_vec2() });
+            }
+            if !second {
+                continue;
+            }
+            let st = lava.runout.stats(vent.centre, settings.params.min_thickness);
+            let now = lava.runout.time();
+            let advanced = st.runout_m > track.last_runout + lava.runout.grid().cell();
+            // Distance gained over the last second of the lava clock, in simulated seconds.
+            status.front_speed_m_s = ((st.front_m - track.last_front).max(0.0) / settings.time_scale) as f32;
+            track.last_front = st.front_m;
+            status.runout_m = status.runout_m.max(st.runout_m);
+            status.front = st.front.map(|p| p.as_vec2());
+            if advanced {
+                track.last_runout = st.runout_m;
+                track.advanced_at = now;
+                status.stopped = false;
+                if let Some(p) = st.front {
+                    out.front.write(LavaFlowFront {
+                        volcano: *volcano,
+                        position: p.as_vec2(),
+                        distance_m: st.front_m as f32,
+                        speed_m_s: status.front_speed_m_s,
+                    });
+                }
+            } else if !status.stopped && now - track.advanced_at >= FRONT_STOP_S && st.covered_m2 > area {
+                status.stopped = true;
+                out.stopped.write(LavaFlowStopped { volcano: *volcano, runout_m: status.runout_m as f32 });
+            }
+        }
+    }
+}

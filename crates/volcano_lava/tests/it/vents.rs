@@ -1,0 +1,98 @@
+//! A volcano's own lava through the plugin: a `LavaVent` on a `Volcano` feeds a runout on the
+//! terrain it stands on; the frozen lava goes into that terrain; zones, fronts and the
+//! vent's status follow the flow.
+
+use std::time::Duration;
+
+use bevy::ecs::message::Messages;
+use bevy::prelude::*;
+use bevy::time::TimeUpdateStrategy;
+use volcano_core::prelude::*;
+use volcano_core::terrain::TerrainChanged;
+use volcano_lava::scenario::terrains::runout_valley;
+use volcano_lava::*;
+
+fn run(app: &mut App, ticks: u64) {
+    let target = app.world().resource::<SimTick>().0 + ticks;
+    while app.world().resource::<SimTick>().0 < target {
+        app.update();
+    }
+}
+
+fn count<M: Message>(app: &App) -> usize {
+    app.world().resource::<Messages<M>>().iter_current_update_messages().count()
+}
+
+#[test]
+fn a_vent_on_a_volcano_runs_lava_down_its_terrain_and_into_it() {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
+    // A 1.3 × 2.6 km valley of 20 m nodes at 6°, a gully along it.
+    let terrain = runout_valley((64, 128, 20.0), 6.0, 800.0, (6.0, 120.0), false).unwrap();
+    let top = terrain.heights().origin();
+    let vent_xz = Vec2::new(top.x + 0.5 * 63.0 * 20.0, top.y + 80.0);
+    let terrain = app.world_mut().spawn(terrain).id();
+    let volcano = app
+        .world_mut()
+        .spawn((Volcano::new(50.0, 1).unwrap(), Transform::from_xyz(vent_xz.x, 0.0, vent_xz.y)))
+        .id();
+    app.world_mut().entity_mut(volcano).insert(LavaVent::effusive(8.0).unwrap());
+    // A zone 60 m down the gully.
+    let zone =
+        app.world_mut().spawn(LavaZone::new(Vec2::new(vent_xz.x, vent_xz.y + 60.0), 10.0).unwrap()).id();
+    let (mut opened, mut fronts, mut reached, mut changed) = (0, 0, 0, 0);
+    // Two simulated minutes at 50 Hz, the messages of every update counted.
+    let target = app.world().resource::<SimTick>().0 + 6000;
+    while app.world().resource::<SimTick>().0 < target {
+        app.update();
+        opened += count::<LavaVentOpened>(&app);
+        fronts += count::<LavaFlowFront>(&app);
+        reached += count::<LavaReached>(&app);
+        changed += count::<TerrainChanged>(&app);
+    }
+    let w = app.world();
+    let status = w.get::<LavaVentStatus>(volcano).unwrap();
+    assert_eq!(status.error, None);
+    assert!((status.emitted_m3 - 8.0 * 120.0).abs() < 1.0, "{status:?}");
+    assert!(status.runout_m > 70.0 && !status.stopped, "{status:?}");
+    let front = status.front.unwrap();
+    assert!(front.y > vent_xz.y + 60.0, "the front runs downslope: {front} from {vent_xz}");
+    assert_eq!(opened, 1);
+    assert!(fronts >= 5, "{fronts} front messages");
+    assert_eq!(reached, 1);
+    assert!(w.get::<LavaZone>(zone).unwrap().reached);
+    // Mass: fed = liquid + frozen (+ outflow); the terrain holds exactly the frozen lava.
+    let lava = w.get::<TerrainLava>(terrain).expect("the plugin put the runout on the terrain");
+    let b = *lava.runout.budget();
+    assert!(b.error_rel(lava.runout.lava_volume()) < 1e-12, "{b:?}");
+    assert!(b.solidified > 0.0, "{b:?}");
+    let t = w.get::<Terrain>(terrain).unwrap();
+    assert!((t.added_volume() - b.solidified).abs() <= 1e-9 * b.solidified, "{} vs {b:?}", t.added_volume());
+    assert!(changed > 0, "TerrainChanged for the frozen margins");
+}
+
+#[test]
+fn a_bad_vent_says_why_and_emits_nothing() {
+    let mut app = App::new();
+    app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+        .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
+        .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ));
+    app.world_mut().spawn(runout_valley((32, 32, 20.0), 6.0, 300.0, (0.0, 0.0), false).unwrap());
+    let bad = LavaVent { rate: f64::NAN, ..Default::default() };
+    let volcano = app.world_mut().spawn((Volcano::default(), Transform::default(), bad)).id();
+    // A volcano with no terrain under it.
+    let off = app
+        .world_mut()
+        .spawn((Volcano::default(), Transform::from_xyz(1e5, 0.0, 0.0), LavaVent::default()))
+        .id();
+    run(&mut app, 100);
+    let w = app.world();
+    let s = w.get::<LavaVentStatus>(volcano).unwrap();
+    assert!(s.error.as_deref().is_some_and(|e| e.contains("rate")), "{s:?}");
+    assert_eq!(s.emitted_m3, 0.0);
+    let s = w.get::<LavaVentStatus>(off).unwrap();
+    assert!(s.error.is_some() && s.emitted_m3 == 0.0, "{s:?}");
+    assert!(LavaVent::effusive(-1.0).is_err());
+}
