@@ -35,6 +35,7 @@ impl Plugin for LavaPlugin {
             .register_type::<crate::vents::LavaVentStatus>()
             .register_type::<crate::vents::TerrainLava>()
             .register_type::<crate::vents::VentLavaSettings>()
+            .register_type::<crate::vents::FrontTrack>()
             // Owned by volcano_core, like `TerrainChanged`.
             .add_message::<SimFault>()
             // Owned by volcano_core; registering twice is harmless.

@@ -169,7 +169,8 @@ pub struct LavaFlowStopped {
 }
 
 /// Per-vent bookkeeping of the front between seconds.
-#[derive(Component, Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Component, Debug, Clone, Copy, PartialEq, Default, Reflect)]
+#[reflect(Component, Default)]
 pub(crate) struct FrontTrack {
     last_runout: f64,
     last_front: f64,

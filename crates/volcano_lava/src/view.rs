@@ -2,13 +2,16 @@
 //! field itself (`LavaState` holds the [`FlowField`](crate::FlowField), the
 //! [`SurfaceState`](crate::SurfaceState) and the folds) and the probes
 //! ([`LavaQuery`](crate::LavaQuery), [`LavaProbe`](crate::LavaProbe)): the temperature of the
-//! top of the crust, the fold particles, the crust's debug colour, and PNG maps of a field
+//! top of the crust (and, for vent lava, the crust a cell's age gives), the side of a vent
+//! lava tile, the fold particles, the crust's debug colour, and PNG maps of a field
 //! ([`write_maps`], for the CLI and the scenario example). Read-only; the functions are the
 //! model's own, re-exported, so the display shows what the simulation holds.
 
 mod maps;
 
+pub use crate::model::crust::crust_from_contact;
 pub use crate::model::folds::{Fold, FoldParticle};
+pub use crate::model::runout::tiles::TILE as RUNOUT_TILE;
 pub use crate::model::thermal::surface_temperature;
 pub use maps::write_maps;
 

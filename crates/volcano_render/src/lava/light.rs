@@ -40,16 +40,16 @@ pub struct GlowLight {
 }
 
 /// Photometric luminance of a linear-RGB colour (Rec. 709 weights).
-fn luminance(c: LinearRgba) -> f32 {
+pub(super) fn luminance(c: LinearRgba) -> f32 {
     0.2126 * c.red + 0.7152 * c.green + 0.0722 * c.blue
 }
 
 /// One sampled block of glowing lava: where it is, what it gives out, its colour.
 #[derive(Debug, Clone, Copy)]
-struct Emitter {
-    position: DVec3,
-    lumens: f64,
-    colour: [f64; 3],
+pub(super) struct Emitter {
+    pub position: DVec3,
+    pub lumens: f64,
+    pub colour: [f64; 3],
 }
 
 /// The glowing blocks of a field: per sampled wet cell the black-body colour of its crust-top
@@ -89,7 +89,7 @@ fn emitters(flow: &FlowField, crust: &[f64], params: &LavaParams, emissive_nits:
 
 /// One light for a set of blocks: their power at their luminous centroid, lifted by half the
 /// radius of their area (at least 2 m), in their mean colour.
-fn light_of(blocks: &[Emitter], block_area: f64) -> GlowLight {
+pub(super) fn light_of(blocks: &[Emitter], block_area: f64) -> GlowLight {
     let power: f64 = blocks.iter().map(|e| e.lumens).sum();
     let centre = blocks.iter().map(|e| e.position * e.lumens).sum::<DVec3>() / power;
     let mut colour = [0.0f64; 3];
@@ -261,7 +261,7 @@ pub(super) fn update_glow_lights(
     }
 }
 
-fn point_light(g: &GlowLight) -> PointLight {
+pub(super) fn point_light(g: &GlowLight) -> PointLight {
     PointLight {
         color: Color::LinearRgba(g.colour),
         intensity: g.lumens,

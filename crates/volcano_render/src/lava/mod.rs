@@ -41,7 +41,7 @@ use crate::terrain::{MeshSurface, TerrainMesh};
 pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
 pub use folds::{FoldInstance, fold_transform};
 pub use light::{GlowLight, LavaGlow, glow_light, glow_lights, glow_range};
-pub use runout::RunoutTileSurface;
+pub use runout::{RunoutGlow, RunoutTileSurface, runout_glow};
 pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
 
 /// How lava is drawn (a resource; switch it live from a panel).
@@ -153,6 +153,7 @@ impl Plugin for LavaRenderPlugin {
             .register_type::<LavaRenderMode>()
             .register_type::<LavaRenderSettings>()
             .register_type::<LavaGlow>()
+            .register_type::<RunoutGlow>()
             .add_systems(
                 PostUpdate,
                 (

@@ -13,12 +13,13 @@ use bevy::asset::RenderAssetUsages;
 use bevy::light::NotShadowCaster;
 use bevy::mesh::{Indices, PrimitiveTopology};
 use bevy::prelude::*;
-use volcano_lava::model::crust::crust_from_contact;
-use volcano_lava::model::runout::tiles::TILE;
-use volcano_lava::model::thermal::surface_temperature;
+use volcano_lava::view::{RUNOUT_TILE as TILE, crust_from_contact, surface_temperature};
 use volcano_lava::{LavaParams, Runout, TerrainLava, VentLavaSettings};
 
+use bevy::math::DVec3;
+
 use super::crust::{f16_bits, incandescent};
+use super::light::{Emitter, GlowLight, light_of, luminance, point_light};
 use super::surface::{LIFT, crust_albedo, debug_crust};
 use super::{LavaRenderMode, LavaRenderSettings, emissive_image};
 use crate::terrain::{MeshSurface, TerrainMesh};
@@ -129,12 +130,8 @@ fn tile_mesh(
     // One texel per vertex: the crust top's black body where lava is.
     let mut texels = Vec::with_capacity(8 * n * n);
     for &(h, t, _, age) in &states {
-        let c = if h > min_h {
-            let top = incandescent(surface_temperature(params, t, crust_from_contact(kappa, age)));
-            top.mix(&incandescent(t), OPEN_CRUST)
-        } else {
-            LinearRgba::BLACK
-        };
+        let c =
+            if h > min_h { cell_glow(params, t, crust_from_contact(kappa, age)) } else { LinearRgba::BLACK };
         for v in [c.red.min(8.0), c.green.min(8.0), c.blue.min(8.0), 1.0] {
             texels.extend_from_slice(&f16_bits(v).to_le_bytes());
         }
@@ -161,6 +158,55 @@ pub(crate) struct TileAssets<'w> {
     images: ResMut<'w, Assets<Image>>,
 }
 
+/// The light a vent lava's glow casts: per stored tile, its wet cells' emission (the colour
+/// the texture draws, as a Lambertian emitter `Φ = π L A`) as one point light over their
+/// luminous centroid ([`super::light`]); the `max` brightest tiles. Empty when nothing glows.
+pub fn runout_glow(runout: &Runout, params: &LavaParams, emissive_nits: f32, max: usize) -> Vec<GlowLight> {
+    let kappa = params.kappa();
+    let area = runout.grid().cell() * runout.grid().cell();
+    let mut lights: Vec<GlowLight> = runout
+        .tiles()
+        .iter()
+        .filter_map(|tile| {
+            let (a0, b0) = (tile.key().0 as i64 * TILE as i64, tile.key().1 as i64 * TILE as i64);
+            let blocks: Vec<Emitter> = (0..TILE * TILE)
+                .filter_map(|k| {
+                    let (h, t, g) = (tile.thickness()[k], tile.temperature()[k], tile.ground()[k]);
+                    // NaN counts as dry.
+                    if h.is_nan() || h <= params.min_thickness {
+                        return None;
+                    }
+                    let (a, b) = (a0 + (k % TILE) as i64, b0 + (k / TILE) as i64);
+                    let c = cell_glow(params, t, crust_from_contact(kappa, tile.age()[k]));
+                    let lumens = std::f64::consts::PI * (emissive_nits * luminance(c)) as f64 * area;
+                    let p = runout.grid().centre(a, b);
+                    (lumens.is_finite() && lumens > 0.0).then(|| Emitter {
+                        position: DVec3::new(p.x, g + h, p.y),
+                        lumens,
+                        colour: [c.red, c.green, c.blue].map(|v| v as f64),
+                    })
+                })
+                .collect();
+            let power: f64 = blocks.iter().map(|e| e.lumens).sum();
+            (power >= 1.0).then(|| light_of(&blocks, area))
+        })
+        .collect();
+    lights.sort_by(|a, b| b.lumens.total_cmp(&a.lumens));
+    lights.truncate(max);
+    lights
+}
+
+/// The colour a wet cell glows (its texel): the crust top's black body with [`OPEN_CRUST`]
+/// of the core's.
+fn cell_glow(params: &LavaParams, t: f64, crust: f64) -> LinearRgba {
+    incandescent(surface_temperature(params, t, crust)).mix(&incandescent(t), OPEN_CRUST)
+}
+
+/// A vent lava glow light (a top-level entity in world space).
+#[derive(Component, Debug, Clone, Copy, Default, PartialEq, Reflect)]
+#[reflect(Component)]
+pub struct RunoutGlow;
+
 /// Creates, rebuilds and removes the runout tile surfaces every
 /// [`LavaRenderSettings::rebuild_every_frames`] frames.
 #[allow(clippy::too_many_arguments)]
@@ -174,6 +220,7 @@ pub(crate) fn update_runout_tiles(
     terrain_meshes: Query<&TerrainMesh>,
     assets: TileAssets,
     surfaces: Query<(&RunoutTileSurface, &Mesh3d)>,
+    mut glows: Query<(Entity, &mut PointLight, &mut Transform, &mut Visibility), With<RunoutGlow>>,
 ) {
     let TileAssets { mut meshes, mut materials, mut images } = assets;
     drawn.frames += 1;
@@ -198,8 +245,8 @@ pub(crate) fn update_runout_tiles(
             let entity = match drawn.surfaces.get(&id).copied().filter(|e| surfaces.get(*e).is_ok()) {
                 Some(e) => {
                     let (s, mesh3d) = surfaces.get(e).expect("checked above");
-                    // The same handles with new contents (a new `Mesh3d` on the entity would
-                    // need the material specialised again).
+                    // The same handles with new contents: a tile whose `Mesh3d` got a new handle
+                    // at each rebuild was never drawn (headless stills).
                     let _ = meshes.insert(mesh3d.id(), mesh);
                     let _ = images.insert(s.image.id(), emissive_image(n, n, texels));
                     // `into_inner` marks the material modified, so its bind group takes the
@@ -238,6 +285,40 @@ pub(crate) fn update_runout_tiles(
         }
     }
     drawn.surfaces = keep;
+    // The glow lights of every terrain's vent lava, reusing the lights already spawned.
+    let on = settings.glow_light && *mode == LavaRenderMode::Lit;
+    let wanted: Vec<GlowLight> = if on {
+        let max = settings.glow_light_count as usize;
+        lavas
+            .iter()
+            .flat_map(|(_, lava, ..)| runout_glow(&lava.runout, &params, settings.emissive_nits, max))
+            .collect()
+    } else {
+        Vec::new()
+    };
+    let mut spare = glows.iter_mut();
+    for g in &wanted {
+        let at = Transform::from_translation(g.position);
+        match spare.next() {
+            Some((_, mut light, mut transform, mut visibility)) => {
+                *light = point_light(g);
+                transform.set_if_neq(at);
+                visibility.set_if_neq(Visibility::Inherited);
+            }
+            None => {
+                commands.spawn((
+                    Name::new("Vent lava glow"),
+                    RunoutGlow,
+                    point_light(g),
+                    at,
+                    Visibility::Inherited,
+                ));
+            }
+        }
+    }
+    for (_, _, _, mut visibility) in spare {
+        visibility.set_if_neq(Visibility::Hidden);
+    }
 }
 
 /// The lit view glows by the texture; the debug views are unlit vertex colours.

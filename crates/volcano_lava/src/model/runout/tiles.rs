@@ -161,6 +161,10 @@ impl Tile {
     pub fn temperature(&self) -> &[f64] {
         &self.t
     }
+    /// Mean time since the lava of each cell left the vent (s): the age of its crusts.
+    pub fn age(&self) -> &[f64] {
+        &self.age
+    }
     /// Ground per cell, frozen lava included (m).
     pub fn ground(&self) -> &[f64] {
         &self.ground
