@@ -208,7 +208,7 @@ pub(crate) fn step_vent_lava(
     mut out: VentMessages,
 ) {
     let dt = time.delta_secs_f64() * settings.time_scale;
-    if vents.is_empty() || dt.is_nan() || dt <= 0.0 {
+    if dt.is_nan() || dt <= 0.0 {
         return;
     }
     if let Err(e) = settings.validate() {
@@ -217,16 +217,16 @@ pub(crate) fn step_vent_lava(
         }
         return;
     }
-    // Gather: each valid, active vent to its terrain, in entity order.
-    let mut by_terrain: Vec<(Entity, Entity, Vent)> = Vec::new();
+    // Gather: each valid vent to its terrain, in entity order, and whether it emits now (a
+    // stopped vent's flow is still followed).
+    let mut by_terrain: Vec<(Entity, Entity, Vent, bool)> = Vec::new();
     for (e, vent, at, on, mut status, track) in &mut vents {
         let error = match (vent.validate(), at, on) {
             (Err(err), ..) => Some(err.to_string()),
             (_, None, _) | (_, _, None) => Some("the volcano stands on no terrain".to_string()),
             (Ok(()), Some(at), Some(on)) => {
-                if vent.active && vent.rate > 0.0 {
-                    by_terrain.push((on.0, e, vent.vent(Vec2::new(at.0.x, at.0.z))));
-                }
+                let feeds = vent.active && vent.rate > 0.0;
+                by_terrain.push((on.0, e, vent.vent(Vec2::new(at.0.x, at.0.z)), feeds));
                 None
             }
         };
@@ -237,10 +237,14 @@ pub(crate) fn step_vent_lava(
             commands.entity(e).insert(FrontTrack::default());
         }
     }
-    by_terrain.sort_by_key(|(t, e, _)| (*t, *e));
+    by_terrain.sort_by_key(|(t, e, ..)| (*t, *e));
     let second =
         volcano_core::clock::crossings(time.elapsed(), time.delta(), SECOND, std::time::Duration::ZERO) > 0;
-    let mut stepped: Vec<Entity> = by_terrain.iter().map(|(t, ..)| *t).collect();
+    // Terrains with emitting vents, and those whose lava still flows and cools after its
+    // vents stopped or were despawned.
+    let mut stepped: Vec<Entity> = by_terrain.iter().filter(|v| v.3).map(|(t, ..)| *t).collect();
+    stepped.extend(terrains.iter().filter(|(_, _, lava)| lava.is_some()).map(|(e, ..)| e));
+    stepped.sort_unstable();
     stepped.dedup();
     for terrain_entity in stepped {
         let Ok((_, mut terrain, lava)) = terrains.get_mut(terrain_entity) else { continue };
@@ -274,8 +278,11 @@ pub(crate) fn step_vent_lava(
                 continue; // steps from the next tick, once inserted
             }
         };
-        let fed: Vec<Vent> =
-            by_terrain.iter().filter(|(t, ..)| *t == terrain_entity).map(|(.., v)| *v).collect();
+        let fed: Vec<Vent> = by_terrain
+            .iter()
+            .filter(|(t, .., feeds)| *t == terrain_entity && *feeds)
+            .map(|(_, _, v, _)| *v)
+            .collect();
         let report = lava.runout.step(&terrain, &settings.params, &fed, dt);
         if report.mobility_capped && !lava.last_step.mobility_capped {
             warn!(
@@ -294,12 +301,14 @@ pub(crate) fn step_vent_lava(
             }
         }
         let area = lava.runout.grid().cell() * lava.runout.grid().cell();
-        for (_, volcano, vent) in by_terrain.iter().filter(|(t, ..)| *t == terrain_entity) {
+        for (_, volcano, vent, feeds) in by_terrain.iter().filter(|(t, ..)| *t == terrain_entity) {
             let Ok((.., mut status, track)) = vents.get_mut(*volcano) else { continue };
-            let cells = lava.runout.vent_cells(vent).len() as f64;
-            status.emitted_m3 += if cells > 0.0 { vent.rate * dt } else { 0.0 };
+            let cells = if *feeds { lava.runout.vent_cells(vent).len() } else { 0 };
+            if cells > 0 {
+                status.emitted_m3 += vent.rate * dt;
+            }
             let Some(mut track) = track else { continue };
-            if !track.opened && cells > 0.0 {
+            if !track.opened && cells > 0 {
                 track.opened = true;
                 out.opened.write(LavaVentOpened { volcano: *volcano, position: vent.centre.as_vec2() });
             }

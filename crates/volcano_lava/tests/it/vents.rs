@@ -71,6 +71,16 @@ fn a_vent_on_a_volcano_runs_lava_down_its_terrain_and_into_it() {
     let t = w.get::<Terrain>(terrain).unwrap();
     assert!((t.added_volume() - b.solidified).abs() <= 1e-9 * b.solidified, "{} vs {b:?}", t.added_volume());
     assert!(changed > 0, "TerrainChanged for the frozen margins");
+    let (frozen, time) = (b.solidified, lava.runout.time());
+    // The vent stops: the lava it left keeps flowing, cooling and freezing.
+    app.world_mut().get_mut::<LavaVent>(volcano).unwrap().active = false;
+    run(&mut app, 3000);
+    let w = app.world();
+    let lava = w.get::<TerrainLava>(terrain).unwrap();
+    let b = *lava.runout.budget();
+    assert!((lava.runout.time() - time - 60.0).abs() < 0.1, "{} then {}", time, lava.runout.time());
+    assert!(b.solidified > frozen, "{b:?}");
+    assert!((w.get::<LavaVentStatus>(volcano).unwrap().emitted_m3 - 8.0 * 120.0).abs() < 1.0);
 }
 
 #[test]
