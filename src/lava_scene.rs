@@ -111,9 +111,12 @@ pub struct VentLavaSpec {
     /// World (x, z) offset of the lava vent from the volcano's vent (m): a flank vent.
     #[serde(default)]
     pub offset: (f32, f32),
-    /// Radius of the fed disc (m).
+    /// Radius of the fed area around the vent (m).
     #[serde(default = "vent_radius")]
     pub radius: f64,
+    /// Half a fissure, from the vent to one end (x, z; m); none: a point vent.
+    #[serde(default)]
+    pub fissure: (f32, f32),
     /// Simulated seconds of lava per second of the scene (`VentLavaSettings::time_scale`):
     /// hours of an effusive eruption in a minute.
     #[serde(default = "one")]
@@ -133,6 +136,7 @@ impl VentLavaSpec {
     pub fn vent(&self) -> Result<LavaVent, ConfigError> {
         let v = LavaVent {
             offset: Vec2::new(self.offset.0, self.offset.1),
+            fissure: Vec2::new(self.fissure.0, self.fissure.1),
             radius: self.radius,
             ..LavaVent::effusive(self.rate)?
         };
@@ -204,10 +208,17 @@ mod tests {
         assert!(table_terrain("obstacle", 64, 0.5, 80.0, 8).is_err());
         let t = table_terrain("obstacle", 64, 0.5, 3.0, 8).unwrap();
         assert_eq!(t.heights().nx(), 80);
-        let vent = VentLavaSpec { rate: 5.0, offset: (10.0, 0.0), radius: 15.0, time_scale: 60.0 };
+        let vent = VentLavaSpec {
+            rate: 5.0,
+            offset: (10.0, 0.0),
+            radius: 15.0,
+            fissure: (0.0, 0.0),
+            time_scale: 60.0,
+        };
         vent.validate().unwrap();
         assert!(VentLavaSpec { rate: f64::NAN, ..vent.clone() }.validate().is_err());
         assert!(VentLavaSpec { time_scale: 0.0, ..vent.clone() }.validate().is_err());
-        assert!(VentLavaSpec { offset: (f32::INFINITY, 0.0), ..vent }.validate().is_err());
+        assert!(VentLavaSpec { offset: (f32::INFINITY, 0.0), ..vent.clone() }.validate().is_err());
+        assert!(VentLavaSpec { fissure: (9_000.0, 0.0), ..vent }.validate().is_err());
     }
 }

@@ -3,7 +3,7 @@
 use bevy::ecs::entity::{Entity, MapEntities};
 use bevy::ecs::reflect::ReflectComponent;
 use bevy::ecs::system::SystemParam;
-use bevy::prelude::{Component, Message, Query, ReflectDefault, Transform, Vec2, Vec3, Vec3Swizzles};
+use bevy::prelude::{Component, Message, Query, ReflectDefault, Res, Transform, Vec2, Vec3, Vec3Swizzles};
 use bevy::reflect::Reflect;
 use volcano_core::ConfigError;
 use volcano_core::error::{in_range, positive};
@@ -278,7 +278,7 @@ pub struct LavaBreakout {
 /// What the lava is like at a point, for gameplay.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect)]
 pub struct LavaProbe {
-    /// The field sampled.
+    /// The field sampled (the terrain, for a volcano's own lava).
     pub field: Entity,
     /// Liquid lava thickness (m).
     pub thickness: f64,
@@ -328,18 +328,46 @@ impl LavaState {
     }
 }
 
-/// Gameplay query: "lava thickness / surface temperature / crust at this point".
+/// Gameplay query: "lava thickness / surface temperature / crust at this point", on lava
+/// fields and on a volcano's own lava ([`crate::TerrainLava`]).
 #[derive(SystemParam)]
 pub struct LavaQuery<'w, 's> {
     fields: Query<'w, 's, (Entity, &'static LavaField, &'static LavaState)>,
+    vent_lava: Query<'w, 's, (Entity, &'static crate::vents::TerrainLava)>,
+    vent_settings: Option<Res<'w, crate::vents::VentLavaSettings>>,
 }
 
 impl LavaQuery<'_, '_> {
-    /// The lava at world (x, z) on the first field covering it (the thickest if several do).
+    /// The lava at world (x, z): the thickest of the fields covering it and of the vent lava
+    /// stored there. Vent lava's `field` is its terrain entity; its crust is the law of its
+    /// age (docs/physics/lava.md §7) and its `surface_speed` is not tracked (0).
     pub fn at(&self, xz: Vec2) -> Option<LavaProbe> {
+        let default = crate::vents::VentLavaSettings::default();
+        let params = self.vent_settings.as_deref().map_or(&default.params, |s| &s.params);
+        let vent = self.vent_lava.iter().filter_map(|(terrain, lava)| {
+            let r = &lava.runout;
+            let (a, b) = r.grid().cell_of(xz.as_dvec2())?;
+            let (h, t, ground, age) = r.cell_state(a, b)?;
+            let wet = h > 0.0;
+            let crust = if wet { crate::model::crust::crust_from_contact(params.kappa(), age) } else { 0.0 };
+            Some(LavaProbe {
+                field: terrain,
+                thickness: h,
+                temperature: if wet { t } else { params.air_temperature },
+                surface_temperature: if wet {
+                    surface_temperature(params, t, crust)
+                } else {
+                    params.air_temperature
+                },
+                crust,
+                surface_speed: 0.0,
+                surface_altitude: ground + h,
+            })
+        });
         self.fields
             .iter()
             .filter_map(|(e, f, s)| s.probe(e, &f.params, xz))
+            .chain(vent)
             .max_by(|a, b| a.thickness.total_cmp(&b.thickness))
     }
 }

@@ -13,8 +13,9 @@ use crate::model::params::{LavaParams, ViscosityModel};
 use crate::model::runout::{Runout, RunoutSettings, Vent};
 
 /// Lava from a volcano's vent: put it on a `Volcano` entity. The vent is the volcano's
-/// (`VentPosition`) moved by `offset` (a flank vent); while `active` it emits `rate` m³/s of
-/// lava at `temperature` over a disc of `radius`. Checked every step: an invalid value stops
+/// (`VentPosition`) moved by `offset` (a flank vent), a point or, with a non-zero `fissure`,
+/// a line; while `active` it emits `rate` m³/s of lava at `temperature` over the cells within
+/// `radius` of it. Checked every step: an invalid value stops
 /// the vent and says why in [`LavaVentStatus::error`].
 #[derive(Component, Debug, Clone, PartialEq, Reflect)]
 #[require(LavaVentStatus)]
@@ -28,6 +29,9 @@ pub struct LavaVent {
     pub radius: f64,
     /// World (x, z) offset of the vent from the volcano's vent (m).
     pub offset: Vec2,
+    /// Half a fissure: from its centre (the vent) to one end (world x, z; m, at most 5 km);
+    /// zero for a point vent.
+    pub fissure: Vec2,
     /// Whether it emits.
     pub active: bool,
 }
@@ -35,7 +39,14 @@ pub struct LavaVent {
 impl Default for LavaVent {
     /// 5 m³/s of basalt at 1450 K from a 15 m disc at the volcano's vent.
     fn default() -> Self {
-        Self { rate: 5.0, temperature: 1450.0, radius: 15.0, offset: Vec2::ZERO, active: true }
+        Self {
+            rate: 5.0,
+            temperature: 1450.0,
+            radius: 15.0,
+            offset: Vec2::ZERO,
+            fissure: Vec2::ZERO,
+            active: true,
+        }
     }
 }
 
@@ -50,9 +61,9 @@ impl LavaVent {
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.vent(Vec2::ZERO).validate()?;
-        if !self.offset.is_finite() {
+        if !(self.offset.is_finite() && self.fissure.is_finite()) {
             return Err(ConfigError::InvalidParameter {
-                name: "lava vent offset",
+                name: "lava vent offset or fissure",
                 value: f64::NAN,
                 reason: "must be finite".into(),
             });
@@ -63,7 +74,7 @@ impl LavaVent {
     /// The model's vent for a volcano whose vent is at world (x, z) `at`.
     fn vent(&self, at: Vec2) -> Vent {
         let c = (at + self.offset).as_dvec2();
-        Vent { centre: c, radius: self.radius, rate: self.rate, temperature: self.temperature }
+        Vent { fissure: self.fissure.as_dvec2(), ..Vent::point(c, self.radius, self.rate, self.temperature) }
     }
 }
 

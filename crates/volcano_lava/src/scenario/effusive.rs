@@ -107,7 +107,7 @@ impl EffusiveConfig {
             runout_valley((nx, ny, self.node), self.slope_deg, top, self.gully, self.sea_at_m.is_some())?;
         let o = terrain.heights().origin().as_dvec2();
         let centre = DVec2::new(o.x + 0.5 * (nx - 1) as f64 * self.node, o.y + vent_row * self.node);
-        let vent = Vent { centre, radius: self.vent_radius, rate: self.rate, temperature: 1450.0 };
+        let vent = Vent::point(centre, self.vent_radius, self.rate, 1450.0);
         vent.validate()?;
         Ok((terrain, vent))
     }

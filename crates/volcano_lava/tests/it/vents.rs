@@ -71,6 +71,19 @@ fn a_vent_on_a_volcano_runs_lava_down_its_terrain_and_into_it() {
     let t = w.get::<Terrain>(terrain).unwrap();
     assert!((t.added_volume() - b.solidified).abs() <= 1e-9 * b.solidified, "{} vs {b:?}", t.added_volume());
     assert!(changed > 0, "TerrainChanged for the frozen margins");
+    // `LavaQuery` probes the vent lava: hot and thick at the vent, nothing far off the flow.
+    let probe = |app: &mut App, at: Vec2| {
+        let mut state = bevy::ecs::system::SystemState::<LavaQuery>::new(app.world_mut());
+        state.get(app.world()).unwrap().at(at)
+    };
+    let at_vent = probe(&mut app, vent_xz).expect("lava at the vent");
+    assert!(at_vent.thickness > 0.05 && at_vent.temperature > 1300.0, "{at_vent:?}");
+    assert_eq!(at_vent.field, terrain);
+    assert!(at_vent.surface_temperature < at_vent.temperature && at_vent.crust > 0.0, "{at_vent:?}");
+    let off = probe(&mut app, vent_xz + Vec2::new(500.0, 0.0));
+    assert!(off.is_none_or(|p| p.thickness == 0.0), "{off:?}");
+    let w = app.world();
+    let lava = w.get::<TerrainLava>(terrain).unwrap();
     let (frozen, time) = (b.solidified, lava.runout.time());
     // The vent stops: the lava it left keeps flowing, cooling and freezing.
     app.world_mut().get_mut::<LavaVent>(volcano).unwrap().active = false;

@@ -59,7 +59,9 @@ impl RunoutSettings {
 }
 
 /// A vent feeding a [`Runout`]: lava at `rate` m³/s and `temperature` K, spread evenly over
-/// the cells whose centres lie within `radius` of `centre` (at least the cell holding it).
+/// the cells whose centres lie within `radius` of the vent (at least the cell holding its
+/// centre). The vent is the point `centre`, or for a fissure the segment from
+/// `centre − fissure` to `centre + fissure`.
 #[derive(Debug, Clone, Copy, PartialEq, Reflect, Serialize, Deserialize)]
 pub struct Vent {
     /// World (x, z) of the vent (m).
@@ -70,9 +72,28 @@ pub struct Vent {
     pub rate: f64,
     /// Temperature of the lava (K).
     pub temperature: f64,
+    /// Half the fissure, from its centre to one end (world x, z; m); zero for a point vent.
+    #[serde(default)]
+    pub fissure: DVec2,
 }
 
 impl Vent {
+    /// A point vent.
+    pub fn point(centre: DVec2, radius: f64, rate: f64, temperature: f64) -> Self {
+        Self { centre, radius, rate, temperature, fissure: DVec2::ZERO }
+    }
+
+    /// Distance (m) from world (x, z) `p` to the vent (its point or its fissure's segment).
+    pub fn distance(&self, p: DVec2) -> f64 {
+        let d = p - self.centre;
+        let len2 = self.fissure.length_squared();
+        if len2 == 0.0 {
+            return d.length();
+        }
+        let s = (d.dot(self.fissure) / len2).clamp(-1.0, 1.0);
+        (d - self.fissure * s).length()
+    }
+
     /// Checks every field.
     pub fn validate(&self) -> Result<(), ConfigError> {
         if !self.centre.is_finite() {
@@ -85,6 +106,7 @@ impl Vent {
         in_range("vent radius", self.radius, 0.0, 5_000.0)?;
         in_range("vent rate", self.rate, 0.0, 1e6)?;
         in_range("vent temperature", self.temperature, 300.0, 2500.0)?;
+        in_range("vent fissure half-length", self.fissure.length(), 0.0, 5_000.0)?;
         Ok(())
     }
 }
@@ -259,16 +281,19 @@ impl Runout {
     /// The cells a vent feeds.
     pub fn vent_cells(&self, vent: &Vent) -> Vec<(i64, i64)> {
         let g = &self.grid;
-        let r = (vent.radius / g.cell).ceil() as i64 + 1;
         let Some((ca, cb)) = g.cell_of(vent.centre) else { return Vec::new() };
-        let mut cells: Vec<(i64, i64)> = (cb - r..=cb + r)
-            .flat_map(|b| (ca - r..=ca + r).map(move |a| (a, b)))
+        let (ra, rb) = (
+            ((vent.radius + vent.fissure.x.abs()) / g.cell).ceil() as i64 + 1,
+            ((vent.radius + vent.fissure.y.abs()) / g.cell).ceil() as i64 + 1,
+        );
+        let mut cells: Vec<(i64, i64)> = (cb - rb..=cb + rb)
+            .flat_map(|b| (ca - ra..=ca + ra).map(move |a| (a, b)))
             .filter(|&(a, b)| {
                 a >= 0
                     && b >= 0
                     && (a as usize) < g.na
                     && (b as usize) < g.nb
-                    && g.centre(a, b).distance(vent.centre) <= vent.radius
+                    && vent.distance(g.centre(a, b)) <= vent.radius
             })
             .collect();
         if cells.is_empty() {

@@ -38,7 +38,7 @@ fn vent_on(terrain: &Terrain, rate: f64, radius: f64) -> Vent {
     let g = terrain.heights();
     let top = g.origin().as_dvec2();
     let x = top.x + 0.5 * (g.nx() - 1) as f64 * g.cell();
-    Vent { centre: DVec2::new(x, top.y + 60.0), radius, rate, temperature: 1450.0 }
+    Vent::point(DVec2::new(x, top.y + 60.0), radius, rate, 1450.0)
 }
 
 #[test]
@@ -140,6 +140,7 @@ fn bad_settings_and_vents_are_errors() {
     assert!(Vent { rate: -1.0, ..v }.validate().is_err());
     assert!(Vent { centre: DVec2::new(f64::NAN, 0.0), ..v }.validate().is_err());
     assert!(Vent { temperature: 5000.0, ..v }.validate().is_err());
+    assert!(Vent { fissure: DVec2::new(f64::INFINITY, 0.0), ..v }.validate().is_err());
     // A vent off the terrain emits nothing and says so.
     let mut r = Runout::new(&terrain, RunoutSettings::default(), &p).unwrap();
     let off = Vent { centre: DVec2::new(1e5, 0.0), ..v };
@@ -150,4 +151,25 @@ fn bad_settings_and_vents_are_errors() {
     let rep = r.step(&terrain, &p, &[Vent { rate: f64::NAN, ..v }], 1.0);
     assert_eq!((rep.emitted, rep.vents_rejected), (0.0, 1));
     assert_eq!(r.lava_volume(), 0.0);
+}
+
+#[test]
+fn a_fissure_feeds_a_curtain_of_cells_along_its_length() {
+    let mut terrain = runout_valley((48, 64, 8.0), 5.0, 300.0, (0.0, 0.0), false).unwrap();
+    let params = LavaParams { viscosity: crate::ViscosityModel::CHANNEL_BASALT, ..Default::default() };
+    // 200 m long across the slope (x), 3 m wide.
+    let vent = Vent { fissure: DVec2::new(100.0, 0.0), ..vent_on(&terrain, 2.0, 3.0) };
+    let r = Runout::new(&terrain, RunoutSettings::default(), &params).unwrap();
+    let cells = r.vent_cells(&vent);
+    // 2 m cells: a 200 m line of cells, three or four rows deep (centres within 3 m of the
+    // line), plus its rounded ends.
+    assert!((300..=420).contains(&cells.len()), "{} cells", cells.len());
+    let xs: Vec<f64> = cells.iter().map(|&(a, b)| r.grid().centre(a, b).x).collect();
+    let span = xs.iter().copied().fold(f64::MIN, f64::max) - xs.iter().copied().fold(f64::MAX, f64::min);
+    assert!((span - 200.0).abs() <= 2.0 * r.grid().cell(), "{span}");
+    let (r, sum) = run(&mut terrain, &params, RunoutSettings::default(), &[vent], 120.0, 1.0);
+    assert!((sum.emitted - 240.0).abs() < 1e-9);
+    let s = r.stats(vent.centre, 1e-3);
+    let (lo, hi) = s.bounds.unwrap();
+    assert!(hi.x - lo.x >= 196.0, "a sheet as wide as the fissure: {lo} – {hi}");
 }
