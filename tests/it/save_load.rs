@@ -143,3 +143,53 @@ fn references_in_the_ash_inbox_and_lava_sources_are_mapped() {
     let status = world.get::<LavaSourceStatus>(map[&source]).unwrap();
     assert_eq!(*status, LavaSourceStatus::Active(map[&field]), "the source feeds the copied field");
 }
+
+/// A volcano's own lava (`LavaVent` → `TerrainLava` on the terrain, the vents' front tracks)
+/// is saved with the world and continues bit for bit.
+#[test]
+fn saved_vent_lava_continues_bit_for_bit() {
+    let spawn = |app: &mut App| {
+        let terrain =
+            volcano::lava::scenario::terrains::runout_valley((48, 96, 20.0), 6.0, 800.0, (6.0, 120.0), false)
+                .unwrap();
+        let top = terrain.heights().origin();
+        app.world_mut().spawn(terrain);
+        let at = Transform::from_xyz(top.x + 470.0, 0.0, top.y + 80.0);
+        app.world_mut().spawn((Volcano::new(50.0, 1).unwrap(), at, LavaVent::effusive(8.0).unwrap()));
+    };
+    let lava = |app: &mut App| -> Vec<String> {
+        let w = app.world_mut();
+        let mut out: Vec<String> = w
+            .query::<&TerrainLava>()
+            .iter(w)
+            .map(|l| format!("{:?} {:?}", l.runout.tiles(), l.runout.budget()))
+            .collect();
+        out.extend(w.query::<&LavaVentStatus>().iter(w).map(|s| format!("{s:?}")));
+        out
+    };
+    let mut a = app();
+    spawn(&mut a);
+    for _ in 0..300 {
+        a.update();
+    }
+    let saved = {
+        let world = a.world();
+        let registry = world.resource::<AppTypeRegistry>().read();
+        let entities: Vec<Entity> = world.iter_entities().map(|e| e.id()).collect();
+        DynamicWorldBuilder::from_world(world, &registry)
+            .extract_entities(entities.into_iter())
+            .extract_resources()
+            .build()
+    };
+    let mut b = app();
+    b.update();
+    saved.write_to_world(b.world_mut(), &mut Default::default()).unwrap();
+    let before = lava(&mut a);
+    assert!(before.len() == 2 && before[0].len() > 10_000, "the vent lava did not run: {before:?}");
+    assert_eq!(before, lava(&mut b), "the copy holds the same vent lava");
+    for _ in 0..100 {
+        a.update();
+        b.update();
+    }
+    assert_eq!(lava(&mut a), lava(&mut b), "both continue alike");
+}
