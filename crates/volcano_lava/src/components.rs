@@ -340,7 +340,8 @@ pub struct LavaQuery<'w, 's> {
 impl LavaQuery<'_, '_> {
     /// The lava at world (x, z): the thickest of the fields covering it and of the vent lava
     /// stored there. Vent lava's `field` is its terrain entity; its crust is the law of its
-    /// age (docs/physics/lava.md §7) and its `surface_speed` is not tracked (0).
+    /// age (docs/physics/lava.md §7) and its surface speed 3/2 of its depth-averaged speed
+    /// (a Jeffreys profile).
     pub fn at(&self, xz: Vec2) -> Option<LavaProbe> {
         let default = crate::vents::VentLavaSettings::default();
         let params = self.vent_settings.as_deref().map_or(&default.params, |s| &s.params);
@@ -350,6 +351,7 @@ impl LavaQuery<'_, '_> {
             let (h, t, ground, age) = r.cell_state(a, b)?;
             let wet = h > 0.0;
             let crust = if wet { crate::model::crust::crust_from_contact(params.kappa(), age) } else { 0.0 };
+            let speed = r.speed(a, b).unwrap_or(0.0);
             Some(LavaProbe {
                 field: terrain,
                 thickness: h,
@@ -360,7 +362,7 @@ impl LavaQuery<'_, '_> {
                     params.air_temperature
                 },
                 crust,
-                surface_speed: 0.0,
+                surface_speed: crate::model::crust::SURFACE_TO_MEAN * speed,
                 surface_altitude: ground + h,
             })
         });

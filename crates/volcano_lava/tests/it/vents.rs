@@ -80,6 +80,8 @@ fn a_vent_on_a_volcano_runs_lava_down_its_terrain_and_into_it() {
     assert!(at_vent.thickness > 0.05 && at_vent.temperature > 1300.0, "{at_vent:?}");
     assert_eq!(at_vent.field, terrain);
     assert!(at_vent.surface_temperature < at_vent.temperature && at_vent.crust > 0.0, "{at_vent:?}");
+    let down = probe(&mut app, vent_xz + Vec2::new(0.0, 40.0)).expect("lava 40 m down the gully");
+    assert!(down.surface_speed > 0.01, "{down:?}");
     let off = probe(&mut app, vent_xz + Vec2::new(500.0, 0.0));
     assert!(off.is_none_or(|p| p.thickness == 0.0), "{off:?}");
     let w = app.world();

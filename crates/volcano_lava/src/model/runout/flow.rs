@@ -114,6 +114,9 @@ pub(crate) fn advance(
             t_left = 0.0;
         }
         let vol = vol * dt_s;
+        if t_left == 0.0 || report.substeps == params.max_substeps {
+            write_velocity(tiles, work);
+        }
         // 4. limiter: a cell's outgoing volume never exceeds what it holds.
         for ti in 0..n {
             let tile = &tiles.list[ti];
@@ -160,6 +163,27 @@ pub(crate) fn advance(
         }
     }
     report
+}
+
+/// Each cell's depth-averaged velocity from the last substep's face fluxes: the mean of the
+/// fluxes (m²/s) through its two faces along an axis over its thickness (zero where dry).
+fn write_velocity(tiles: &mut Tiles, work: &Work) {
+    for ti in 0..tiles.list.len() {
+        for k in 0..TILE_CELLS {
+            let west = behind(tiles, ti, k, EAST).map_or(0.0, |(t, c)| work.fe[t][c]);
+            let south = behind(tiles, ti, k, NORTH).map_or(0.0, |(t, c)| work.fn_[t][c]);
+            let tile = &tiles.list[ti];
+            let h = tile.h[k];
+            let (u, v) = if h > 0.0 {
+                (0.5 * (west + work.fe[ti][k]) / h, 0.5 * (south + work.fn_[ti][k]) / h)
+            } else {
+                (0.0, 0.0)
+            };
+            let tile = &mut tiles.list[ti];
+            tile.vel[0][k] = u;
+            tile.vel[1][k] = v;
+        }
+    }
 }
 
 /// The cell whose east (or north) face is cell `k`'s west (or south) face.

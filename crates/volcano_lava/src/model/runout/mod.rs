@@ -352,6 +352,8 @@ impl Runout {
                 tile.h[k] = 0.0;
                 tile.t[k] = te;
                 tile.age[k] = 0.0;
+                tile.vel[0][k] = 0.0;
+                tile.vel[1][k] = 0.0;
                 let (a, b) = global(tile.key, k);
                 let r = self.grid.refine;
                 let node = (b as usize / r, a as usize / r);
@@ -431,6 +433,14 @@ impl Runout {
                 tile.h[k] > min_h && g.centre(a, b).distance(centre) <= radius
             })
         })
+    }
+
+    /// Cell `(a, b)`'s depth-averaged lava speed (m/s) over the last substep, or `None` if its
+    /// tile is not stored.
+    pub fn speed(&self, a: i64, b: i64) -> Option<f64> {
+        let tile = &self.tiles.list[self.tiles.get(tile_of(a, b))?];
+        let k = local(a, b);
+        Some(tile.vel[0][k].hypot(tile.vel[1][k]))
     }
 
     /// Cell `(a, b)`'s lava thickness (m), temperature (K), ground (m) and age (s), or `None`

@@ -52,6 +52,19 @@ fn isothermal_flow_crosses_tiles_with_exact_mass() {
     let err = r.budget().error_rel(r.lava_volume());
     assert!(err < 1e-12, "budget error {err:e}");
     assert!((sum.emitted - 1200.0).abs() < 1e-9, "{}", sum.emitted);
+    // Halfway down the flow on its axis the lava moves downslope (+z) at about Jeffreys'
+    // depth-averaged speed for its thickness, ρ g h² sin θ/(3η).
+    let s = r.stats(vent.centre, 1e-3);
+    let mid = vent.centre + DVec2::new(0.0, 0.5 * s.runout_m);
+    let (a, b) = r.grid().cell_of(mid).unwrap();
+    let (h, ..) = r.cell_state(a, b).unwrap();
+    let tile = &r.tiles()[r.tiles.get(tile_of(a, b)).unwrap()];
+    let (u, v) = (tile.velocity().0[local(a, b)], tile.velocity().1[local(a, b)]);
+    let jeffreys = params.density * 9.81 * h * h * 5f64.to_radians().sin() / (3.0 * 100.0);
+    eprintln!("mid-flow: h {h:.3} m, ({u:.4}, {v:.4}) m/s, Jeffreys {jeffreys:.4} m/s");
+    assert!(v > 0.0 && u.abs() < 0.2 * v, "({u}, {v}) at {mid}");
+    assert!((0.6..1.5).contains(&(v / jeffreys)), "{v} m/s vs Jeffreys {jeffreys} m/s for {h} m");
+    assert!((r.speed(a, b).unwrap() - u.hypot(v)).abs() < 1e-12);
 }
 
 #[test]

@@ -96,6 +96,8 @@ pub struct Tile {
     pub(crate) t: Vec<f64>,
     /// Mean time since the lava left the vent (s): the age of its crusts.
     pub(crate) age: Vec<f64>,
+    /// Depth-averaged velocity (m/s) along x and z over the last substep.
+    pub(crate) vel: [Vec<f64>; 2],
     /// Ground under the lava: terrain as sampled at wake + lava frozen since (m).
     pub(crate) ground: Vec<f64>,
     /// Lava frozen here since the tile woke (m).
@@ -141,6 +143,7 @@ impl Tile {
             h: vec![0.0; TILE_CELLS],
             t: vec![air; TILE_CELLS],
             age: vec![0.0; TILE_CELLS],
+            vel: [vec![0.0; TILE_CELLS], vec![0.0; TILE_CELLS]],
             ground,
             solid: vec![0.0; TILE_CELLS],
             kind,
@@ -164,6 +167,10 @@ impl Tile {
     /// Mean time since the lava of each cell left the vent (s): the age of its crusts.
     pub fn age(&self) -> &[f64] {
         &self.age
+    }
+    /// Depth-averaged velocity per cell (m/s, x and z) over the last substep.
+    pub fn velocity(&self) -> (&[f64], &[f64]) {
+        (&self.vel[0], &self.vel[1])
     }
     /// Ground per cell, frozen lava included (m).
     pub fn ground(&self) -> &[f64] {
