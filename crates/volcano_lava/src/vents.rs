@@ -205,6 +205,7 @@ pub(crate) struct VentMessages<'w> {
     front: MessageWriter<'w, LavaFlowFront>,
     stopped: MessageWriter<'w, LavaFlowStopped>,
     changed: MessageWriter<'w, TerrainChanged>,
+    faults: MessageWriter<'w, SimFault>,
 }
 
 /// Gathers the vents by terrain, steps each terrain's runout, writes frozen lava into the
@@ -300,6 +301,14 @@ pub(crate) fn step_vent_lava(
                 "terrain {terrain_entity}: vent lava at the substep cap ({} substeps): the flow is slowed to stay stable",
                 report.substeps
             );
+        }
+        if report.repaired_cells > 0 {
+            let fault = SimFault {
+                lost_lava_m3: report.lost_m3,
+                ..SimFault::new(terrain_entity, SimDomain::Lava, report.repaired_cells as u64)
+            };
+            fault.warn();
+            out.faults.write(fault);
         }
         lava.last_step = report;
         if let Some((region, dh)) = lava.runout.take_frozen() {

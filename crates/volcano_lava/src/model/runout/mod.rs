@@ -134,6 +134,10 @@ pub struct RunoutReport {
     pub vent_lost: f64,
     /// Vents that failed [`Vent::validate`] and emitted nothing.
     pub vents_rejected: u32,
+    /// Cells whose state was no longer finite, reset to dry ground before the step (a fault).
+    pub repaired_cells: u32,
+    /// The lava the accounts held in them, booked as `faulted` (m³).
+    pub lost_m3: f64,
     /// Tiles woken this step.
     pub woke: u32,
     /// Tiles put to sleep this step.
@@ -214,6 +218,7 @@ impl Runout {
         if !(dt.is_finite() && dt > 0.0) {
             return report;
         }
+        (report.repaired_cells, report.lost_m3) = self.repair(terrain);
         let before = self.tiles.list.len();
         for vent in vents {
             if vent.validate().is_ok() {
@@ -236,6 +241,49 @@ impl Runout {
         report.slept = self.sleep(dt);
         self.time += dt;
         report
+    }
+
+    /// Finds cells whose state is no longer finite (every step, in every build: a pass over the
+    /// stored cells) and resets them to dry ground, resampled from `terrain` if the ground
+    /// itself was lost; what the accounts then miss is booked as `faulted`, so they close.
+    /// Returns the cells reset and the volume booked.
+    fn repair(&mut self, terrain: &Terrain) -> (u32, f64) {
+        let mut cells = 0;
+        let heights = terrain.heights();
+        for tile in &mut self.tiles.list {
+            for k in 0..TILE_CELLS {
+                // One test per cell: a sum is finite only if every term is.
+                let sum = tile.h[k]
+                    + tile.t[k]
+                    + tile.age[k]
+                    + tile.ground[k]
+                    + tile.solid[k]
+                    + tile.vel[0][k]
+                    + tile.vel[1][k];
+                if sum.is_finite() {
+                    continue;
+                }
+                cells += 1;
+                tile.h[k] = 0.0;
+                tile.t[k] = self.air;
+                tile.age[k] = 0.0;
+                tile.vel[0][k] = 0.0;
+                tile.vel[1][k] = 0.0;
+                if !(tile.ground[k].is_finite() && tile.solid[k].is_finite()) {
+                    let (a, b) = global(tile.key, k);
+                    let c = self.grid.centre(a, b);
+                    let p = bevy::math::Vec2::new(c.x as f32, c.y as f32);
+                    tile.ground[k] = heights.sample(p, volcano_core::Boundary::Clamp) as f64;
+                    tile.solid[k] = 0.0;
+                }
+            }
+        }
+        if cells == 0 {
+            return (0, 0.0);
+        }
+        let lost = self.budget.expected() - self.lava_volume();
+        self.budget.faulted += lost;
+        (cells, lost)
     }
 
     /// Emits one vent's lava for `dt` into its cells (waking their tiles).

@@ -186,3 +186,31 @@ fn a_fissure_feeds_a_curtain_of_cells_along_its_length() {
     let (lo, hi) = s.bounds.unwrap();
     assert!(hi.x - lo.x >= 196.0, "a sheet as wide as the fissure: {lo} – {hi}");
 }
+
+#[test]
+fn state_that_is_no_longer_finite_is_reset_and_booked() {
+    let mut terrain = runout_valley((32, 64, 10.0), 5.0, 400.0, (0.0, 0.0), false).unwrap();
+    let params = LavaParams::isothermal(100.0).unwrap();
+    let vent = vent_on(&terrain, 2.0, 8.0);
+    let (mut r, _) = run(&mut terrain, &params, RunoutSettings::default(), &[vent], 60.0, 0.5);
+    let (a, b) = r.grid().cell_of(vent.centre + DVec2::new(0.0, 20.0)).unwrap();
+    let ti = r.tiles.get(tile_of(a, b)).unwrap();
+    let k = local(a, b);
+    // Both cells lose what they held.
+    let held = (r.tiles.list[ti].h[k] + r.tiles.list[ti].h[k + 1]) * r.grid().cell() * r.grid().cell();
+    assert!(held > 0.0);
+    // A NaN thickness and an infinite temperature next to it.
+    r.tiles.list[ti].h[k] = f64::NAN;
+    r.tiles.list[ti].t[k + 1] = f64::INFINITY;
+    let rep = r.step(&terrain, &params, &[vent], 0.5);
+    assert_eq!(rep.repaired_cells, 2);
+    assert!((rep.lost_m3 - held).abs() < 1e-9 * held.max(1.0), "{} vs {held}", rep.lost_m3);
+    for _ in 0..20 {
+        r.step(&terrain, &params, &[vent], 0.5);
+    }
+    let finite = r.tiles().iter().all(|t| t.thickness().iter().chain(t.temperature()).all(|v| v.is_finite()));
+    assert!(finite, "no NaN spreads");
+    let b = r.budget();
+    assert!(b.error_rel(r.lava_volume()) < 1e-12, "{b:?}");
+    assert!((b.faulted - rep.lost_m3).abs() < 1e-12);
+}
