@@ -155,9 +155,7 @@ fn runout(c: &mut Criterion) {
     let mut r = Runout::new(&terrain, RunoutSettings::default(), &params).unwrap();
     for _ in 0..3600 {
         r.step(&terrain, &params, &[vent], 1.0);
-        if let Some((region, dh)) = r.take_frozen() {
-            terrain.add_thickness(region, &dh).unwrap();
-        }
+        r.write_frozen(&mut terrain).unwrap();
     }
     let mut g = c.benchmark_group("runout_1h");
     g.sample_size(20).measurement_time(Duration::from_secs(6)).warm_up_time(Duration::from_secs(2));

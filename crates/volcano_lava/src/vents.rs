@@ -311,24 +311,22 @@ pub(crate) fn step_vent_lava(
             out.faults.write(fault);
         }
         lava.last_step = report;
-        if let Some((region, dh)) = lava.runout.take_frozen() {
-            match terrain.bypass_change_detection().add_thickness(region, &dh) {
-                Ok(moved) if !moved.is_empty() => {
-                    out.changed.write(TerrainChanged { terrain: terrain_entity, region: moved });
-                }
-                Ok(_) => {}
-                Err(e) => warn!("terrain {terrain_entity}: frozen vent lava not written: {e}"),
+        match lava.runout.write_frozen(terrain.bypass_change_detection()) {
+            Ok(moved) if !moved.is_empty() => {
+                out.changed.write(TerrainChanged { terrain: terrain_entity, region: moved });
             }
+            Ok(_) => {}
+            Err(e) => warn!("terrain {terrain_entity}: frozen vent lava not written: {e}"),
         }
         let area = lava.runout.grid().cell() * lava.runout.grid().cell();
+        // What each feeding vent emitted, in the order `fed` gave them.
+        let mut emitted = lava.runout.emitted_by_vent().iter();
         for (_, volcano, vent, feeds) in by_terrain.iter().filter(|(t, ..)| *t == terrain_entity) {
+            let v = if *feeds { emitted.next().copied().unwrap_or(0.0) } else { 0.0 };
             let Ok((.., mut status, track)) = vents.get_mut(*volcano) else { continue };
-            let cells = if *feeds { lava.runout.vent_cells(vent).len() } else { 0 };
-            if cells > 0 {
-                status.emitted_m3 += vent.rate * dt;
-            }
+            status.emitted_m3 += v;
             let Some(mut track) = track else { continue };
-            if !track.opened && cells > 0 {
+            if !track.opened && v > 0.0 {
                 track.opened = true;
                 out.opened.write(LavaVentOpened { volcano: *volcano, position: vent.centre.as_vec2() });
             }

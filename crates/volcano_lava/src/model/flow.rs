@@ -100,13 +100,10 @@ pub fn advance_flow(field: &mut FlowField, params: &LavaParams, dt: f64) -> Flow
             }
         }
         // 2. substep.
-        let sub = substep(dx, (m_max, c_max), params, report.substeps, t_left);
+        let sub = substep(dx, (m_max, c_max), params, report.substeps, (t_left, dt));
         let (dt_s, scale) = (sub.dt, sub.face_volume);
         report.mobility_capped |= sub.capped;
-        t_left -= dt_s;
-        if t_left < 1e-12 * dt {
-            t_left = 0.0;
-        }
+        t_left = sub.left;
         let last = t_left == 0.0 || report.substeps == params.max_substeps;
         report.outflow += transfer(field, scale * dt_s, last, simd);
     }
@@ -124,18 +121,21 @@ pub(crate) struct Substep {
     pub face_volume: f64,
     /// Out of substeps: the mobility was capped to finish the step stably.
     pub capped: bool,
+    /// Seconds of the step left after it (0 once within 10⁻¹² of the step's end).
+    pub left: f64,
 }
 
 /// The stable substep of a flow with largest face mobility `m_max` and wave speed `c_max` on
-/// cells of `dx` m, `t_left` seconds from the step's end, as substep number `n`: the explicit
-/// diffusion limit `dx²/(4 D)` and the kinematic-wave limit `dx/c`, times `cfl`. The last
-/// allowed substep (`max_substeps`) finishes the step and caps the mobility instead.
+/// cells of `dx` m, `t_left` seconds from the end of a step of `step` seconds, as substep
+/// number `n`: the explicit diffusion limit `dx²/(4 D)` and the kinematic-wave limit `dx/c`,
+/// times `cfl`. The last allowed substep (`max_substeps`) finishes the step and caps the
+/// mobility instead.
 pub(crate) fn substep(
     dx: f64,
     (m_max, c_max): (f64, f64),
     params: &LavaParams,
     n: u32,
-    t_left: f64,
+    (t_left, step): (f64, f64),
 ) -> Substep {
     let mut stable = f64::INFINITY;
     if m_max > 0.0 {
@@ -145,10 +145,16 @@ pub(crate) fn substep(
         stable = stable.min(dx / c_max);
     }
     let dt = t_left.min(params.cfl * stable);
-    if n == params.max_substeps && dt < t_left {
-        return Substep { dt: t_left, face_volume: dx * (dt / t_left), capped: true };
+    let (dt, face_volume, capped) = if n == params.max_substeps && dt < t_left {
+        (t_left, dx * (dt / t_left), true)
+    } else {
+        (dt, dx, false)
+    };
+    let mut left = t_left - dt;
+    if left < 1e-12 * step {
+        left = 0.0;
     }
-    Substep { dt, face_volume: dx, capped: false }
+    Substep { dt, face_volume, capped, left }
 }
 
 thread_local! {

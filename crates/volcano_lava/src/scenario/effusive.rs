@@ -189,9 +189,7 @@ pub fn run_effusive(
         let rep = r.step(&terrain, &params, &[vent], c.dt);
         s.volume_quenched_m3 += rep.quenched;
         s.quench_heat_j += rep.quench_heat;
-        if let Some((region, dh)) = r.take_frozen() {
-            terrain.add_thickness(region, &dh)?;
-        }
+        r.write_frozen(&mut terrain)?;
         s.tiles_max = s.tiles_max.max(r.tiles().len());
         let t = r.time();
         if n % minute == 0 || n == steps {

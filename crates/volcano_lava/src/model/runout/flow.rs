@@ -106,30 +106,35 @@ pub(crate) fn advance(
             }
         }
         // 3. substep.
-        let sub = substep(cell, (m_max, c_max), params, report.substeps, t_left);
+        let sub = substep(cell, (m_max, c_max), params, report.substeps, (t_left, dt));
         let (dt_s, vol) = (sub.dt, sub.face_volume);
         report.mobility_capped |= sub.capped;
-        t_left -= dt_s;
-        if t_left < 1e-12 * dt {
-            t_left = 0.0;
-        }
+        t_left = sub.left;
         let vol = vol * dt_s;
-        if t_left == 0.0 || report.substeps == params.max_substeps {
-            write_velocity(tiles, work);
-        }
-        // 4. limiter: a cell's outgoing volume never exceeds what it holds.
+        let last = t_left == 0.0 || report.substeps == params.max_substeps;
+        // 4. limiter: a cell's outgoing volume never exceeds what it holds. On the step's last
+        //    substep the same four fluxes give the cell's depth-averaged velocity: their mean
+        //    along each axis over its thickness (zero where dry).
         for ti in 0..n {
-            let tile = &tiles.list[ti];
+            let nbr = tiles.list[ti].nbr;
+            let tile = &mut tiles.list[ti];
             for k in 0..TILE_CELLS {
-                let mut out = work.fe[ti][k].max(0.0) + work.fn_[ti][k].max(0.0);
-                if let Some((tw, kw)) = behind(tiles, ti, k, EAST) {
-                    out += (-work.fe[tw][kw]).max(0.0);
-                }
-                if let Some((ts, ks)) = behind(tiles, ti, k, NORTH) {
-                    out += (-work.fn_[ts][ks]).max(0.0);
-                }
-                let (have, give) = (tile.h[k] * area, out * vol);
+                let (east, north) = (work.fe[ti][k], work.fn_[ti][k]);
+                let west = behind(nbr, ti, k, EAST).map_or(0.0, |(t, c)| work.fe[t][c]);
+                let south = behind(nbr, ti, k, NORTH).map_or(0.0, |(t, c)| work.fn_[t][c]);
+                let out = east.max(0.0) + north.max(0.0) + (-west).max(0.0) + (-south).max(0.0);
+                let h = tile.h[k];
+                let (have, give) = (h * area, out * vol);
                 work.lim[ti][k] = if give > have { have / give } else { 1.0 };
+                if last {
+                    let (u, v) = if h > 0.0 {
+                        (0.5 * (west + east) / h, 0.5 * (south + north) / h)
+                    } else {
+                        (0.0, 0.0)
+                    };
+                    tile.vel[0][k] = u;
+                    tile.vel[1][k] = v;
+                }
             }
         }
         // 5. face volumes (each computed once, signed a → b), applied to both cells.
@@ -165,37 +170,17 @@ pub(crate) fn advance(
     report
 }
 
-/// Each cell's depth-averaged velocity from the last substep's face fluxes: the mean of the
-/// fluxes (m²/s) through its two faces along an axis over its thickness (zero where dry).
-fn write_velocity(tiles: &mut Tiles, work: &Work) {
-    for ti in 0..tiles.list.len() {
-        for k in 0..TILE_CELLS {
-            let west = behind(tiles, ti, k, EAST).map_or(0.0, |(t, c)| work.fe[t][c]);
-            let south = behind(tiles, ti, k, NORTH).map_or(0.0, |(t, c)| work.fn_[t][c]);
-            let tile = &tiles.list[ti];
-            let h = tile.h[k];
-            let (u, v) = if h > 0.0 {
-                (0.5 * (west + work.fe[ti][k]) / h, 0.5 * (south + work.fn_[ti][k]) / h)
-            } else {
-                (0.0, 0.0)
-            };
-            let tile = &mut tiles.list[ti];
-            tile.vel[0][k] = u;
-            tile.vel[1][k] = v;
-        }
-    }
-}
-
-/// The cell whose east (or north) face is cell `k`'s west (or south) face.
+/// The cell whose east (or north) face is cell `k`'s west (or south) face, in tile `ti`
+/// with neighbours `nbr`.
 #[inline]
-fn behind(tiles: &Tiles, ti: usize, k: usize, side: usize) -> Option<(usize, usize)> {
+fn behind(nbr: [Option<usize>; 4], ti: usize, k: usize, side: usize) -> Option<(usize, usize)> {
     use super::tiles::{SOUTH, WEST};
     let (i, j) = (k % TILE, k / TILE);
     match side {
         EAST if i > 0 => Some((ti, k - 1)),
-        EAST => tiles.list[ti].nbr[WEST].map(|n| (n, j * TILE + TILE - 1)),
+        EAST => nbr[WEST].map(|n| (n, j * TILE + TILE - 1)),
         _ if j > 0 => Some((ti, k - TILE)),
-        _ => tiles.list[ti].nbr[SOUTH].map(|n| (n, (TILE - 1) * TILE + i)),
+        _ => nbr[SOUTH].map(|n| (n, (TILE - 1) * TILE + i)),
     }
 }
 

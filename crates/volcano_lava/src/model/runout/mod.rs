@@ -3,7 +3,7 @@
 //! tiles that wake where lava arrives and sleep where it froze (docs/ARCHITECTURE.md, "Lava
 //! over the whole terrain"). One [`Runout::step`] advances it: vents emit, the lava flows
 //! (the lava field's mass-exact lubrication scheme across tile borders), cools through its
-//! crusts, freezes into the ground (handed to the terrain through [`Runout::take_frozen`]) and
+//! crusts, freezes into the ground (written into the terrain by [`Runout::write_frozen`]) and
 //! quenches where it enters the sea.
 //!
 //! A cell is a few metres: the flow's width is resolved, the crust is not. The crusts are a
@@ -151,6 +151,8 @@ pub struct Runout {
     settings: RunoutSettings,
     tiles: Tiles,
     work: flow::Work,
+    /// What each vent of the last step emitted (m³), in the order given.
+    emitted: Vec<f64>,
     budget: VolumeBudget,
     /// Frozen thickness not yet handed to the terrain, per terrain node (m), keyed (row,
     /// column) so it iterates row-major.
@@ -175,6 +177,7 @@ impl Runout {
             settings,
             tiles: Tiles::default(),
             work: flow::Work::default(),
+            emitted: Vec::new(),
             budget: VolumeBudget::default(),
             pending: Default::default(),
             time: 0.0,
@@ -209,8 +212,8 @@ impl Runout {
     }
 
     /// Advances `dt` seconds: `vents` emit, the lava flows, cools and freezes. `terrain` is
-    /// where new tiles sample their ground: hand it what froze ([`Runout::take_frozen`])
-    /// before the next step. Parameters must have passed their `validate`; an invalid vent
+    /// where new tiles sample their ground: write what froze into it
+    /// ([`Runout::write_frozen`]) before the next step. Parameters must have passed their `validate`; an invalid vent
     /// emits nothing and is counted in [`RunoutReport::vents_rejected`]; a non-positive or
     /// non-finite `dt` does nothing.
     pub fn step(&mut self, terrain: &Terrain, params: &LavaParams, vents: &[Vent], dt: f64) -> RunoutReport {
@@ -220,12 +223,15 @@ impl Runout {
         }
         (report.repaired_cells, report.lost_m3) = self.repair(terrain);
         let before = self.tiles.list.len();
+        self.emitted.clear();
         for vent in vents {
-            if vent.validate().is_ok() {
-                self.emit(terrain, vent, dt, &mut report);
+            let v = if vent.validate().is_ok() {
+                self.emit(terrain, vent, dt, &mut report)
             } else {
                 report.vents_rejected += 1;
-            }
+                0.0
+            };
+            self.emitted.push(v);
         }
         let (grid, air) = (self.grid, self.air);
         let flow = flow::advance(&mut self.tiles, &mut self.work, grid.cell, params, dt, |tiles| {
@@ -286,11 +292,12 @@ impl Runout {
         (cells, lost)
     }
 
-    /// Emits one vent's lava for `dt` into its cells (waking their tiles).
-    fn emit(&mut self, terrain: &Terrain, vent: &Vent, dt: f64, report: &mut RunoutReport) {
+    /// Emits one vent's lava for `dt` into its cells (waking their tiles); returns the volume
+    /// emitted.
+    fn emit(&mut self, terrain: &Terrain, vent: &Vent, dt: f64, report: &mut RunoutReport) -> f64 {
         let v = vent.rate * dt;
         if v <= 0.0 {
-            return;
+            return 0.0;
         }
         let cells = self.vent_cells(vent);
         let mut woke = false;
@@ -310,7 +317,7 @@ impl Runout {
             .collect();
         if land.is_empty() {
             report.vent_lost += v;
-            return;
+            return 0.0;
         }
         let area = self.grid.cell * self.grid.cell;
         let dh = v / (land.len() as f64 * area);
@@ -324,6 +331,13 @@ impl Runout {
         }
         self.budget.sources += v;
         report.emitted += v;
+        v
+    }
+
+    /// The volume (m³) each vent given to the last [`Runout::step`] emitted, in that order (0
+    /// for a vent off the terrain, over the sea or invalid).
+    pub fn emitted_by_vent(&self) -> &[f64] {
+        &self.emitted
     }
 
     /// The cells a vent feeds.
@@ -440,10 +454,20 @@ impl Runout {
         slept
     }
 
+    /// Writes the lava frozen since the last call into `terrain`'s added layer (the terrain
+    /// the runout was made over; [`Terrain::add_thickness`]) and returns the nodes whose
+    /// height moved (empty if none). On an error the frozen thickness is dropped, not written.
+    pub fn write_frozen(&mut self, terrain: &mut Terrain) -> Result<NodeRegion, ConfigError> {
+        match self.take_frozen() {
+            Some((region, dh)) => terrain.add_thickness(region, &dh),
+            None => Ok(NodeRegion::default()),
+        }
+    }
+
     /// Takes the lava frozen since the last call, as thickness per terrain node over the
     /// smallest rectangle holding it (row-major, as [`Terrain::add_thickness`] wants), or
     /// `None` if nothing froze. Its sum times the node area is the volume frozen.
-    pub fn take_frozen(&mut self) -> Option<(NodeRegion, Vec<f64>)> {
+    fn take_frozen(&mut self) -> Option<(NodeRegion, Vec<f64>)> {
         if self.pending.is_empty() {
             return None;
         }

@@ -26,9 +26,7 @@ fn run(
         sum.slept += s.slept;
         sum.substeps = sum.substeps.max(s.substeps);
         sum.mobility_capped |= s.mobility_capped;
-        if let Some((region, dh)) = r.take_frozen() {
-            terrain.add_thickness(region, &dh).unwrap();
-        }
+        r.write_frozen(terrain).unwrap();
     }
     (r, sum)
 }
@@ -79,9 +77,7 @@ fn frozen_lava_goes_into_the_terrain_and_dry_tiles_sleep() {
     let mut slept = 0;
     for _ in 0..200_000 {
         slept += r.step(&terrain, &params, &[], 1.0).slept;
-        if let Some((region, dh)) = r.take_frozen() {
-            terrain.add_thickness(region, &dh).unwrap();
-        }
+        r.write_frozen(&mut terrain).unwrap();
         if r.tiles().is_empty() {
             break;
         }
