@@ -12,12 +12,22 @@
 //! copy (its weather never steps).
 
 use bevy::prelude::*;
-use bevy_world_serialization::DynamicWorldBuilder;
+use bevy_world_serialization::{DynamicWorld, DynamicWorldBuilder};
 use volcano::plume::{DepositMap, S1};
 use volcano::prelude::*;
 
 fn app() -> App {
     crate::worlds::sim_app(std::time::Duration::from_millis(20))
+}
+
+/// Every entity and resource of `world`, copied as docs/SAVING.md shows.
+fn save(world: &World) -> DynamicWorld {
+    let registry = world.resource::<AppTypeRegistry>().read();
+    let entities: Vec<Entity> = world.iter_entities().map(|e| e.id()).collect();
+    DynamicWorldBuilder::from_world(world, &registry)
+        .extract_entities(entities.into_iter())
+        .extract_resources()
+        .build()
 }
 
 /// Everything the simulation holds that the test compares, as text (`Debug` prints every
@@ -72,15 +82,7 @@ fn a_saved_eruption_continues_bit_for_bit() {
         a.update();
     }
     volcano::atmosphere::flush_weather(a.world_mut());
-    let saved = {
-        let world = a.world();
-        let registry = world.resource::<AppTypeRegistry>().read();
-        let entities: Vec<Entity> = world.iter_entities().map(|e| e.id()).collect();
-        DynamicWorldBuilder::from_world(world, &registry)
-            .extract_entities(entities.into_iter())
-            .extract_resources()
-            .build()
-    };
+    let saved = save(a.world());
     let mut b = app();
     b.update();
     let mut map = Default::default();
@@ -172,15 +174,7 @@ fn saved_vent_lava_continues_bit_for_bit() {
     for _ in 0..300 {
         a.update();
     }
-    let saved = {
-        let world = a.world();
-        let registry = world.resource::<AppTypeRegistry>().read();
-        let entities: Vec<Entity> = world.iter_entities().map(|e| e.id()).collect();
-        DynamicWorldBuilder::from_world(world, &registry)
-            .extract_entities(entities.into_iter())
-            .extract_resources()
-            .build()
-    };
+    let saved = save(a.world());
     let mut b = app();
     b.update();
     saved.write_to_world(b.world_mut(), &mut Default::default()).unwrap();

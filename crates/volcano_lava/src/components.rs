@@ -343,8 +343,14 @@ impl LavaQuery<'_, '_> {
     /// age (docs/physics/lava.md §7) and its surface speed 3/2 of its depth-averaged speed
     /// (a Jeffreys profile).
     pub fn at(&self, xz: Vec2) -> Option<LavaProbe> {
-        let default = crate::vents::VentLavaSettings::default();
-        let params = self.vent_settings.as_deref().map_or(&default.params, |s| &s.params);
+        let default;
+        let params = match self.vent_settings.as_deref() {
+            Some(s) => &s.params,
+            None => {
+                default = crate::vents::VentLavaSettings::default();
+                &default.params
+            }
+        };
         let vent = self.vent_lava.iter().filter_map(|(terrain, lava)| {
             let r = &lava.runout;
             let (a, b) = r.grid().cell_of(xz.as_dvec2())?;

@@ -21,7 +21,7 @@ use bevy::math::DVec3;
 use super::crust::{f16_bits, incandescent};
 use super::light::{Emitter, GlowLight, light_of, luminance, point_light};
 use super::surface::{LIFT, crust_albedo, debug_crust};
-use super::{LavaRenderMode, LavaRenderSettings, emissive_image};
+use super::{LavaRenderMode, LavaRenderSettings, emissive_image, style_material};
 use crate::terrain::{MeshSurface, TerrainMesh};
 
 /// How far (m) a dry corner of a wet quad sinks under the ground.
@@ -55,10 +55,14 @@ fn cell(runout: &Runout, a: i64, b: i64) -> (f64, f64, f64, f64) {
     runout.cell_state(a, b).unwrap_or((0.0, 0.0, f64::NAN, 0.0))
 }
 
-/// The mesh and emissive texels of tile `key`, or `None` if it holds no liquid lava.
+/// A tile's cells: thickness, temperature, ground and age (its own arrays, row-major).
+type TileCells<'a> = [&'a [f64]; 4];
+
+/// The mesh and emissive texels of tile `key` (its `cells`), or `None` if it holds no liquid
+/// lava. The extra row and column of vertices come from the neighbour tiles.
 fn tile_mesh(
     runout: &Runout,
-    key: (i32, i32),
+    (key, cells): ((i32, i32), TileCells),
     params: &LavaParams,
     mode: LavaRenderMode,
     drawn: Option<&MeshSurface>,
@@ -67,9 +71,13 @@ fn tile_mesh(
     let min_h = params.min_thickness;
     let kappa = params.kappa();
     let (a0, b0) = (key.0 as i64 * TILE as i64, key.1 as i64 * TILE as i64);
+    let [h, t, ground, age] = cells;
     let states: Vec<(f64, f64, f64, f64)> = (0..n)
         .flat_map(|j| (0..n).map(move |i| (i, j)))
-        .map(|(i, j)| cell(runout, a0 + i as i64, b0 + j as i64))
+        .map(|(i, j)| match j * TILE + i {
+            k if i < TILE && j < TILE => (h[k], t[k], ground[k], age[k]),
+            _ => cell(runout, a0 + i as i64, b0 + j as i64),
+        })
         .collect();
     let wet = |k: usize| states[k].0 > min_h;
     if !(0..TILE).any(|j| (0..TILE).any(|i| wet(j * n + i))) {
@@ -236,8 +244,9 @@ pub(crate) fn update_runout_tiles(
         let drawn_ground = stride.map(|s| MeshSurface::new(ground, s));
         for tile in lava.runout.tiles() {
             let id = (terrain, tile.key());
+            let cells = [tile.thickness(), tile.temperature(), tile.ground(), tile.age()];
             let Some((mesh, texels)) =
-                tile_mesh(&lava.runout, tile.key(), &params, *mode, drawn_ground.as_ref())
+                tile_mesh(&lava.runout, (tile.key(), cells), &params, *mode, drawn_ground.as_ref())
             else {
                 continue;
             };
@@ -321,11 +330,9 @@ pub(crate) fn update_runout_tiles(
     }
 }
 
-/// The lit view glows by the texture; the debug views are unlit vertex colours.
+/// The lit view glows by the texture; the debug views are unlit vertex colours: a field's
+/// style without its detail textures ([`style_material`]), a little rougher.
 fn style(material: &mut StandardMaterial, mode: LavaRenderMode, settings: &LavaRenderSettings) {
-    let lit = mode == LavaRenderMode::Lit;
-    material.unlit = !lit;
-    let s = if lit { settings.emissive_nits.max(0.0) } else { 0.0 };
-    material.emissive = LinearRgba::rgb(s, s, s);
+    style_material(material, mode, settings, None);
     material.perceptual_roughness = 0.6;
 }
