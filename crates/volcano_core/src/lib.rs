@@ -16,6 +16,7 @@ pub mod clock;
 pub mod error;
 pub mod fault;
 pub mod grid;
+pub mod heat;
 pub mod interpolation;
 pub mod parallel;
 pub mod plugin;
@@ -29,6 +30,7 @@ pub use clock::{Cadence, DomainClock, SimControl, SimDomainAppExt, SimSystems, S
 pub use error::ConfigError;
 pub use fault::{SimDomain, SimFault};
 pub use grid::{Boundary, Grid2};
+pub use heat::{AirHeatKind, AirHeatSource, AirHeatSources};
 pub use interpolation::{TickInterpolation, TickInterpolationPlugin, TickInterpolationSystems};
 pub use plugin::VolcanoCorePlugin;
 pub use rng::{VolcanoRng, derive_stream};
@@ -38,10 +40,10 @@ pub use volcano::{OnTerrain, TerrainVolcanoes, VentPosition, Volcano, VolcanoSpe
 /// Everything a game usually needs from this crate.
 pub mod prelude {
     pub use crate::{
-        AirState, AtmosphereProfile, Boundary, Cadence, ConfigError, DomainClock, Grid2, LandCover,
-        OnTerrain, SimControl, SimDomain, SimDomainAppExt, SimFault, SimSystems, SimTick,
-        StratovolcanoParams, Terrain, TerrainChanged, TerrainTemplate, TerrainVolcanoes, ThesisIsa,
-        TickInterpolation, TickInterpolationPlugin, UsStandard1976, VentPosition, Volcano, VolcanoCorePlugin,
-        VolcanoRng, VolcanoSpec, VolcanoTemplate,
+        AirHeatKind, AirHeatSource, AirHeatSources, AirState, AtmosphereProfile, Boundary, Cadence,
+        ConfigError, DomainClock, Grid2, LandCover, OnTerrain, SimControl, SimDomain, SimDomainAppExt,
+        SimFault, SimSystems, SimTick, StratovolcanoParams, Terrain, TerrainChanged, TerrainTemplate,
+        TerrainVolcanoes, ThesisIsa, TickInterpolation, TickInterpolationPlugin, UsStandard1976,
+        VentPosition, Volcano, VolcanoCorePlugin, VolcanoRng, VolcanoSpec, VolcanoTemplate,
     };
 }

@@ -25,6 +25,7 @@ impl Plugin for VolcanoCorePlugin {
             .add_message::<crate::SimFault>()
             .register_type::<crate::SimFault>()
             .register_type::<crate::SimDomain>()
+            .register_type::<crate::AirHeatSources>()
             .register_type::<crate::Volcano>()
             .register_type::<crate::VentPosition>()
             .register_type::<crate::OnTerrain>()

@@ -8,7 +8,7 @@ use volcano_atmosphere::model::fields::{GridSpec, LayerFields, layer_geometry};
 use volcano_coupling::CouplingBudget;
 use volcano_coupling::model::column::ColumnSlice;
 use volcano_coupling::model::step::{
-    AirReadSide, AirSide, AmbientRequest, AshParcel, CoupledColumn, air_to_plume, plume_to_air,
+    AirReadSide, AirSide, AmbientRequest, AshParcel, CoupledColumn, GroundHeat, air_to_plume, plume_to_air,
 };
 
 fn setup() -> (GridSpec, Vec<LayerFields>, Vec<ColumnSlice>) {
@@ -45,7 +45,7 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             let mut air = AirSide { grid: g, layers: &mut l, ground_ash: &mut ground, books: &mut books };
             let column = [CoupledColumn { slices: &slices, plume_to_air: true }];
-            let r = plume_to_air(&mut air, &column, &parcels);
+            let r = plume_to_air(&mut air, &column, &parcels, GroundHeat::default());
             let ask = [AmbientRequest { slices: &slices, vent: DVec2::ZERO, r0: 100.0 }];
             let read: Vec<&LayerFields> = l.iter().collect();
             let mut air = AirReadSide { grid: g, layers: &read, ground_ash: &mut ground, books: &mut books };

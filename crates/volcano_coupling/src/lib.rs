@@ -20,7 +20,9 @@ pub mod plugin;
 
 pub use model::books::CouplingBudget;
 pub use model::column::{ColumnSlice, TransferReport};
+pub use model::heat::{GroundSource, SourceReport};
 pub use model::step::{
-    AirReadSide, AirSide, AirToPlumeReport, AmbientRequest, AshParcel, CoupledColumn, PlumeToAirReport,
+    AirReadSide, AirSide, AirToPlumeReport, AmbientRequest, AshParcel, CoupledColumn, GroundHeat,
+    PlumeToAirReport,
 };
 pub use plugin::{AshLedger, CouplingPlugin, CouplingSettings, CouplingSystems, ash_ledger};

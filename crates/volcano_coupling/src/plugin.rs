@@ -22,8 +22,9 @@ use volcano_plume::{
 
 pub use crate::model::books::CouplingBudget;
 use crate::model::column::ColumnSlice;
+use crate::model::heat::GroundSource;
 use crate::model::inject::cell_at;
-use crate::model::step::{AirReadSide, AirSide, AmbientRequest, AshParcel, CoupledColumn};
+use crate::model::step::{AirReadSide, AirSide, AmbientRequest, AshParcel, CoupledColumn, GroundHeat};
 
 /// Public sets of the coupling, so games can order their own systems against the transfers.
 #[derive(SystemSet, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -224,11 +225,39 @@ fn column_of(volcano: Entity, slices: &[(Entity, &PlumeSlice)]) -> Vec<ColumnSli
         .collect()
 }
 
+/// The valid heat sources of every entity (entity order, then list order) with where they are;
+/// an invalid one is skipped with a warning.
+fn ground_sources(sources: &Query<(Entity, &AirHeatSources)>) -> Vec<GroundSource> {
+    let mut all: Vec<(Entity, &AirHeatSources)> = sources.iter().collect();
+    all.sort_by_key(|(e, _)| *e);
+    let mut out = Vec::new();
+    for (e, list) in all {
+        for s in &list.0 {
+            if let Err(err) = s.validate() {
+                warn_once!("entity {e}: an air heat source is skipped: {err}");
+                continue;
+            }
+            out.push(GroundSource {
+                at: DVec2::new(s.at.x as f64, s.at.z as f64),
+                altitude: s.at.y as f64,
+                heat_w: s.heat_w,
+                vapour_kg_s: s.vapour_kg_s,
+                radius: s.radius_m,
+            });
+        }
+    }
+    out
+}
+
 /// Plume → air, just before a weather step: gathers each atmosphere's layers, the columns of
-/// the volcanoes over it and the ash their slices, umbrella spheres and expired spheres shed,
-/// and runs [`crate::model::step::plume_to_air`].
-#[allow(clippy::type_complexity)]
+/// the volcanoes over it, the ash their slices, umbrella spheres and expired spheres shed and
+/// the ground's heat sources (`AirHeatSources`: fountains, sea entries) over it, and runs
+/// [`crate::model::step::plume_to_air`].
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
 fn plume_to_air(
+    clock: Option<Res<Time<DomainClock<WeatherStep>>>>,
+    fixed: Res<Time<Fixed>>,
+    heat_sources: Query<(Entity, &AirHeatSources)>,
     mut inbox: ResMut<AshInbox>,
     mut atmospheres: Query<(Entity, &Atmosphere, &mut AtmosphereGround, &mut CouplingBudget)>,
     mut layer_query: Query<&mut AirLayer>,
@@ -239,6 +268,12 @@ fn plume_to_air(
 ) {
     let grids = grids(atmospheres.iter().map(|(e, a, ..)| (e, a)));
     let settings_of = |v: Entity| volcanoes.get(v).ok().map(|(_, _, s)| s.copied().unwrap_or_default());
+    // The heat of the weather steps about to run (their simulated length).
+    let seconds = clock.map_or(0.0, |c| {
+        let base = fixed.timestep();
+        c.context().step_duration(base).as_secs_f64() * c.context().steps_at_next_tick(base) as f64
+    });
+    let sources = ground_sources(&heat_sources);
     for (atmo, grid) in grids.iter().copied() {
         let Ok((_, _, mut ground, mut budget)) = atmospheres.get_mut(atmo) else { continue };
         let Some(mut g) = Gathered::new(atmo, &mut layer_query, grid.n) else { continue };
@@ -287,9 +322,22 @@ fn plume_to_air(
             .collect();
         let columns: Vec<CoupledColumn> =
             columns.iter().map(|c| CoupledColumn { slices: c, plume_to_air: true }).collect();
+        let over: Vec<GroundSource> = sources
+            .iter()
+            .copied()
+            .filter(|s| atmosphere_over(&grids, s.at.x as f32, s.at.y as f32).is_some_and(|(a, _)| a == atmo))
+            .collect();
+        let heat = GroundHeat { sources: &over, seconds };
         let mut air =
             AirSide { grid, layers: &mut g.layers, ground_ash: ground.0.ash.data_mut(), books: &mut budget };
-        crate::model::step::plume_to_air(&mut air, &columns, &parcels);
+        let report = crate::model::step::plume_to_air(&mut air, &columns, &parcels, heat);
+        if report.stability_floored > 0 {
+            warn_once!(
+                "atmosphere {atmo}: a heat source rose through neutral or unstable air; its plume height \
+                 used the floor N = {} s⁻¹ (volcano_coupling::model::heat::MIN_BUOYANCY_FREQUENCY)",
+                crate::model::heat::MIN_BUOYANCY_FREQUENCY
+            );
+        }
         g.restore();
     }
     // Released ash no atmosphere took (its volcano is under none, or does not hand over ash):

@@ -21,6 +21,14 @@ pub struct CouplingBudget {
     pub ash_off_terrain_kg: f64,
     /// Net water the plume → air transfer wrote into the layers (g).
     pub water_written_g: f64,
+    /// Heat the ground's sources (fountains, sea entries) gave the layers (J).
+    pub heat_received_j: f64,
+    /// Water vapour they gave the layers (kg).
+    pub vapour_received_kg: f64,
+    /// Heat of sources over this atmosphere that found no free air (J).
+    pub heat_outflow_j: f64,
+    /// Their vapour that found no free air (kg).
+    pub vapour_outflow_kg: f64,
     /// The last plume → air transfer.
     #[reflect(ignore)]
     pub last_transfer: TransferReport,

@@ -4,5 +4,6 @@
 
 pub mod books;
 pub mod column;
+pub mod heat;
 pub mod inject;
 pub mod step;

@@ -7,7 +7,8 @@
 //! - [`plume_to_air`]: frees the cells the last transfer held ([`release_columns`]), then for
 //!   each column in the caller's order imposes the slice nearest each layer
 //!   ([`nearest_slice_per_layer`], [`impose`]), then hands each parcel of shed ash to the
-//!   layer it is in ([`inject_ash`]; outside the grid it is booked as outflow).
+//!   layer it is in ([`inject_ash`]; outside the grid it is booked as outflow), then lifts the
+//!   ground's heat sources (fountains, sea entries) into the layers ([`inject_source`]).
 //! - [`air_to_plume`]: after a weather step, collects the ash the step dropped on the ground
 //!   grid into the books and onto the terrain below (through the caller's `deposit`), then
 //!   builds the ambient levels each requesting column reads ([`ambient_levels`]).
@@ -18,6 +19,7 @@ use volcano_plume::AmbientLevel;
 
 use super::books::CouplingBudget;
 use super::column::{ColumnSlice, ambient_levels, impose, nearest_slice_per_layer, release_columns};
+use super::heat::{GroundSource, inject_source};
 use super::inject::{Delivered, inject_ash};
 
 /// One atmosphere as the coupling sees it (borrowed from its components for a step).
@@ -66,9 +68,23 @@ pub struct AshParcel {
     pub kg: f64,
 }
 
+/// The ground's heat sources over an atmosphere for one weather step.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GroundHeat<'a> {
+    /// The sources, in the caller's order.
+    pub sources: &'a [GroundSource],
+    /// Seconds of their rates the step receives (the weather step's length).
+    pub seconds: f64,
+}
+
 /// What [`plume_to_air`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct PlumeToAirReport {
+    /// Heat the ground's sources gave the layers (J).
+    pub heat_in_j: f64,
+    /// Sources whose air was neutral or unstable, their rise computed with the floor
+    /// ([`super::heat::MIN_BUOYANCY_FREQUENCY`]; a limiter).
+    pub stability_floored: u32,
     /// Columns imposed.
     pub columns: u32,
     /// Ash handed to the layers or the ground grid (kg).
@@ -80,7 +96,12 @@ pub struct PlumeToAirReport {
 /// Plume → air, just before a weather step (see the module docs). `parcels` are taken in
 /// their order (the plugin: slices by volcano and emission index, umbrella spheres by id, then
 /// what expired spheres released), so the sums are the same bits every run.
-pub fn plume_to_air(air: &mut AirSide, columns: &[CoupledColumn], parcels: &[AshParcel]) -> PlumeToAirReport {
+pub fn plume_to_air(
+    air: &mut AirSide,
+    columns: &[CoupledColumn],
+    parcels: &[AshParcel],
+    heat: GroundHeat,
+) -> PlumeToAirReport {
     let mut report = PlumeToAirReport::default();
     release_columns(air.layers);
     for column in columns.iter().filter(|c| c.plume_to_air) {
@@ -99,6 +120,15 @@ pub fn plume_to_air(air: &mut AirSide, columns: &[CoupledColumn], parcels: &[Ash
         } else {
             report.ash_in_kg += p.kg;
         }
+    }
+    for source in heat.sources {
+        let r = inject_source(air.layers, air.grid, source, heat.seconds);
+        air.books.heat_received_j += r.heat_j;
+        air.books.vapour_received_kg += r.vapour_g * 1e-3;
+        air.books.heat_outflow_j += r.outside.0;
+        air.books.vapour_outflow_kg += r.outside.1 * 1e-3;
+        report.heat_in_j += r.heat_j;
+        report.stability_floored += u32::from(r.stability_floored);
     }
     report
 }

@@ -3,3 +3,4 @@
 
 mod column_heat;
 mod coupled;
+mod ground_heat;
