@@ -11,6 +11,7 @@ pub mod flow;
 mod flow_rows;
 mod flux;
 pub mod folds;
+pub mod fountain;
 pub mod guard;
 pub mod imprint;
 pub mod params;
