@@ -8,6 +8,7 @@
 //! [`view`] is what renderers and panels read.
 
 pub mod components;
+pub mod fountains;
 pub mod model;
 pub mod plugin;
 pub mod vents;
@@ -23,7 +24,9 @@ pub use components::{
     LavaBreakout, LavaField, LavaFieldStatus, LavaProbe, LavaQuery, LavaReached, LavaSource,
     LavaSourceStatus, LavaState, LavaZone, TerrainLink, field_placement,
 };
+pub use fountains::{LavaFountain, LavaFountainState};
 pub use model::folds::{FoldParams, FoldSystem};
+pub use model::fountain::{Clot, Fountain, FountainParams, FountainReport};
 pub use model::runout::{Runout, RunoutSettings, Vent};
 pub use model::surface::SurfaceState;
 pub use plugin::{LavaPlugin, LavaStep};

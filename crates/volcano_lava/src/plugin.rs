@@ -36,6 +36,9 @@ impl Plugin for LavaPlugin {
             .register_type::<crate::vents::TerrainLava>()
             .register_type::<crate::vents::VentLavaSettings>()
             .register_type::<crate::vents::FrontTrack>()
+            .register_type::<crate::fountains::LavaFountain>()
+            .register_type::<crate::fountains::LavaFountainState>()
+            .register_type::<AirHeatSources>()
             // Owned by volcano_core, like `TerrainChanged`.
             .add_message::<SimFault>()
             // Owned by volcano_core; registering twice is harmless.
@@ -49,7 +52,14 @@ impl Plugin for LavaPlugin {
             .register_type::<BuiltFor>()
             .add_systems(
                 LavaStep,
-                (build_fields, step_fields, crate::vents::step_vent_lava, check_zones, imprint_terrain)
+                (
+                    build_fields,
+                    step_fields,
+                    crate::vents::step_vent_lava,
+                    crate::fountains::step_fountains,
+                    check_zones,
+                    imprint_terrain,
+                )
                     .chain(),
             )
             // Patches spawned with the scene are built while it loads, not on its first tick

@@ -72,7 +72,7 @@ impl LavaVent {
     }
 
     /// The model's vent for a volcano whose vent is at world (x, z) `at`.
-    fn vent(&self, at: Vec2) -> Vent {
+    pub(crate) fn vent(&self, at: Vec2) -> Vent {
         let c = (at + self.offset).as_dvec2();
         Vent { fissure: self.fissure.as_dvec2(), ..Vent::point(c, self.radius, self.rate, self.temperature) }
     }
@@ -216,7 +216,7 @@ pub(crate) fn step_vent_lava(
     settings: Res<VentLavaSettings>,
     mut commands: Commands,
     mut vents: Query<VentItem>,
-    mut terrains: Query<(Entity, &mut Terrain, Option<&mut TerrainLava>)>,
+    mut terrains: Query<(Entity, &mut Terrain, Option<&mut TerrainLava>, Option<&mut AirHeatSources>)>,
     mut out: VentMessages,
 ) {
     let dt = time.delta_secs_f64() * settings.time_scale;
@@ -255,11 +255,11 @@ pub(crate) fn step_vent_lava(
     // Terrains with emitting vents, and those whose lava still flows and cools after its
     // vents stopped or were despawned.
     let mut stepped: Vec<Entity> = by_terrain.iter().filter(|v| v.3).map(|(t, ..)| *t).collect();
-    stepped.extend(terrains.iter().filter(|(_, _, lava)| lava.is_some()).map(|(e, ..)| e));
+    stepped.extend(terrains.iter().filter(|(_, _, lava, _)| lava.is_some()).map(|(e, ..)| e));
     stepped.sort_unstable();
     stepped.dedup();
     for terrain_entity in stepped {
-        let Ok((_, mut terrain, lava)) = terrains.get_mut(terrain_entity) else { continue };
+        let Ok((_, mut terrain, lava, sources)) = terrains.get_mut(terrain_entity) else { continue };
         let placement = terrain.placement();
         let fresh = || Runout::new(&terrain, settings.runout, &settings.params);
         let mut lava = match lava {
@@ -311,6 +311,15 @@ pub(crate) fn step_vent_lava(
             out.faults.write(fault);
         }
         lava.last_step = report;
+        // The sea entry's steam and heat, for the air above (the laze plume).
+        let laze = sea_entry(&report, dt, &terrain);
+        match sources {
+            Some(mut s) => crate::fountains::set_sources(&mut s, AirHeatKind::SeaEntry, laze),
+            None if laze.is_some() => {
+                commands.entity(terrain_entity).insert(AirHeatSources(laze.into_iter().collect()));
+            }
+            None => {}
+        }
         match lava.runout.write_frozen(terrain.bypass_change_detection()) {
             Ok(moved) if !moved.is_empty() => {
                 out.changed.write(TerrainChanged { terrain: terrain_entity, region: moved });
@@ -359,4 +368,33 @@ pub(crate) fn step_vent_lava(
             }
         }
     }
+}
+
+/// Enthalpy (J/kg) to boil sea water from 20 °C: `c_w ΔT + L_v` with c_w = 3,990 J/(kg K)
+/// (sea water) over 80 K and L_v = 2.257 MJ/kg at 100 °C.
+pub const SEA_STEAM_ENTHALPY: f64 = 3_990.0 * 80.0 + 2.257e6;
+
+/// Radius (m) of a sea entry's source of steam at the shore.
+const SEA_ENTRY_RADIUS: f64 = 100.0;
+
+/// A step's sea entry as a source of heat and steam for the air: the quench heat's rate over
+/// the step's `dt` (simulated seconds), all of it boiling sea water (an upper bound: part of it
+/// warms the sea), at the quenched lava's centre on the sea surface. `None` without quenching.
+fn sea_entry(
+    report: &crate::model::runout::RunoutReport,
+    dt: f64,
+    terrain: &Terrain,
+) -> Option<AirHeatSource> {
+    let at = report.quench_at?;
+    let heat_w = report.quench_heat / dt;
+    (heat_w > 0.0 && heat_w.is_finite()).then(|| {
+        let (x, z) = (at.x as f32, at.y as f32);
+        AirHeatSource {
+            at: Vec3::new(x, terrain.height_at(x, z).max(terrain.sea_level()), z),
+            heat_w,
+            vapour_kg_s: heat_w / SEA_STEAM_ENTHALPY,
+            radius_m: SEA_ENTRY_RADIUS,
+            kind: AirHeatKind::SeaEntry,
+        }
+    })
 }

@@ -7,6 +7,7 @@ mod cooling;
 mod faults;
 mod flank;
 mod folds;
+mod fountain;
 mod mobility_cap;
 mod placement;
 mod plugin;
