@@ -6,7 +6,9 @@ use bevy::prelude::*;
 use serde::{Deserialize, Serialize};
 use volcano_core::Terrain;
 use volcano_core::error::{ConfigError, finite, in_range};
-use volcano_lava::{LavaField, LavaParams, LavaSource, LavaVent, Placement, ScenarioKind, VentLavaSettings};
+use volcano_lava::{
+    LavaField, LavaFountain, LavaParams, LavaSource, LavaVent, Placement, ScenarioKind, VentLavaSettings,
+};
 
 /// A lava source of a scene.
 #[derive(Debug, Clone, PartialEq, Reflect, Serialize, Deserialize)]
@@ -121,6 +123,9 @@ pub struct VentLavaSpec {
     /// hours of an effusive eruption in a minute.
     #[serde(default = "one")]
     pub time_scale: f64,
+    /// A Hawaiian fountain over the vent this high (m); none: the lava wells out.
+    #[serde(default)]
+    pub fountain: Option<f64>,
 }
 
 fn vent_radius() -> f64 {
@@ -144,6 +149,11 @@ impl VentLavaSpec {
         Ok(v)
     }
 
+    /// The fountain component, if the vent has one.
+    pub fn fountain(&self) -> Result<Option<LavaFountain>, ConfigError> {
+        self.fountain.map(LavaFountain::with_height).transpose()
+    }
+
     /// The settings resource the scene sets (its time scale).
     pub fn settings(&self) -> Result<VentLavaSettings, ConfigError> {
         let s = VentLavaSettings { time_scale: self.time_scale, ..Default::default() };
@@ -154,6 +164,7 @@ impl VentLavaSpec {
     /// Checks every value.
     pub fn validate(&self) -> Result<(), ConfigError> {
         self.vent()?;
+        self.fountain()?;
         self.settings()?;
         Ok(())
     }
@@ -214,8 +225,11 @@ mod tests {
             radius: 15.0,
             fissure: (0.0, 0.0),
             time_scale: 60.0,
+            fountain: Some(120.0),
         };
         vent.validate().unwrap();
+        assert!(vent.fountain().unwrap().is_some());
+        assert!(VentLavaSpec { fountain: Some(-5.0), ..vent.clone() }.validate().is_err());
         assert!(VentLavaSpec { rate: f64::NAN, ..vent.clone() }.validate().is_err());
         assert!(VentLavaSpec { time_scale: 0.0, ..vent.clone() }.validate().is_err());
         assert!(VentLavaSpec { offset: (f32::INFINITY, 0.0), ..vent.clone() }.validate().is_err());

@@ -115,9 +115,9 @@ pub mod prelude {
     pub use volcano_core::prelude::*;
     pub use volcano_coupling::{CouplingBudget, CouplingPlugin, CouplingSettings, CouplingSystems};
     pub use volcano_lava::{
-        LavaBreakout, LavaField, LavaFieldStatus, LavaFlowFront, LavaFlowStopped, LavaParams, LavaPlugin,
-        LavaProbe, LavaQuery, LavaReached, LavaSource, LavaSourceStatus, LavaVent, LavaVentOpened,
-        LavaVentStatus, LavaZone, TerrainLava, VentLavaSettings,
+        LavaBreakout, LavaField, LavaFieldStatus, LavaFlowFront, LavaFlowStopped, LavaFountain,
+        LavaFountainState, LavaParams, LavaPlugin, LavaProbe, LavaQuery, LavaReached, LavaSource,
+        LavaSourceStatus, LavaVent, LavaVentOpened, LavaVentStatus, LavaZone, TerrainLava, VentLavaSettings,
     };
     pub use volcano_plume::{
         AshReleased, Eruption, EruptionScript, EruptionTimeline, NeutralBuoyancyReached, PlumeCapReport,

@@ -380,6 +380,9 @@ pub(crate) fn spawn_simulation(
         if let Some((vent, _)) = &vent_lava {
             e.insert(vent.clone());
         }
+        if let Some(fountain) = spec.vent_lava.as_ref().and_then(|v| v.fountain().ok().flatten()) {
+            e.insert(fountain);
+        }
         let id = e.id();
         if let Some((_, settings)) = vent_lava {
             commands.insert_resource(settings);

@@ -22,6 +22,7 @@
 
 pub mod crust;
 mod folds;
+mod fountain;
 pub mod light;
 pub mod margin;
 mod runout;
@@ -40,6 +41,7 @@ use crate::terrain::{MeshSurface, TerrainMesh};
 
 pub use crust::{GlowPattern, REFERENCE_TEMPERATURE, glow_texels, incandescent};
 pub use folds::{FoldInstance, fold_transform};
+pub use fountain::{FountainClots, FountainGlow, fountain_glow};
 pub use light::{GlowLight, LavaGlow, glow_light, glow_lights, glow_range};
 pub use runout::{RunoutGlow, RunoutTileSurface, runout_glow};
 pub use surface::{crust_albedo, debug_crust, frozen_albedo, keep_over_terrain, surface_mesh};
@@ -154,6 +156,7 @@ impl Plugin for LavaRenderPlugin {
             .register_type::<LavaRenderSettings>()
             .register_type::<LavaGlow>()
             .register_type::<RunoutGlow>()
+            .register_type::<FountainGlow>()
             .add_systems(
                 PostUpdate,
                 (
@@ -162,6 +165,7 @@ impl Plugin for LavaRenderPlugin {
                     folds::update_fold_instances,
                     light::update_glow_lights.after(update_surfaces),
                     runout::update_runout_tiles,
+                    fountain::update_fountains,
                 )
                     .before(TransformSystems::Propagate),
             );
