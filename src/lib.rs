@@ -42,6 +42,7 @@ pub mod export;
 pub mod lava_scene;
 pub mod quality;
 pub mod scenes;
+pub mod styles;
 
 use bevy::app::{PluginGroup, PluginGroupBuilder};
 
@@ -71,6 +72,8 @@ impl PluginGroup for VolcanoSimPlugins {
             .add(volcano_coupling::CouplingPlugin)
             // Applies a `VolcanoQuality` the game inserts (nothing without one).
             .add(quality::VolcanoQualityPlugin)
+            // A timeline's lava channel drives the volcano's lava vent.
+            .add(styles::EruptionStylePlugin)
     }
 }
 
@@ -106,6 +109,7 @@ pub mod prelude {
     };
     pub use crate::quality::VolcanoQuality;
     pub use crate::scenes::{SceneSpec, VolcanoScenePlugin};
+    pub use crate::styles::{EruptionStylePlugin, hawaiian};
     pub use crate::{VolcanoPlugins, VolcanoSimPlugins};
     pub use volcano_atmosphere::{
         AirLayer, Atmosphere, AtmospherePlugin, AtmosphereScenario, AtmosphereScenarioStatus,

@@ -16,6 +16,7 @@ mod readme;
 mod reflect;
 mod reflect_fuzz;
 mod save_load;
+mod styles;
 mod thread_counts;
 mod view_boundary;
 mod worlds;

@@ -187,7 +187,7 @@ pub fn inject_source(
         vapour_left = 0.0;
         break;
     }
-    report.outside = (heat - report.heat_j, vapour_left);
+    report.outside = (carried, vapour_left);
     report
 }
 

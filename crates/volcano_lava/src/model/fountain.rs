@@ -58,7 +58,7 @@ impl Default for FountainParams {
     fn default() -> Self {
         Self {
             exit_speed: 51.8,
-            spread_deg: 12.0,
+            spread_deg: 6.0,
             clot_diameter: 0.2,
             clot_density: 1_500.0,
             emissivity: 0.95,

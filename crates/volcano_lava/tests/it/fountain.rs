@@ -69,7 +69,7 @@ fn a_fountain_over_a_vent_throws_clots_its_height_and_heats_the_air() {
         }
     }
     // Clots thrown at the exit speed for 80 m through sea-level air top out there (the fastest
-    // leave in a 12° cone); the vent is at ≈ 480 m, where the air is 4.5 % thinner and drags
+    // leave in a 6° cone); the vent is at ≈ 480 m, where the air is 4.5 % thinner and drags
     // less: a metre or two higher.
     assert!(top > 76.0 && top <= 82.0, "fountain top {top} m");
     let state = app.world().get::<LavaFountainState>(volcano).unwrap();

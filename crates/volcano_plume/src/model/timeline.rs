@@ -6,6 +6,9 @@
 //! Numeric channels (v₀, r₀, mass rate) are linear between the keys that give them and held
 //! after the last; before the first key that gives a channel, the eruption keeps its own value.
 //! Step channels (preset, active) take the value of the latest key at or before the time.
+//!
+//! `lava_rate` drives the volcano's own lava (a `LavaVent` beside the script; 0 stops it), so
+//! one timeline tells a mixed eruption: a Plinian hour that ends in an effusive week.
 
 use bevy::reflect::Reflect;
 use serde::{Deserialize, Serialize};
@@ -32,6 +35,9 @@ pub struct TimelineKey {
     pub preset: Option<Preset>,
     /// From this key on, whether slices are emitted.
     pub active: Option<bool>,
+    /// Effusion rate of the volcano's `LavaVent` (m³/s, 0–10⁶; 0 stops it), linear between
+    /// keys. Applied by the `volcano` crate's plugins to a `LavaVent` on the scripted volcano.
+    pub lava_rate: Option<f64>,
 }
 
 /// An eruption's keys in time order (see the module docs).
@@ -55,6 +61,8 @@ pub struct TimelineState {
     pub preset: Option<Preset>,
     /// Whether slices are emitted.
     pub active: Option<bool>,
+    /// Lava effusion rate (m³/s).
+    pub lava_rate: Option<f64>,
 }
 
 impl EruptionTimeline {
@@ -88,6 +96,9 @@ impl EruptionTimeline {
             if let Some(m) = k.mass_rate {
                 in_range("mass_rate", m, 1.0, 1e11).map_err(|e| named("mass_rate", e))?;
             }
+            if let Some(q) = k.lava_rate {
+                in_range("lava_rate", q, 0.0, 1e6).map_err(|e| named("lava_rate", e))?;
+            }
             if k.r0.is_some() && k.mass_rate.is_some() {
                 return Err(named(
                     "mass_rate",
@@ -117,6 +128,7 @@ impl EruptionTimeline {
             mass_rate: self.linear(t, |k| k.mass_rate),
             preset: self.latest(t, |k| k.preset),
             active: self.latest(t, |k| k.active),
+            lava_rate: self.linear(t, |k| k.lava_rate),
         }
     }
 
@@ -193,6 +205,23 @@ mod tests {
         assert_eq!(t.sample(89.0).active, Some(true));
         assert_eq!(t.sample(90.0).active, Some(false));
         assert_eq!(t.sample(10.0).r0, None, "no key gives r0: the eruption keeps its own");
+    }
+
+    #[test]
+    fn a_plinian_hour_can_end_in_an_effusive_phase() {
+        let t = EruptionTimeline::from_ron(
+            "(keys: [(at_s: 0, preset: Some(PlinianShowcase), active: Some(true), lava_rate: Some(0)), \
+             (at_s: 3600, active: Some(false), lava_rate: Some(0)), (at_s: 3900, lava_rate: Some(30)), \
+             (at_s: 86400, lava_rate: Some(5))])",
+        )
+        .unwrap();
+        assert_eq!((t.sample(1800.0).active, t.sample(1800.0).lava_rate), (Some(true), Some(0.0)));
+        // The column stops at the hour; the lava rises to 30 m³/s over five minutes, then wanes.
+        assert_eq!(t.sample(3600.0).active, Some(false));
+        assert_eq!(t.sample(3750.0).lava_rate, Some(15.0));
+        assert_eq!(t.sample(1e6).lava_rate, Some(5.0));
+        let bad = EruptionTimeline { keys: vec![TimelineKey { lava_rate: Some(-1.0), ..key(0.0) }] };
+        assert!(bad.validate().unwrap_err().to_string().contains("lava_rate"));
     }
 
     #[test]
