@@ -32,7 +32,8 @@ const MAX_FLIGHT_STEP: f64 = 0.02;
 /// What a fountain throws.
 #[derive(Debug, Clone, Copy, PartialEq, bevy::reflect::Reflect)]
 pub struct FountainParams {
-    /// Launch speed of the fastest clots (m/s, in [1, 400]); the others leave at 0.5–1 of it.
+    /// Launch speed of the fastest clots (m/s, in [1, 400]); the others leave slower, their
+    /// drag-free tops spread evenly over 0.1–1 of the fastest's.
     pub exit_speed: f64,
     /// Half-angle of the launch cone about the vertical (degrees, in [0, 45]).
     pub spread_deg: f64,
@@ -275,7 +276,7 @@ impl Fountain {
     }
 
     /// A clot leaving `src`: from a random point of the vent's disc (or along its fissure), at
-    /// 0.5–1 × the exit speed, in a cone of `spread_deg` about the vertical.
+    /// √0.1–1 × the exit speed, in a cone of `spread_deg` about the vertical.
     fn launch(&mut self, src: &FountainSource, mass: f64) -> Clot {
         let rng = &mut self.rng;
         let (a, r) = (std::f64::consts::TAU * rng.random::<f64>(), src.radius * rng.random::<f64>().sqrt());
@@ -283,7 +284,9 @@ impl Fountain {
         let at = src.vent + src.fissure * along + DVec3::new(r * a.cos(), 0.0, r * a.sin());
         let theta = self.params.spread_deg.to_radians() * rng.random::<f64>().sqrt();
         let phi = std::f64::consts::TAU * rng.random::<f64>();
-        let speed = self.params.exit_speed * (0.5 + 0.5 * rng.random::<f64>());
+        // Tops spread evenly from a tenth of the fountain's height to all of it (speed² is
+        // uniform), so the fountain is densest low down and thins toward its top.
+        let speed = self.params.exit_speed * (0.1 + 0.9 * rng.random::<f64>()).sqrt();
         let dir = DVec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
         Clot { position: at, velocity: dir * speed, temperature: src.temperature, mass }
     }
