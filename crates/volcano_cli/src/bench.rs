@@ -1,7 +1,7 @@
 //! `volcano bench`: a scene's whole simulation headless, one base tick per app update, timed
 //! on the main thread (whole-scene numbers against the frame budget). Writes `DIR/bench.json`:
 //! the main thread's time per base tick (p50, p99, max), the mean on ticks where a weather step
-//! started or was written back beside the mean on the others, each domain's mean per tick, and
+//! started or was written back beside the mean on the others, each domain's mean and its p50, p99 and max per tick, and
 //! the same split by domain on weather ticks and on the others (where a weather tick's extra
 //! time goes; `rest` is what ran outside the domains' sets).
 //!
@@ -111,6 +111,8 @@ pub struct BenchReport {
     /// Mean ms per base tick of each domain's set (`coupling` = the sets just before and after
     /// the weather).
     pub domains: std::collections::BTreeMap<&'static str, f64>,
+    /// Each domain's main-thread ms per base tick: p50, p99, max.
+    pub domain_tick_ms: std::collections::BTreeMap<&'static str, TickStats>,
     /// Each domain's mean ms on the ticks where a weather step started or was written back,
     /// and `rest`: the tick's time outside the domains' sets.
     pub weather_tick_domains: std::collections::BTreeMap<&'static str, f64>,
@@ -173,7 +175,8 @@ fn by_domain(sets: &[f64; SETS.len()]) -> [(&'static str, f64); 5] {
     ]
 }
 
-/// Main-thread times of the timed ticks: every one kept for the percentiles (8 B per tick), in a
+/// Main-thread times of the timed ticks: every one kept for the percentiles (8 B per tick, and
+/// 8 B per domain), in a
 /// vector reserved for the whole run before the first tick, so that its doublings (1 MiB at
 /// tick 131,072 of an hour) do not show as steps in the soak report's heap column; the means
 /// of weather ticks and of the others are running sums.
@@ -184,6 +187,8 @@ struct TickTimes {
     weather: (f64, usize),
     /// The same on the other ticks.
     other: (f64, usize),
+    /// Each domain's ms per tick, in `by_domain` order (sorted at the end).
+    domains: [Vec<f64>; 5],
 }
 
 impl TickTimes {
@@ -193,10 +198,18 @@ impl TickTimes {
 
     fn with_capacity(ticks: u64) -> Self {
         let reserve = ticks.min(Self::MAX_RESERVED) as usize;
-        Self { all: Vec::with_capacity(reserve), weather: (0.0, 0), other: (0.0, 0) }
+        Self {
+            all: Vec::with_capacity(reserve),
+            weather: (0.0, 0),
+            other: (0.0, 0),
+            domains: std::array::from_fn(|_| Vec::with_capacity(reserve)),
+        }
     }
 
-    fn push(&mut self, ms: f64, weather: bool) {
+    fn push(&mut self, ms: f64, weather: bool, domains: &[(&'static str, f64); 5]) {
+        for (v, d) in self.domains.iter_mut().zip(domains) {
+            v.push(d.1);
+        }
         self.all.push(ms);
         let kind = if weather { &mut self.weather } else { &mut self.other };
         kind.0 += ms;
@@ -363,7 +376,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         ) {
             return ticks_csv_failed(e);
         }
-        times.push(ms, weather_tick);
+        times.push(ms, weather_tick, &d);
         let sums = if weather_tick { &mut weather_sets } else { &mut other_sets };
         for (sum, x) in sums.iter_mut().zip(&sets) {
             *sum += x;
@@ -396,6 +409,20 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
     }
     let weather_waits = weather(&mut app).2 - waits_before;
     let total = app.world().resource::<Stamps>().total;
+    let stats = |sorted: &[f64]| TickStats {
+        p50: quantile(sorted, 0.5),
+        p99: quantile(sorted, 0.99),
+        max: sorted.last().copied().unwrap_or(0.0),
+    };
+    let names = by_domain(&[0.0; SETS.len()]).map(|(name, _)| name);
+    let domain_tick_ms = names
+        .into_iter()
+        .zip(times.domains.iter_mut())
+        .map(|(name, v)| {
+            v.sort_by(f64::total_cmp);
+            (name, stats(v))
+        })
+        .collect();
     let sorted = &mut times.all;
     sorted.sort_by(f64::total_cmp);
     let mean = |v: &[f64]| if v.is_empty() { 0.0 } else { v.iter().sum::<f64>() / v.len() as f64 };
@@ -411,11 +438,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
         ticks: tick(&app) - first,
         warmup_ticks: first,
         profile: if cfg!(debug_assertions) { "dev" } else { "release" },
-        tick_ms: TickStats {
-            p50: quantile(sorted, 0.5),
-            p99: quantile(sorted, 0.99),
-            max: sorted.last().copied().unwrap_or(0.0),
-        },
+        tick_ms: stats(sorted),
         weather_tick_ms_mean: TickTimes::mean(times.weather),
         other_tick_ms_mean: TickTimes::mean(times.other),
         weather_waits,
@@ -431,6 +454,7 @@ pub fn run(opts: &BenchOptions, dir: &Path) -> ExitCode {
             .map(|(name, x)| (name, x / timed))
             .into_iter()
             .collect(),
+        domain_tick_ms,
         weather_tick_domains: split(&weather_sets, times.weather.1, TickTimes::mean(times.weather)),
         other_tick_domains: split(&other_sets, times.other.1, TickTimes::mean(times.other)),
         wall_s: started.elapsed().as_secs_f64(),
