@@ -52,11 +52,15 @@ pub struct SoakRow {
     pub cpu_s_per_sim_s: f64,
     /// Of it, the main thread's.
     pub main_cpu_s_per_sim_s: f64,
+    /// Farthest a volcano's own lava has run from its vent (m; `LavaVentStatus::runout_m`).
+    pub vent_lava_runout_m: f64,
+    /// Tiles its runouts store (the memory of vent lava follows them, not the terrain).
+    pub vent_lava_tiles: usize,
 }
 
 const HEADER: &str = "sim_s,wall_s,entities,rss_mib,heap_mib,tick_p50_ms,tick_p99_ms,tick_max_ms,slices,umbrella,\
                       particles,secondary_columns,capped_slices,capped_particles,retired_secondary,\
-                      cpu_s_per_sim_s,main_cpu_s_per_sim_s";
+                      cpu_s_per_sim_s,main_cpu_s_per_sim_s,vent_lava_runout_m,vent_lava_tiles";
 
 /// Resident memory of this process (MiB), 0 if unknown.
 pub fn rss_mib() -> f64 {
@@ -143,7 +147,7 @@ impl Soak {
         let r = &row;
         writeln!(
             self.file,
-            "{},{:.1},{},{:.1},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{:.4},{:.4}",
+            "{},{:.1},{},{:.1},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{:.4},{:.4},{:.0},{}",
             r.sim_s,
             r.wall_s,
             r.entities,
@@ -160,7 +164,9 @@ impl Soak {
             r.capped_particles,
             r.retired_secondary,
             r.cpu_s_per_sim_s,
-            r.main_cpu_s_per_sim_s
+            r.main_cpu_s_per_sim_s,
+            r.vent_lava_runout_m,
+            r.vent_lava_tiles
         )?;
         self.file.flush()?;
         self.rows.push(row);
@@ -175,6 +181,10 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
     let particles = world.query::<&PyroParticle>().iter(world).count();
     let caps = world.get_resource::<PlumeCapReport>().copied().unwrap_or_default();
     let flows = volcano::plume::ground::all_budgets(world);
+    let vent_lava_runout_m =
+        world.query::<&volcano::lava::LavaVentStatus>().iter(world).map(|s| s.runout_m).fold(0.0, f64::max);
+    let vent_lava_tiles =
+        world.query::<&volcano::lava::TerrainLava>().iter(world).map(|l| l.runout.tiles().len()).sum();
     SoakRow {
         sim_s: tick as f64 / crate::TICK_HZ,
         wall_s,
@@ -193,6 +203,8 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
         retired_secondary: caps.secondary_retired,
         cpu_s_per_sim_s: 0.0,
         main_cpu_s_per_sim_s: 0.0,
+        vent_lava_runout_m,
+        vent_lava_tiles,
     }
 }
 
