@@ -113,6 +113,23 @@ pub struct TerrainLava {
     pub last_step: crate::model::runout::RunoutReport,
     /// The terrain placement it was built for (a moved terrain rebuilds it, losing its lava).
     built_at: Vec2,
+    /// Simulated seconds the lava clock has fallen behind the scaled game clock because steps
+    /// would have exceeded [`VentLavaSettings::substep_budget`] (a limiter; 0 while it never
+    /// acted).
+    pub behind_s: f64,
+    /// Substeps per simulated second of the last step: what the next step's length is budgeted
+    /// from.
+    substeps_per_s: f64,
+}
+
+impl TerrainLava {
+    /// The length (simulated s) of a step that wants `wanted` s with `cells` stored cells and
+    /// `budget` cell-substeps to spend: shortened so the substeps the last step needed per
+    /// simulated second fit the budget (never below a thousandth of `wanted`).
+    fn budgeted(&self, wanted: f64, cells: usize, budget: u64) -> f64 {
+        let need = self.substeps_per_s * cells as f64;
+        if need > 0.0 { wanted.min(budget as f64 / need).max(1e-3 * wanted) } else { wanted }
+    }
 }
 
 /// How vent lava behaves (a resource; checked every step, an invalid value pauses it).
@@ -126,6 +143,12 @@ pub struct VentLavaSettings {
     /// Simulated seconds of vent lava per second of the lava clock (in [1, 10⁴]): an
     /// effusive week shown in minutes. The flow's substeps follow (the cost grows with it).
     pub time_scale: f64,
+    /// Most stored cells × flow substeps one step may take (in [10⁴, 10¹⁰]; ≈ 30 ns each on
+    /// one core, release, so the default 10⁵ is ≈ 3 ms). Lava ponded deep and hot needs many
+    /// substeps (explicit flow, stable step ∝ η/h³): a step that would take more is shortened
+    /// and the lava clock falls behind the scaled game clock ([`TerrainLava::behind_s`],
+    /// warned once) instead of taking the frame.
+    pub substep_budget: u64,
 }
 
 impl VentLavaSettings {
@@ -134,6 +157,7 @@ impl VentLavaSettings {
         self.runout.validate()?;
         self.params.validate()?;
         volcano_core::error::in_range("vent lava time_scale", self.time_scale, 1.0, 1e4)?;
+        volcano_core::error::in_range("vent lava substep_budget", self.substep_budget as f64, 1e4, 1e10)?;
         Ok(())
     }
 }
@@ -144,6 +168,7 @@ impl Default for VentLavaSettings {
             runout: RunoutSettings::default(),
             params: LavaParams { viscosity: ViscosityModel::CHANNEL_BASALT, ..LavaParams::default() },
             time_scale: 1.0,
+            substep_budget: 100_000,
         }
     }
 }
@@ -185,6 +210,8 @@ pub struct LavaFlowStopped {
 pub(crate) struct FrontTrack {
     last_runout: f64,
     last_front: f64,
+    /// The runout's clock at `last_front` (simulated s).
+    last_time: f64,
     advanced_at: f64,
     opened: bool,
 }
@@ -283,6 +310,8 @@ pub(crate) fn step_vent_lava(
                             runout,
                             last_step: Default::default(),
                             built_at: placement,
+                            behind_s: 0.0,
+                            substeps_per_s: 0.0,
                         });
                     }
                     Err(e) => warn!("terrain {terrain_entity}: no vent lava: {e}"),
@@ -295,7 +324,18 @@ pub(crate) fn step_vent_lava(
             .filter(|(t, .., feeds)| *t == terrain_entity && *feeds)
             .map(|(_, _, v, _)| *v)
             .collect();
-        let report = lava.runout.step(&terrain, &settings.params, &fed, dt);
+        let cells = lava.runout.tiles().len() * crate::view::RUNOUT_TILE * crate::view::RUNOUT_TILE;
+        let step_s = lava.budgeted(dt, cells, settings.substep_budget);
+        if step_s < dt && lava.behind_s == 0.0 {
+            warn!(
+                "terrain {terrain_entity}: vent lava needs more than {} cell-substeps a tick; its clock \
+                 falls behind the game's (VentLavaSettings::substep_budget, TerrainLava::behind_s)",
+                settings.substep_budget
+            );
+        }
+        lava.behind_s += dt - step_s;
+        let report = lava.runout.step(&terrain, &settings.params, &fed, step_s);
+        lava.substeps_per_s = report.substeps as f64 / step_s;
         if report.mobility_capped && !lava.last_step.mobility_capped {
             warn!(
                 "terrain {terrain_entity}: vent lava at the substep cap ({} substeps): the flow is slowed to stay stable",
@@ -312,7 +352,7 @@ pub(crate) fn step_vent_lava(
         }
         lava.last_step = report;
         // The sea entry's steam and heat, for the air above (the laze plume).
-        let laze = sea_entry(&report, dt, &terrain);
+        let laze = sea_entry(&report, step_s, &terrain);
         match sources {
             Some(mut s) => crate::fountains::set_sources(&mut s, AirHeatKind::SeaEntry, laze),
             None if laze.is_some() => {
@@ -345,9 +385,12 @@ pub(crate) fn step_vent_lava(
             let st = lava.runout.stats(vent.centre, settings.params.min_thickness);
             let now = lava.runout.time();
             let advanced = st.runout_m > track.last_runout + lava.runout.grid().cell();
-            // Distance gained over the last second of the lava clock, in simulated seconds.
-            status.front_speed_m_s = ((st.front_m - track.last_front).max(0.0) / settings.time_scale) as f32;
+            // Distance gained over the last second of the lava clock, per simulated second.
+            let elapsed = now - track.last_time;
+            status.front_speed_m_s =
+                if elapsed > 0.0 { ((st.front_m - track.last_front).max(0.0) / elapsed) as f32 } else { 0.0 };
             track.last_front = st.front_m;
+            track.last_time = now;
             status.runout_m = status.runout_m.max(st.runout_m);
             status.front = st.front.map(|p| p.as_vec2());
             if advanced {

@@ -56,11 +56,13 @@ pub struct SoakRow {
     pub vent_lava_runout_m: f64,
     /// Tiles its runouts store (the memory of vent lava follows them, not the terrain).
     pub vent_lava_tiles: usize,
+    /// Simulated seconds the vent lava's clock is behind the scaled clock (its substep budget).
+    pub vent_lava_behind_s: f64,
 }
 
 const HEADER: &str = "sim_s,wall_s,entities,rss_mib,heap_mib,tick_p50_ms,tick_p99_ms,tick_max_ms,slices,umbrella,\
                       particles,secondary_columns,capped_slices,capped_particles,retired_secondary,\
-                      cpu_s_per_sim_s,main_cpu_s_per_sim_s,vent_lava_runout_m,vent_lava_tiles";
+                      cpu_s_per_sim_s,main_cpu_s_per_sim_s,vent_lava_runout_m,vent_lava_tiles,vent_lava_behind_s";
 
 /// Resident memory of this process (MiB), 0 if unknown.
 pub fn rss_mib() -> f64 {
@@ -147,7 +149,7 @@ impl Soak {
         let r = &row;
         writeln!(
             self.file,
-            "{},{:.1},{},{:.1},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{:.4},{:.4},{:.0},{}",
+            "{},{:.1},{},{:.1},{:.1},{:.3},{:.3},{:.3},{},{},{},{},{},{},{},{:.4},{:.4},{:.0},{},{:.0}",
             r.sim_s,
             r.wall_s,
             r.entities,
@@ -166,7 +168,8 @@ impl Soak {
             r.cpu_s_per_sim_s,
             r.main_cpu_s_per_sim_s,
             r.vent_lava_runout_m,
-            r.vent_lava_tiles
+            r.vent_lava_tiles,
+            r.vent_lava_behind_s
         )?;
         self.file.flush()?;
         self.rows.push(row);
@@ -185,6 +188,8 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
         world.query::<&volcano::lava::LavaVentStatus>().iter(world).map(|s| s.runout_m).fold(0.0, f64::max);
     let vent_lava_tiles =
         world.query::<&volcano::lava::TerrainLava>().iter(world).map(|l| l.runout.tiles().len()).sum();
+    let vent_lava_behind_s =
+        world.query::<&volcano::lava::TerrainLava>().iter(world).map(|l| l.behind_s).fold(0.0, f64::max);
     SoakRow {
         sim_s: tick as f64 / crate::TICK_HZ,
         wall_s,
@@ -205,6 +210,7 @@ fn row(app: &mut App, tick: u64, sorted: &[f64], wall_s: f64) -> SoakRow {
         main_cpu_s_per_sim_s: 0.0,
         vent_lava_runout_m,
         vent_lava_tiles,
+        vent_lava_behind_s,
     }
 }
 

@@ -121,3 +121,55 @@ fn a_bad_vent_says_why_and_emits_nothing() {
     assert!(s.error.is_some() && s.emitted_m3 == 0.0, "{s:?}");
     assert!(LavaVent::effusive(-1.0).is_err());
 }
+
+/// A step that would take more than `substep_budget` cell-substeps is shortened: the lava clock
+/// falls behind the scaled game clock by what was not simulated, the vent emits for the time
+/// that was, and the books close; with the default budget it never acts here.
+#[test]
+fn a_tight_substep_budget_slows_the_lava_clock_and_keeps_the_books() {
+    let run = |budget: u64| {
+        let mut app = App::new();
+        app.add_plugins((MinimalPlugins, VolcanoCorePlugin, LavaPlugin))
+            .insert_resource(TimeUpdateStrategy::ManualDuration(Duration::from_millis(100)))
+            .insert_resource(Time::<Fixed>::from_hz(volcano_core::units::THESIS_TICK_HZ))
+            .insert_resource(VentLavaSettings {
+                time_scale: 60.0,
+                substep_budget: budget,
+                ..Default::default()
+            });
+        let terrain = runout_valley((64, 128, 20.0), 6.0, 800.0, (6.0, 120.0), false).unwrap();
+        let top = terrain.heights().origin();
+        let terrain = app.world_mut().spawn(terrain).id();
+        let volcano = app
+            .world_mut()
+            .spawn((
+                Volcano::new(50.0, 1).unwrap(),
+                Transform::from_xyz(top.x + 630.0, 0.0, top.y + 80.0),
+                LavaVent::effusive(8.0).unwrap(),
+            ))
+            .id();
+        run(&mut app, 50 * 10);
+        let w = app.world();
+        let lava = w.get::<TerrainLava>(terrain).unwrap().clone();
+        let emitted = w.get::<LavaVentStatus>(volcano).unwrap().emitted_m3;
+        (lava, emitted)
+    };
+    let (free, free_emitted) = run(VentLavaSettings::default().substep_budget);
+    let (tight, tight_emitted) = run(10_000);
+    eprintln!(
+        "default budget: {:.0} s simulated, {:.1} s behind; 10⁴: {:.0} s simulated, {:.1} s behind",
+        free.runout.time(),
+        free.behind_s,
+        tight.runout.time(),
+        tight.behind_s
+    );
+    assert_eq!(free.behind_s, 0.0);
+    assert!(tight.behind_s > 1.0, "the budget never acted: {}", tight.behind_s);
+    // Simulated + behind = the scaled game clock (the runout starts a tick after the vent).
+    assert!((tight.runout.time() + tight.behind_s - free.runout.time()).abs() < 1e-6);
+    for (lava, emitted) in [(&free, free_emitted), (&tight, tight_emitted)] {
+        assert!((emitted - 8.0 * lava.runout.time()).abs() < 1e-6 * emitted, "{emitted} m³");
+        assert!(lava.runout.budget().error_rel(lava.runout.lava_volume()) < 1e-12);
+    }
+    assert!(tight_emitted < free_emitted);
+}
