@@ -495,10 +495,13 @@ mod tests {
         for i in 0..ticks {
             // Every 25th tick is a weather tick of 3 ms, the others take 1 ms.
             let weather = i % 25 == 0;
-            times.push(if weather { 3.0 } else { 1.0 }, weather);
+            let lava =
+                [("plume", 0.0), ("pyroclastic", 0.0), ("coupling", 0.0), ("weather", 0.0), ("lava", 0.5)];
+            times.push(if weather { 3.0 } else { 1.0 }, weather, &lava);
         }
         assert_eq!(times.all.len(), ticks as usize);
         assert_eq!((times.all.as_ptr(), times.all.capacity()), (at, capacity), "the vector was reallocated");
+        assert!(times.domains.iter().all(|d| d.len() == ticks as usize && d.capacity() == capacity));
         assert_eq!((times.weather.1, times.other.1), (7_200, 172_800));
         assert_eq!((TickTimes::mean(times.weather), TickTimes::mean(times.other)), (3.0, 1.0));
         assert_eq!(TickTimes::mean((0.0, 0)), 0.0);

@@ -58,6 +58,18 @@ impl AirHeatSource {
 #[reflect(Component, Default)]
 pub struct AirHeatSources(pub Vec<AirHeatSource>);
 
+impl AirHeatSources {
+    /// Replaces the `kind` entries with `new`, keeping the others (e.g. a game's own); touches
+    /// nothing (no change detection) when the list stays the same.
+    pub fn set_kind(this: &mut Mut<Self>, kind: AirHeatKind, new: impl IntoIterator<Item = AirHeatSource>) {
+        let mut list: Vec<AirHeatSource> = this.0.iter().filter(|s| s.kind != kind).copied().collect();
+        list.extend(new);
+        if list != this.0 {
+            this.0 = list;
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -157,24 +157,10 @@ pub(crate) fn step_fountains(
             kind: AirHeatKind::Fountain,
         };
         match sources {
-            Some(mut s) => set_sources(&mut s, AirHeatKind::Fountain, [heat]),
+            Some(mut s) => AirHeatSources::set_kind(&mut s, AirHeatKind::Fountain, [heat]),
             None => {
                 commands.entity(entity).insert(AirHeatSources(vec![heat]));
             }
         }
-    }
-}
-
-/// Replaces the `kind` entries of `sources` with `new` (keeping the others, e.g. a game's own);
-/// leaves the component untouched when nothing changes.
-pub(crate) fn set_sources(
-    sources: &mut Mut<AirHeatSources>,
-    kind: AirHeatKind,
-    new: impl IntoIterator<Item = AirHeatSource>,
-) {
-    let mut list: Vec<AirHeatSource> = sources.0.iter().filter(|s| s.kind != kind).copied().collect();
-    list.extend(new);
-    if list != sources.0 {
-        sources.0 = list;
     }
 }

@@ -354,7 +354,7 @@ pub(crate) fn step_vent_lava(
         // The sea entry's steam and heat, for the air above (the laze plume).
         let laze = sea_entry(&report, step_s, &terrain);
         match sources {
-            Some(mut s) => crate::fountains::set_sources(&mut s, AirHeatKind::SeaEntry, laze),
+            Some(mut s) => AirHeatSources::set_kind(&mut s, AirHeatKind::SeaEntry, laze),
             None if laze.is_some() => {
                 commands.entity(terrain_entity).insert(AirHeatSources(laze.into_iter().collect()));
             }
