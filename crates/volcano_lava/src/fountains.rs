@@ -1,4 +1,4 @@
-//! A Hawaiian fountain over a volcano's lava vent (docs/physics/lava.md §8): put a
+//! A Hawaiian fountain over a volcano's lava vent (docs/physics/fountain.md §8.1): put a
 //! [`LavaFountain`] beside a [`LavaVent`] and, while the vent emits, clots of its lava are
 //! thrown up over it (or along its fissure: a curtain of fire) and fall back where its lava
 //! feeds the flow. The fountain's heat and magmatic water go into the air as an
@@ -107,7 +107,9 @@ pub(crate) fn step_fountains(
                 continue;
             }
         };
-        state.error = None;
+        if state.error.is_some() {
+            state.error = None;
+        }
         if state.fountain.as_ref().is_none_or(|f| f.params() != &fountain.params) {
             let keep = state.fountain.take();
             let built = match keep {

@@ -72,7 +72,7 @@ impl LavaVent {
     }
 
     /// The model's vent for a volcano whose vent is at world (x, z) `at`.
-    pub(crate) fn vent(&self, at: Vec2) -> Vent {
+    fn vent(&self, at: Vec2) -> Vent {
         let c = (at + self.offset).as_dvec2();
         Vent { fissure: self.fissure.as_dvec2(), ..Vent::point(c, self.radius, self.rate, self.temperature) }
     }

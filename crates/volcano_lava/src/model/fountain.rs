@@ -1,4 +1,4 @@
-//! A Hawaiian lava fountain (docs/physics/lava.md §8): clots of lava thrown up from a vent or a
+//! A Hawaiian lava fountain (docs/physics/fountain.md §8.1): clots of lava thrown up from a vent or a
 //! fissure, flying ballistically through still air with quadratic drag and cooling by radiation
 //! until they fall back onto the ground, where the vent's lava feeds the flow. The clots are a
 //! sample of the lava erupted (each stands for `ρ Q / clots_per_s` kg); what they lose in heat
