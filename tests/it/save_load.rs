@@ -147,7 +147,8 @@ fn references_in_the_ash_inbox_and_lava_sources_are_mapped() {
 }
 
 /// A volcano's own lava (`LavaVent` → `TerrainLava` on the terrain, the vents' front tracks)
-/// is saved with the world and continues bit for bit.
+/// and its fountain (`LavaFountainState`: clots in flight and their random stream; the air heat
+/// source) are saved with the world and continue bit for bit.
 #[test]
 fn saved_vent_lava_continues_bit_for_bit() {
     let spawn = |app: &mut App| {
@@ -157,7 +158,8 @@ fn saved_vent_lava_continues_bit_for_bit() {
         let top = terrain.heights().origin();
         app.world_mut().spawn(terrain);
         let at = Transform::from_xyz(top.x + 470.0, 0.0, top.y + 80.0);
-        app.world_mut().spawn((Volcano::new(50.0, 1).unwrap(), at, LavaVent::effusive(8.0).unwrap()));
+        let (vent, fountain) = hawaiian(8.0, 60.0).unwrap();
+        app.world_mut().spawn((Volcano::new(50.0, 1).unwrap(), at, vent, fountain));
     };
     let lava = |app: &mut App| -> Vec<String> {
         let w = app.world_mut();
@@ -167,6 +169,9 @@ fn saved_vent_lava_continues_bit_for_bit() {
             .map(|l| format!("{:?} {:?}", l.runout.tiles(), l.runout.budget()))
             .collect();
         out.extend(w.query::<&LavaVentStatus>().iter(w).map(|s| format!("{s:?}")));
+        out.extend(
+            w.query::<(&LavaFountainState, &AirHeatSources)>().iter(w).map(|(f, s)| format!("{f:?} {s:?}")),
+        );
         out
     };
     let mut a = app();
@@ -179,7 +184,8 @@ fn saved_vent_lava_continues_bit_for_bit() {
     b.update();
     saved.write_to_world(b.world_mut(), &mut Default::default()).unwrap();
     let before = lava(&mut a);
-    assert!(before.len() == 2 && before[0].len() > 10_000, "the vent lava did not run: {before:?}");
+    assert!(before.len() == 3 && before[0].len() > 10_000, "the vent lava did not run: {before:?}");
+    assert!(before[2].contains("Clot {"), "no clots in flight: {}", &before[2][..200.min(before[2].len())]);
     assert_eq!(before, lava(&mut b), "the copy holds the same vent lava");
     for _ in 0..100 {
         a.update();
