@@ -20,6 +20,7 @@ pub(crate) const BUILTIN: &[(&str, &str)] = &[
     ("eruption_collapse", include_str!("../assets/scenes/eruption_collapse.ron")),
     ("eruption_night", include_str!("../assets/scenes/eruption_night.ron")),
     ("effusive_night", include_str!("../assets/scenes/effusive_night.ron")),
+    ("effusive_day", include_str!("../assets/scenes/effusive_day.ron")),
     ("plinian_plume", include_str!("../assets/scenes/plinian_plume.ron")),
     ("pyroclastic_flow", include_str!("../assets/scenes/pyroclastic_flow.ron")),
     ("lava_folds", include_str!("../assets/scenes/lava_folds.ron")),

@@ -151,6 +151,8 @@ pub(crate) fn update_fountains(
                     let material = materials.add(StandardMaterial {
                         base_color: Color::BLACK,
                         emissive: glow,
+                        // In nits, under the camera's exposure like the lava surfaces.
+                        emissive_exposure_weight: 1.0,
                         unlit: !lit,
                         ..default()
                     });

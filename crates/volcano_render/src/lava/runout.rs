@@ -267,9 +267,7 @@ pub(crate) fn update_runout_tiles(
                 }
                 None => {
                     let image = images.add(emissive_image(n, n, texels));
-                    let mut m = StandardMaterial { emissive_texture: Some(image.clone()), ..default() };
-                    style(&mut m, *mode, &settings);
-                    let material = materials.add(m);
+                    let material = materials.add(tile_material(image.clone(), *mode, &settings));
                     commands
                         .spawn((
                             Name::new("Vent lava tile"),
@@ -330,9 +328,42 @@ pub(crate) fn update_runout_tiles(
     }
 }
 
+/// A tile's material: emissive through `image` in nits, scaled by the camera's exposure like a
+/// field's (Bevy leaves emission unexposed by default, which shows any glow above a nit as
+/// white), styled for `mode`.
+fn tile_material(
+    image: Handle<Image>,
+    mode: LavaRenderMode,
+    settings: &LavaRenderSettings,
+) -> StandardMaterial {
+    let mut m =
+        StandardMaterial { emissive_texture: Some(image), emissive_exposure_weight: 1.0, ..default() };
+    style(&mut m, mode, settings);
+    m
+}
+
 /// The lit view glows by the texture; the debug views are unlit vertex colours: a field's
 /// style without its detail textures ([`style_material`]), a little rougher.
 fn style(material: &mut StandardMaterial, mode: LavaRenderMode, settings: &LavaRenderSettings) {
     style_material(material, mode, settings, None);
     material.perceptual_roughness = 0.6;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_tiles_glow_follows_the_cameras_exposure() {
+        let settings = LavaRenderSettings::default();
+        let lit = tile_material(Handle::default(), LavaRenderMode::Lit, &settings);
+        assert_eq!(lit.emissive_exposure_weight, 1.0);
+        assert_eq!(lit.emissive.red, settings.emissive_nits);
+        // A wet cell of the channel glows a few thousand nits: under a daylight exposure
+        // (EV100 13: 1 / (1.2 · 2¹³)) a fifth of white, so a crusted flow reads dark by day.
+        let p = VentLavaSettings::default().params;
+        let c = cell_glow(&p, 1_450.0, crust_from_contact(p.kappa(), 600.0));
+        let shown = c.red * settings.emissive_nits / (1.2 * 8192.0);
+        assert!(shown > 0.1 && shown < 0.3, "{shown}");
+    }
 }
