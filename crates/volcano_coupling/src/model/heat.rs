@@ -13,8 +13,8 @@
 
 use bevy::math::DVec2;
 use volcano_atmosphere::model::fields::{GridSpec, LayerFields};
-use volcano_atmosphere::model::thermo::CP_AIR;
-use volcano_core::units::{G0, R_AIR};
+use volcano_atmosphere::model::thermo::{CP_AIR, air_density};
+use volcano_core::units::G0;
 
 use super::column::for_cells_within;
 use super::inject::cell_at;
@@ -96,7 +96,7 @@ pub fn buoyancy_frequency(layers: &[LayerFields], cell: usize, altitude: f64) ->
 
 /// Air density (kg/m³) of a layer at a cell, from its mean pressure and temperature.
 fn density(layer: &LayerFields, cell: usize) -> f64 {
-    layer.pi / (R_AIR * layer.t.data()[cell] as f64)
+    air_density(layer.pi, layer.t.data()[cell] as f64)
 }
 
 /// Lifts `seconds` of `source` into the layers (see the module docs): each crossed layer's

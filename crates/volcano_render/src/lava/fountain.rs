@@ -15,7 +15,7 @@ use bevy::prelude::*;
 use volcano_lava::{Clot, FountainParams, LavaFountainState};
 
 use super::crust::incandescent;
-use super::light::{GlowLight, luminance, point_light};
+use super::light::{Emitter, GlowLight, luminance, luminous_mix, point_light};
 use super::{LavaRenderMode, LavaRenderSettings};
 
 /// Width of a temperature bin (K): clots within it share a material.
@@ -84,27 +84,24 @@ fn clot_mesh(clots: &[&Clot], radius: f32) -> Mesh {
 pub fn fountain_glow(clots: &[Clot], params: &FountainParams, nits: f32) -> Option<GlowLight> {
     let d = params.clot_diameter;
     let clot_mass = params.clot_density * std::f64::consts::PI * d * d * d / 6.0;
-    let (mut power, mut centre, mut colour, mut area) = (0.0f64, Vec3::ZERO, [0.0f64; 3], 0.0f64);
-    for c in clots {
-        let a = c.mass / clot_mass * std::f64::consts::PI * d * d;
-        let glow = incandescent(c.temperature);
-        let lumens = std::f64::consts::PI * (nits * luminance(glow)) as f64 * a;
-        power += lumens;
-        centre += c.position.as_vec3() * lumens as f32;
-        for (sum, ch) in colour.iter_mut().zip([glow.red, glow.green, glow.blue]) {
-            *sum += lumens * ch as f64;
-        }
-        area += a;
-    }
-    let brightest = colour.iter().copied().fold(0.0, f64::max);
-    (power > 0.0 && power.is_finite() && brightest > 0.0).then(|| {
-        let [r, g, b] = colour.map(|c| (c / brightest) as f32);
-        GlowLight {
-            position: centre / power as f32,
-            lumens: power as f32,
-            colour: LinearRgba::rgb(r, g, b),
-            area: area as f32,
-        }
+    let mut area = 0.0;
+    let emitters: Vec<Emitter> = clots
+        .iter()
+        .map(|c| {
+            let a = c.mass / clot_mass * std::f64::consts::PI * d * d;
+            area += a;
+            let glow = incandescent(c.temperature);
+            Emitter {
+                position: c.position,
+                lumens: std::f64::consts::PI * (nits * luminance(glow)) as f64 * a,
+                colour: [glow.red, glow.green, glow.blue].map(|v| v as f64),
+            }
+        })
+        .collect();
+    let power: f64 = emitters.iter().map(|e| e.lumens).sum();
+    (power > 0.0 && power.is_finite()).then(|| {
+        let (power, centre, colour) = luminous_mix(&emitters);
+        GlowLight { position: centre.as_vec3(), lumens: power as f32, colour, area: area as f32 }
     })
 }
 

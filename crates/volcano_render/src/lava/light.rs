@@ -87,9 +87,9 @@ fn emitters(flow: &FlowField, crust: &[f64], params: &LavaParams, emissive_nits:
     (out, block as f64)
 }
 
-/// One light for a set of blocks: their power at their luminous centroid, lifted by half the
-/// radius of their area (at least 2 m), in their mean colour.
-pub(super) fn light_of(blocks: &[Emitter], block_area: f64) -> GlowLight {
+/// The blocks' total power (lumens), their luminous centroid and their mean colour, brightest
+/// channel 1. The power must be positive.
+pub(super) fn luminous_mix(blocks: &[Emitter]) -> (f64, DVec3, LinearRgba) {
     let power: f64 = blocks.iter().map(|e| e.lumens).sum();
     let centre = blocks.iter().map(|e| e.position * e.lumens).sum::<DVec3>() / power;
     let mut colour = [0.0f64; 3];
@@ -100,12 +100,19 @@ pub(super) fn light_of(blocks: &[Emitter], block_area: f64) -> GlowLight {
     }
     let brightest = colour.iter().copied().fold(0.0, f64::max);
     let [r, g, b] = colour.map(|c| (c / brightest) as f32);
+    (power, centre, LinearRgba::rgb(r, g, b))
+}
+
+/// One light for a set of blocks: their power at their luminous centroid, lifted by half the
+/// radius of their area (at least 2 m), in their mean colour.
+pub(super) fn light_of(blocks: &[Emitter], block_area: f64) -> GlowLight {
+    let (power, centre, colour) = luminous_mix(blocks);
     let area = block_area * blocks.len() as f64;
     let lift = (0.5 * (area / std::f64::consts::PI).sqrt()).max(2.0);
     GlowLight {
         position: (centre + DVec3::Y * lift).as_vec3(),
         lumens: power as f32,
-        colour: LinearRgba::rgb(r, g, b),
+        colour,
         area: area as f32,
     }
 }
